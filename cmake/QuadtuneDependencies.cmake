@@ -1,0 +1,28 @@
+# Every dependency is a Debian 12 package (scripts/setup.sh installs them).
+find_package(PkgConfig REQUIRED)
+find_package(Threads REQUIRED)
+find_package(Eigen3 3.4 REQUIRED NO_MODULE)
+find_package(TBB REQUIRED)
+find_package(yaml-cpp REQUIRED)
+find_package(CGAL REQUIRED)
+find_package(SQLite3 REQUIRED)
+find_package(nlohmann_json REQUIRED)
+find_package(CLI11 REQUIRED)
+find_package(spdlog REQUIRED)
+find_package(fmt REQUIRED)
+find_package(LAPACK REQUIRED)
+# Bullet from Debian is single precision; its pkg-config file carries the right defines.
+pkg_check_modules(BULLET REQUIRED IMPORTED_TARGET bullet)
+# Ipopt 3.11 ships no CMake config.
+pkg_check_modules(IPOPT REQUIRED IMPORTED_TARGET ipopt)
+
+if(QUADTUNE_WITH_MPI)
+  find_package(MPI COMPONENTS CXX)
+  if(NOT MPI_CXX_FOUND)
+    message(STATUS "MPI not found: building without distributed experiments")
+  endif()
+endif()
+
+if(TARGET yaml-cpp AND NOT TARGET yaml-cpp::yaml-cpp)
+  add_library(yaml-cpp::yaml-cpp ALIAS yaml-cpp)
+endif()

@@ -1,0 +1,59 @@
+#pragma once
+/// \file
+/// The planner's parameters: the short-term set θ_s, scored right after a plan; the long-term set
+/// θ_l, scored after a flight; and fixed safety parameters that are not tuned (paper Sec. IV-A).
+/// Defaults follow EGO-Planner (shared/DESIGN.md, "Reference values").
+///
+/// Thread safety: a value type.
+
+#include <string>
+#include <vector>
+
+#include "quadtune/common/yaml.hpp"
+
+namespace quadtune::planning {
+
+struct PlannerParams {
+  // ---- short-term θ_s (tuned by PSO on re-solved planning queries) ----
+  double w_col = 0.5;  ///< collision-penalty weight (relative to jerk energy), > 0
+  double w_dyn = 0.1;  ///< dynamic-feasibility penalty weight, > 0
+  int n_pol = 5;       ///< number of polynomial pieces of a local trajectory, [2, 12]
+
+  // ---- long-term θ_l (tuned by BayesOpt on flights) ----
+  double v_des = 2.0;  ///< desired (maximum) velocity (m/s), (0, 15]
+  double h_pl = 7.5;   ///< local planning horizon: distance to the local goal (m), [1, 30]
+  double t_pl = 1.0;   ///< re-plan interval (s), [0.05, 10]
+
+  // ---- fixed (clear safety meaning; not tuned) ----
+  double a_max = 3.0;            ///< acceleration limit (m/s^2), > 0
+  double clearance = 0.5;        ///< desired clearance to obstacles in the collision cost (m), > 0
+  double inflation = 0.1;        ///< obstacle inflation in the occupancy map (m), >= 0
+  double tau_c = 1.0;            ///< emergency stop if a collision is predicted within (s), > 0
+  double goal_tolerance = 0.3;   ///< mission waypoint reached within (m), > 0
+  double no_replan_near_goal = 2.0;  ///< no periodic re-plan within this distance of the goal (m)
+  double map_resolution = 0.1;   ///< occupancy / distance-field voxel size (m), (0, 1]
+  double w_smooth = 1.0;         ///< jerk-energy weight, > 0
+  double w_time = 1.0;           ///< weight of total trajectory duration, >= 0
+  int max_attempts = 3;          ///< planning attempts per re-plan before it counts as failed, >= 1
+
+  /// Names of the tunable parameters, θ_s then θ_l.
+  static const std::vector<std::string>& TunableNames();
+  static const std::vector<std::string>& ShortTermNames();  ///< {w_col, w_dyn, n_pol}
+  static const std::vector<std::string>& LongTermNames();   ///< {v_des, h_pl, t_pl}
+
+  /// Reads a parameter by name (any field above); unknown names throw ConfigError.
+  [[nodiscard]] double Get(const std::string& name) const;
+  /// Sets a parameter by name (integers are rounded); unknown names throw ConfigError.
+  /// Does not validate: call Validate() after a batch of Sets.
+  void Set(const std::string& name, double value);
+
+  /// Throws ConfigError(origin, key, allowed range) for the first out-of-range field.
+  void Validate(const std::string& origin = "") const;
+
+  /// Reads the keys present in `map` over the defaults; unknown keys and bad values throw.
+  static PlannerParams FromYaml(const YamlMap& map);
+
+  friend bool operator==(const PlannerParams&, const PlannerParams&) = default;
+};
+
+}  // namespace quadtune::planning

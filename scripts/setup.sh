@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# Installs quadtune's Debian 12 packages (idempotent: a no-op when all are present), then
+# configures and builds quadtune in Release mode.
+#
+#   scripts/setup.sh                # install + configure + build everything into ./build
+#   QUADTUNE_BUILD_DIR=/tmp/b scripts/setup.sh
+#   QUADTUNE_CMAKE_ARGS="-DQUADTUNE_SANITIZE=address" scripts/setup.sh
+set -euo pipefail
+
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build_dir="${QUADTUNE_BUILD_DIR:-$root/build}"
+
+packages=(
+  build-essential cmake ninja-build pkg-config git
+  libeigen3-dev libbullet-dev coinor-libipopt-dev liblapack-dev libblas-dev
+  libcgal-dev libgmp-dev libmpfr-dev libboost-dev
+  libtbb-dev libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev
+  libsqlite3-dev sqlite3 nlohmann-json3-dev
+  libopenmpi-dev openmpi-bin
+  libgtest-dev libgmock-dev libbenchmark-dev
+  python3 python3-matplotlib python3-numpy python3-pandas python3-scipy
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if ((${#missing[@]} > 0)); then
+  echo "quadtune setup: installing ${#missing[@]} Debian packages: ${missing[*]}"
+  sudo=""
+  if [[ $(id -u) -ne 0 ]]; then
+    command -v sudo >/dev/null || { echo "quadtune setup: run as root, or install sudo" >&2; exit 1; }
+    sudo="sudo"
+  fi
+  export DEBIAN_FRONTEND=noninteractive
+  $sudo apt-get update -q
+  $sudo apt-get install -y -q --no-install-recommends "${missing[@]}"
+else
+  echo "quadtune setup: all ${#packages[@]} Debian packages present"
+fi
+
+jobs="$(nproc)"
+# CGAL/Eigen translation units need ~1.5 GiB each; keep the build within memory on small machines.
+mem_gib=$(( $(awk '/MemTotal/ {print $2}' /proc/meminfo) / 1048576 ))
+if (( mem_gib / 2 < jobs )); then jobs=$(( mem_gib / 2 > 0 ? mem_gib / 2 : 1 )); fi
+
+# shellcheck disable=SC2086
+cmake -S "$root" -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release ${QUADTUNE_CMAKE_ARGS:-}
+cmake --build "$build_dir" -j "$jobs"
+echo "quadtune setup: built into $build_dir"

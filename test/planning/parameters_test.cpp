@@ -1,0 +1,58 @@
+#include "quadtune/planning/parameters.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+namespace quadtune::planning {
+namespace {
+
+using ::testing::HasSubstr;
+
+TEST(PlannerParams, DefaultsAreValid) { EXPECT_NO_THROW(PlannerParams{}.Validate()); }
+
+TEST(PlannerParams, NamedAccessRoundTrips) {
+  PlannerParams p;
+  for (const auto& name : PlannerParams::TunableNames()) {
+    p.Set(name, p.Get(name) * 1.5);
+  }
+  EXPECT_DOUBLE_EQ(p.Get("v_des"), 3.0);
+  EXPECT_EQ(p.n_pol, 8);  // 5 * 1.5 = 7.5 rounds to 8
+  EXPECT_EQ(PlannerParams::ShortTermNames().size() + PlannerParams::LongTermNames().size(),
+            PlannerParams::TunableNames().size());
+}
+
+TEST(PlannerParams, UnknownNameThrows) {
+  PlannerParams p;
+  EXPECT_THROW(p.Set("w_colision", 1.0), ConfigError);
+  EXPECT_THROW((void)p.Get("speed"), ConfigError);
+}
+
+TEST(PlannerParams, OutOfRangeNamesKey) {
+  PlannerParams p;
+  p.n_pol = 1;
+  try {
+    p.Validate("exp.yaml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "n_pol");
+    EXPECT_THAT(e.what(), HasSubstr("exp.yaml"));
+  }
+  p = PlannerParams{};
+  p.v_des = 0.0;
+  EXPECT_THROW(p.Validate(), ConfigError);
+  p = PlannerParams{};
+  p.w_col = -1.0;
+  EXPECT_THROW(p.Validate(), ConfigError);
+}
+
+TEST(PlannerParams, FromYamlOverridesDefaultsAndRejectsUnknownKeys) {
+  const auto p = PlannerParams::FromYaml(YamlMap::FromString("v_des: 3.5\nn_pol: 6\n", "e.yaml"));
+  EXPECT_DOUBLE_EQ(p.v_des, 3.5);
+  EXPECT_EQ(p.n_pol, 6);
+  EXPECT_DOUBLE_EQ(p.h_pl, PlannerParams{}.h_pl);
+  EXPECT_THROW(PlannerParams::FromYaml(YamlMap::FromString("vdes: 3\n", "e.yaml")), ConfigError);
+  EXPECT_THROW(PlannerParams::FromYaml(YamlMap::FromString("h_pl: 100\n", "e.yaml")), ConfigError);
+}
+
+}  // namespace
+}  // namespace quadtune::planning
