@@ -1,0 +1,263 @@
+#include "quadtune/layout/options.hpp"
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <string>
+
+#include "quadtune/common/error.hpp"
+#include "quadtune/common/yaml.hpp"
+
+namespace quadtune::layout {
+namespace {
+
+LayoutOptions Parse(const std::string& text) {
+  return LayoutOptions::FromYaml(YamlMap::FromString(text, "test.yaml"));
+}
+
+// Expects a ConfigError whose key is `key`.
+#define EXPECT_CONFIG_ERROR(statement, expected_key)    \
+  EXPECT_THROW(                                         \
+      {                                                 \
+        try {                                           \
+          statement;                                    \
+        } catch (const ConfigError& e) {                \
+          EXPECT_EQ(e.key(), expected_key) << e.what(); \
+          throw;                                        \
+        }                                               \
+      },                                                \
+      ConfigError)
+
+TEST(LayoutOptions, DefaultsAreValid) {
+  const LayoutOptions o;
+  EXPECT_NO_THROW(o.Validate());
+  ASSERT_EQ(o.EffectiveZones().size(), 1u);
+  EXPECT_EQ(o.EffectiveZones()[0].x_min, o.region.min_W.x());
+  EXPECT_EQ(o.EffectiveZones()[0].x_max, o.region.max_W.x());
+  EXPECT_EQ(o.AllKeepOutZones().size(), 2u);
+}
+
+TEST(LayoutOptions, EmptyYamlGivesDefaults) { EXPECT_EQ(Parse("{}"), LayoutOptions{}); }
+
+TEST(LayoutOptions, ReadsEveryKey) {
+  const LayoutOptions o = Parse(R"(
+region: {min: [-1, -6], max: [30, 6]}
+mission: {start: [0, 0, 1.0], goal: [28, 0, 1.5], keep_out_radius: 2.0}
+keep_out: [{center: [10, 1], radius: 0.5}]
+spacing: 2.5
+min_gap: 0.3
+hard_core_ratio: 0.4
+tolerance: 0.02
+max_rejections: 5000
+ground: false
+obstacles:
+  ring_fraction: 0.5
+  cylinder: {radius: [0.2, 0.3]}
+  ring: {yaw: [-1, 1]}
+zones:
+  - {x_range: [-1, 10], spacing: 3.0}
+  - {x_range: [10, 30], spacing: 2.1, obstacles: {ring_fraction: 0}}
+)");
+  EXPECT_EQ(o.region.min_W, Eigen::Vector2d(-1, -6));
+  EXPECT_EQ(o.mission.goal_W, Eigen::Vector3d(28, 0, 1.5));
+  EXPECT_EQ(o.mission.keep_out_radius, 2.0);
+  ASSERT_EQ(o.keep_out.size(), 1u);
+  EXPECT_EQ(o.keep_out[0].radius, 0.5);
+  EXPECT_EQ(o.spacing, 2.5);
+  EXPECT_EQ(o.min_gap, 0.3);
+  EXPECT_EQ(o.hard_core_ratio, 0.4);
+  EXPECT_EQ(o.tolerance, 0.02);
+  EXPECT_EQ(o.max_rejections, 5000);
+  EXPECT_FALSE(o.ground);
+  EXPECT_EQ(o.obstacles.ring_fraction, 0.5);
+  EXPECT_EQ(o.obstacles.cylinder.radius, (Interval{0.2, 0.3}));
+  EXPECT_EQ(o.obstacles.cylinder.height, CylinderShape{}.height);  // untouched default
+  EXPECT_EQ(o.obstacles.ring.yaw, (Interval{-1, 1}));
+  ASSERT_EQ(o.zones.size(), 2u);
+  EXPECT_FALSE(o.zones[0].obstacles.has_value());
+  ASSERT_TRUE(o.zones[1].obstacles.has_value());
+  EXPECT_EQ(o.zones[1].obstacles->ring_fraction, 0.0);
+  // A zone's override starts from the layout's mixture.
+  EXPECT_EQ(o.zones[1].obstacles->cylinder.radius, (Interval{0.2, 0.3}));
+  EXPECT_EQ(o.AllKeepOutZones().size(), 3u);
+}
+
+TEST(LayoutOptions, YamlRoundTripIsExact) {
+  LayoutOptions o;
+  o.spacing = 2.0 / 3.0 + 1.0;  // not representable in few digits
+  o.region.max_W.x() = 24.1 + 1e-13;
+  o.obstacles.ring.yaw = {-0.1234567890123, 0.3};
+  o.keep_out.push_back({{5.0 / 3.0, 0.1}, 0.7});
+  o.zones.push_back({0.0, 10.0, 3.0, std::nullopt});
+  ObstacleMix thin;
+  thin.ring_fraction = 0.0;
+  thin.cylinder.radius = {0.1, 0.2};
+  o.zones.push_back({10.0, o.region.max_W.x(), 0.9, thin});
+  ASSERT_NO_THROW(o.Validate());
+  YAML::Emitter out;
+  o.ToYaml(out);
+  EXPECT_EQ(Parse(out.c_str()), o);
+}
+
+TEST(LayoutOptions, ShippedAssetsAreValid) {
+  for (const char* name : {"forest_3p0.yaml", "forest_2p1.yaml", "forest_1p3.yaml",
+                           "forest_0p9.yaml", "changing_density.yaml", "field_40x40.yaml"}) {
+    EXPECT_NO_THROW(
+        LayoutOptions::LoadFile(std::string(QUADTUNE_SOURCE_DIR) + "/assets/layouts/" + name))
+        << name;
+  }
+}
+
+// --- One EXPECT_THROW per documented bad input. ---
+
+TEST(LayoutOptions, RejectsSpacingSmallerThanObstaclesAllow) {
+  // Default pillars up to 0.525 m radius need centres 1.25 m apart with min_gap 0.2.
+  EXPECT_CONFIG_ERROR(Parse("spacing: 0.9"), "spacing");
+}
+
+TEST(LayoutOptions, RejectsZoneSpacingSmallerThanObstaclesAllow) {
+  EXPECT_CONFIG_ERROR(Parse(R"(
+zones:
+  - {x_range: [0, 12], spacing: 2.0}
+  - {x_range: [12, 24], spacing: 0.5, obstacles: {cylinder: {radius: [0.1, 0.3]}}}
+)"),
+                      "zones[1].spacing");
+}
+
+TEST(LayoutOptions, RejectsRegionTooSmallForKeepOutZones) {
+  EXPECT_CONFIG_ERROR(Parse(R"(
+region: {min: [0, -2], max: [6, 2]}
+mission: {start: [0, 0, 1], goal: [6, 0, 1], keep_out_radius: 2.0}
+obstacles: {ring_fraction: 0}
+)"),
+                      "region");
+}
+
+TEST(LayoutOptions, RejectsRegionTooSmallForTheObstacles) {
+  EXPECT_CONFIG_ERROR(Parse(R"(
+region: {min: [0, -1], max: [24, 1]}
+mission: {keep_out_radius: 0}
+)"),
+                      "region");
+}
+
+TEST(LayoutOptions, RejectsInvertedRegion) {
+  EXPECT_CONFIG_ERROR(Parse("region: {min: [0, 5], max: [24, -5]}"), "region.max");
+}
+
+TEST(LayoutOptions, RejectsNegativeCylinderRadius) {
+  EXPECT_CONFIG_ERROR(Parse("obstacles: {cylinder: {radius: [-0.1, 0.3]}}"),
+                      "obstacles.cylinder.radius");
+}
+
+TEST(LayoutOptions, RejectsNegativeRingThickness) {
+  EXPECT_CONFIG_ERROR(Parse("obstacles: {ring: {thickness: [-0.1, 0.1]}}"),
+                      "obstacles.ring.thickness");
+}
+
+TEST(LayoutOptions, RejectsNegativeMinGap) {
+  EXPECT_CONFIG_ERROR(Parse("min_gap: -0.1"), "min_gap");
+}
+
+TEST(LayoutOptions, RejectsNegativeKeepOutRadius) {
+  EXPECT_CONFIG_ERROR(Parse("mission: {keep_out_radius: -1}"), "mission.keep_out_radius");
+}
+
+TEST(LayoutOptions, RejectsNonPositiveKeepOutZoneRadius) {
+  EXPECT_CONFIG_ERROR(Parse("keep_out: [{center: [3, 0], radius: 0}]"), "keep_out[0].radius");
+}
+
+TEST(LayoutOptions, RejectsNonPositiveSpacing) {
+  EXPECT_CONFIG_ERROR(Parse("spacing: 0"), "spacing");
+}
+
+TEST(LayoutOptions, RejectsMinAboveMaxInARange) {
+  EXPECT_CONFIG_ERROR(Parse("obstacles: {cylinder: {radius: [0.5, 0.2]}}"),
+                      "obstacles.cylinder.radius");
+}
+
+TEST(LayoutOptions, RejectsMinAboveMaxInHeightRange) {
+  EXPECT_CONFIG_ERROR(Parse("obstacles: {ring: {center_height: [2.0, 1.0]}}"),
+                      "obstacles.ring.center_height");
+}
+
+TEST(LayoutOptions, RejectsRingThickerThanItsHole) {
+  EXPECT_CONFIG_ERROR(Parse("obstacles: {ring: {radius: [0.3, 1.0], thickness: [0.1, 0.6]}}"),
+                      "obstacles.ring.thickness");
+}
+
+TEST(LayoutOptions, RejectsRingFractionOutsideUnitInterval) {
+  EXPECT_CONFIG_ERROR(Parse("obstacles: {ring_fraction: 1.5}"), "obstacles.ring_fraction");
+}
+
+TEST(LayoutOptions, RejectsHardCoreRatioOutOfRange) {
+  EXPECT_CONFIG_ERROR(Parse("hard_core_ratio: 0.95"), "hard_core_ratio");
+}
+
+TEST(LayoutOptions, RejectsToleranceOutOfRange) {
+  EXPECT_CONFIG_ERROR(Parse("tolerance: 0"), "tolerance");
+}
+
+TEST(LayoutOptions, RejectsTooFewMaxRejections) {
+  EXPECT_CONFIG_ERROR(Parse("max_rejections: 10"), "max_rejections");
+}
+
+TEST(LayoutOptions, RejectsUnknownTopLevelKey) {
+  EXPECT_CONFIG_ERROR(Parse("spacingg: 2.0"), "spacingg");
+}
+
+TEST(LayoutOptions, RejectsUnknownNestedKey) {
+  EXPECT_CONFIG_ERROR(Parse("obstacles: {cylinder: {radius: [0.1, 0.2], colour: red}}"),
+                      "obstacles.cylinder.colour");
+}
+
+TEST(LayoutOptions, RejectsUnknownZoneKey) {
+  EXPECT_CONFIG_ERROR(Parse("zones: [{x_range: [0, 24], spacing: 2, density: 3}]"),
+                      "zones[0].density");
+}
+
+TEST(LayoutOptions, RejectsWrongType) { EXPECT_CONFIG_ERROR(Parse("spacing: dense"), "spacing"); }
+
+TEST(LayoutOptions, RejectsRangeWithoutTwoNumbers) {
+  EXPECT_CONFIG_ERROR(Parse("obstacles: {cylinder: {radius: [0.1, 0.2, 0.3]}}"),
+                      "obstacles.cylinder.radius");
+}
+
+TEST(LayoutOptions, RejectsZonesNotStartingAtTheRegion) {
+  EXPECT_CONFIG_ERROR(Parse("zones: [{x_range: [2, 24], spacing: 2}]"), "zones[0].x_range");
+}
+
+TEST(LayoutOptions, RejectsZonesWithAGap) {
+  EXPECT_CONFIG_ERROR(
+      Parse("zones: [{x_range: [0, 10], spacing: 2}, {x_range: [11, 24], spacing: 2}]"),
+      "zones[1].x_range");
+}
+
+TEST(LayoutOptions, RejectsZonesNotCoveringTheRegion) {
+  EXPECT_CONFIG_ERROR(Parse("zones: [{x_range: [0, 20], spacing: 2}]"), "zones[0].x_range");
+}
+
+TEST(LayoutOptions, RejectsEmptyZone) {
+  EXPECT_CONFIG_ERROR(
+      Parse("zones: [{x_range: [0, 0], spacing: 2}, {x_range: [0, 24], spacing: 2}]"),
+      "zones[0].x_range");
+}
+
+TEST(LayoutOptions, ErrorsNameTheFile) {
+  try {
+    Parse("min_gap: -1");
+    FAIL() << "expected a ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.file(), "test.yaml");
+    EXPECT_NE(std::string(e.what()).find("min_gap"), std::string::npos);
+  }
+}
+
+TEST(LayoutOptions, ValidateNamesThePrefixedKey) {
+  LayoutOptions o;
+  o.min_gap = -1.0;
+  EXPECT_CONFIG_ERROR(o.Validate("layout.yaml", "options"), "options.min_gap");
+}
+
+}  // namespace
+}  // namespace quadtune::layout
