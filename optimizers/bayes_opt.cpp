@@ -1,0 +1,604 @@
+#include "quadtune/optimizers/bayes_opt.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+#include "quadtune/common/error.hpp"
+#include "quadtune/optimizers/design.hpp"
+#include "quadtune/optimizers/local_minimizer.hpp"
+#include "state_util.hpp"
+
+namespace quadtune::optimizers {
+namespace {
+
+/// ln h(z) and d ln h / dz for h(z) = z Φ(z) + φ(z); asymptotic series below z = −6.
+void LogH(double z, double* log_h, double* dlog_h) {
+  constexpr double kLogSqrt2Pi = 0.91893853320467274178;
+  if (z > -6.0) {
+    const double cdf = 0.5 * std::erfc(-z / std::numbers::sqrt2);
+    const double pdf = std::exp(-0.5 * z * z - kLogSqrt2Pi);
+    const double h = std::max(z * cdf + pdf, 1e-300);
+    *log_h = std::log(h);
+    *dlog_h = cdf / h;
+    return;
+  }
+  const double t = -z;
+  const double t2 = 1.0 / (t * t);
+  // Mills ratio R = Φ(z)/φ(z) and q = h/φ = 1 + zR, both as asymptotic series in 1/t².
+  const double r = (1.0 / t) * (1.0 - t2 * (1.0 - 3.0 * t2 * (1.0 - 5.0 * t2 * (1.0 - 7.0 * t2))));
+  const double q = t2 * (1.0 - 3.0 * t2 * (1.0 - 5.0 * t2 * (1.0 - 7.0 * t2)));
+  *log_h = -0.5 * z * z - kLogSqrt2Pi + std::log(q);
+  *dlog_h = r / q;
+}
+
+/// ln EI in standardised units from the posterior mean and variance.
+double LogEi(double incumbent, double xi, double mean, double variance) {
+  const double sigma = std::sqrt(variance);
+  const double z = (incumbent - mean - xi) / sigma;
+  double lh = 0.0;
+  double dlh = 0.0;
+  LogH(z, &lh, &dlh);
+  return std::log(sigma) + lh;
+}
+
+const char* KernelName(KernelChoice k) {
+  return k == KernelChoice::kMatern52 ? "matern52" : "squared_exponential";
+}
+
+}  // namespace
+
+void BayesOptOptions::Validate() const {
+  if (initial_design_size < 0) throw ConfigError("", "initial_design_size", "must be an integer >= 0");
+  if (!(exploration >= 0.0 && std::isfinite(exploration))) {
+    throw ConfigError("", "exploration", "must be a finite number >= 0");
+  }
+  if (acquisition_pool < 10) throw ConfigError("", "acquisition_pool", "must be an integer >= 10");
+  if (!(local_pool_fraction >= 0.0 && local_pool_fraction < 1.0)) {
+    throw ConfigError("", "local_pool_fraction", "must be a number in [0, 1)");
+  }
+  if (acquisition_starts < 0) throw ConfigError("", "acquisition_starts", "must be an integer >= 0");
+  if (acquisition_iterations < 1) throw ConfigError("", "acquisition_iterations", "must be an integer >= 1");
+  if (refit_every < 1) throw ConfigError("", "refit_every", "must be an integer >= 1");
+  if (hyper_restarts < 0) throw ConfigError("", "hyper_restarts", "must be an integer >= 0");
+  if (restart_period < 1) throw ConfigError("", "restart_period", "must be an integer >= 1");
+  if (!(default_noise_variance >= 0.0 && std::isfinite(default_noise_variance))) {
+    throw ConfigError("", "default_noise_variance", "must be a finite number >= 0");
+  }
+  if (!(discount > 0.0 && discount <= 1.0)) throw ConfigError("", "discount", "must be a number in (0, 1]");
+  if (!(noise_growth >= 0.0 && std::isfinite(noise_growth))) {
+    throw ConfigError("", "noise_growth", "must be a finite number >= 0");
+  }
+  if (!(moving_bounds.damping > 0.0 && moving_bounds.damping < 1.0)) {
+    throw ConfigError("", "moving_bounds.damping", "must be a number in (0, 1)");
+  }
+  if (!(moving_bounds.half_width > 0.0 && moving_bounds.half_width <= 1.0)) {
+    throw ConfigError("", "moving_bounds.half_width", "must be a number in (0, 1]");
+  }
+  gp.Validate();
+}
+
+BayesOptOptions BayesOptOptions::FromYaml(const YamlMap& map) {
+  map.RejectUnknownKeys({"kernel", "initial_design_size", "initial_design", "batch_strategy", "exploration",
+                         "acquisition_pool", "local_pool_fraction", "acquisition_starts",
+                         "acquisition_iterations", "refit_every", "hyper_restarts", "restart_period",
+                         "fit_hyperparameters", "default_noise_variance", "discount", "noise_growth",
+                         "moving_bounds", "gp", "seed"});
+  BayesOptOptions o;
+  o.kernel = map.String("kernel", std::string("matern52"), {"matern52", "squared_exponential"}) == "matern52"
+                 ? KernelChoice::kMatern52
+                 : KernelChoice::kSquaredExponential;
+  o.initial_design_size = static_cast<int>(map.Integer("initial_design_size", o.initial_design_size, Range::Closed(0, 1e6)));
+  o.initial_design = map.String("initial_design", std::string("latin_hypercube"), {"latin_hypercube", "uniform"}) ==
+                             "uniform"
+                         ? InitialDesign::kUniform
+                         : InitialDesign::kLatinHypercube;
+  o.batch_strategy = map.String("batch_strategy", std::string("kriging_believer"),
+                                {"kriging_believer", "constant_liar"}) == "constant_liar"
+                         ? BatchStrategy::kConstantLiar
+                         : BatchStrategy::kKrigingBeliever;
+  o.exploration = map.Number("exploration", o.exploration, Range::NonNegative());
+  o.acquisition_pool = static_cast<int>(map.Integer("acquisition_pool", o.acquisition_pool, Range::Closed(10, 1e7)));
+  o.local_pool_fraction = map.Number("local_pool_fraction", o.local_pool_fraction, Range{0.0, 1.0, false, true});
+  o.acquisition_starts = static_cast<int>(map.Integer("acquisition_starts", o.acquisition_starts, Range::Closed(0, 1e4)));
+  o.acquisition_iterations =
+      static_cast<int>(map.Integer("acquisition_iterations", o.acquisition_iterations, Range::Closed(1, 1e5)));
+  o.refit_every = static_cast<int>(map.Integer("refit_every", o.refit_every, Range::Closed(1, 1e6)));
+  o.hyper_restarts = static_cast<int>(map.Integer("hyper_restarts", o.hyper_restarts, Range::Closed(0, 1e3)));
+  o.restart_period = static_cast<int>(map.Integer("restart_period", o.restart_period, Range::Closed(1, 1e6)));
+  o.fit_hyperparameters = map.Bool("fit_hyperparameters", o.fit_hyperparameters);
+  o.default_noise_variance = map.Number("default_noise_variance", o.default_noise_variance, Range::NonNegative());
+  o.discount = map.Number("discount", o.discount, Range{0.0, 1.0, true, false});
+  o.noise_growth = map.Number("noise_growth", o.noise_growth, Range::NonNegative());
+  if (map.Has("moving_bounds")) {
+    const YamlMap mb = map.Map("moving_bounds");
+    mb.RejectUnknownKeys({"enabled", "damping", "half_width"});
+    o.moving_bounds.enabled = mb.Bool("enabled", true);
+    o.moving_bounds.damping = mb.Number("damping", o.moving_bounds.damping, Range::OpenUnit());
+    o.moving_bounds.half_width = mb.Number("half_width", o.moving_bounds.half_width, Range{0.0, 1.0, true, false});
+  }
+  if (map.Has("gp")) {
+    const YamlMap g = map.Map("gp");
+    g.RejectUnknownKeys({"min_lengthscale", "max_lengthscale", "min_signal_std", "max_signal_std",
+                         "min_noise_std", "max_noise_std", "learn_noise", "initial_lengthscale",
+                         "initial_noise_std", "fit_iterations"});
+    auto& p = o.gp;
+    p.min_lengthscale = g.Number("min_lengthscale", p.min_lengthscale, Range::Positive());
+    p.max_lengthscale = g.Number("max_lengthscale", p.max_lengthscale, Range::Positive());
+    p.min_signal_std = g.Number("min_signal_std", p.min_signal_std, Range::Positive());
+    p.max_signal_std = g.Number("max_signal_std", p.max_signal_std, Range::Positive());
+    p.min_noise_std = g.Number("min_noise_std", p.min_noise_std, Range::Positive());
+    p.max_noise_std = g.Number("max_noise_std", p.max_noise_std, Range::Positive());
+    p.learn_noise = g.Bool("learn_noise", p.learn_noise);
+    p.initial_lengthscale = g.Number("initial_lengthscale", p.initial_lengthscale, Range::Positive());
+    p.initial_noise_std = g.Number("initial_noise_std", p.initial_noise_std, Range::Positive());
+    p.fit_iterations = static_cast<int>(g.Integer("fit_iterations", p.fit_iterations, Range::Closed(1, 1e5)));
+  }
+  o.seed = static_cast<std::uint64_t>(map.Integer("seed", 0, Range::NonNegative()));
+  try {
+    o.Validate();
+  } catch (const ConfigError& e) {
+    throw ConfigError(map.file(), map.KeyPath(e.key()), e.what());
+  }
+  return o;
+}
+
+namespace {
+BayesOpt::Model MakeModel(KernelChoice kernel, int dim, const GaussianProcessOptions& gp) {
+  if (kernel == KernelChoice::kMatern52) return GaussianProcess<Matern52Kernel>(dim, gp);
+  return GaussianProcess<SquaredExponentialKernel>(dim, gp);
+}
+}  // namespace
+
+BayesOpt::BayesOpt(ParameterSpace space, BayesOptOptions options)
+    : space_(std::move(space)),
+      options_(options),
+      rng_(DeriveSeed(options.seed, {0xB0})),
+      model_(GaussianProcess<Matern52Kernel>(1)) {
+  if (space_.Empty()) throw ConfigError("", "parameters", "the parameter space must not be empty");
+  options_.Validate();
+  model_ = MakeModel(options_.kernel, space_.Dim(), options_.gp);
+  unit_lower_ = Eigen::VectorXd::Zero(space_.Dim());
+  unit_upper_ = Eigen::VectorXd::Ones(space_.Dim());
+}
+
+double BayesOpt::NoiseMultiplier(const Observation& o) const {
+  return (1.0 + options_.noise_growth * o.age) / std::pow(options_.discount, o.discount_count);
+}
+
+double BayesOpt::ObservationNoiseVariance(std::size_t j) const {
+  const Observation& o = observations_.at(j);
+  return NoiseMultiplier(o) * o.noise_variance;
+}
+
+int BayesOpt::ObservationDiscountCount(std::size_t j) const { return observations_.at(j).discount_count; }
+
+void BayesOpt::NotifyContextChanged() {
+  for (auto& o : observations_) ++o.discount_count;
+  if (!observations_.empty() && options_.discount < 1.0) ++data_version_;
+}
+
+void BayesOpt::AdvanceAge(double amount) {
+  if (!(amount >= 0.0 && std::isfinite(amount))) {
+    throw std::invalid_argument("BayesOpt::AdvanceAge: amount must be finite and >= 0, got " + std::to_string(amount));
+  }
+  for (auto& o : observations_) o.age += amount;
+  if (!observations_.empty() && options_.noise_growth > 0.0 && amount > 0.0) ++data_version_;
+}
+
+void BayesOpt::SetBounds(const Eigen::VectorXd& lower, const Eigen::VectorXd& upper) {
+  const int d = space_.Dim();
+  if (lower.size() != d || upper.size() != d) {
+    throw std::invalid_argument("BayesOpt::SetBounds: expected vectors of size " + std::to_string(d));
+  }
+  for (int i = 0; i < d; ++i) {
+    const Parameter& p = space_.At(i);
+    if (!(lower[i] >= p.lower && upper[i] <= p.upper && lower[i] <= upper[i])) {
+      throw std::invalid_argument("BayesOpt::SetBounds: parameter '" + p.name + "': need " +
+                                  std::to_string(p.lower) + " <= lower <= upper <= " + std::to_string(p.upper));
+    }
+  }
+  Eigen::VectorXd lo = space_.ToUnit(lower);
+  Eigen::VectorXd hi = space_.ToUnit(upper);
+  for (int i = 0; i < d; ++i) {
+    const Parameter& p = space_.At(i);
+    if (p.type == ParameterType::kInteger) {  // whole integer cells
+      const double half = 0.5 / (p.upper - p.lower + 1.0);
+      lo[i] -= half;
+      hi[i] += half;
+    }
+  }
+  unit_lower_ = lo.cwiseMax(0.0);
+  unit_upper_ = hi.cwiseMin(1.0);
+}
+
+void BayesOpt::DoTell(CandidateId id, double value, double noise_variance) {
+  auto it = pending_.find(id);
+  Observation o;
+  o.id = id;
+  o.u = it->second;
+  o.value = value;
+  o.noise_variance = std::isnan(noise_variance) ? options_.default_noise_variance : noise_variance;
+  pending_.erase(it);
+  observations_.push_back(std::move(o));
+  ++data_version_;
+  ++told_since_refit_;
+  ++told_since_bounds_;
+}
+
+template <class Gp>
+int BayesOpt::IncumbentIndex(const Gp& gp, double* mean_std) const {
+  const Eigen::VectorXd means = gp.PosteriorMeanAtData();
+  Eigen::Index best = 0;
+  *mean_std = means.head(static_cast<Eigen::Index>(observations_.size())).minCoeff(&best);
+  return static_cast<int>(best);
+}
+
+void BayesOpt::BuildModel(Model& model, bool refit) {
+  std::visit(
+      [&](auto& gp) {
+        const auto n = static_cast<Eigen::Index>(observations_.size());
+        Eigen::MatrixXd x(n, space_.Dim());
+        Eigen::VectorXd y(n), v(n), m(n);
+        for (Eigen::Index j = 0; j < n; ++j) {
+          const Observation& o = observations_[static_cast<std::size_t>(j)];
+          x.row(j) = o.u.transpose();
+          y[j] = o.value;
+          v[j] = o.noise_variance;
+          m[j] = NoiseMultiplier(o);
+        }
+        gp.SetData(x, y, v, m);
+        if (refit) {
+          const bool restart = !fitted_ || refit_count_ % options_.restart_period == 0;
+          gp.Fit(rng_, restart ? options_.hyper_restarts : 0);
+          fitted_ = true;
+          told_since_refit_ = 0;
+          ++refit_count_;
+        }
+        incumbent_ = IncumbentIndex(gp, &incumbent_mean_std_);
+      },
+      model);
+}
+
+void BayesOpt::UpdateModel() {
+  if (observations_.empty() || model_version_ == data_version_) return;
+  const bool refit = options_.fit_hyperparameters && (!fitted_ || told_since_refit_ >= options_.refit_every);
+  BuildModel(model_, refit);
+  model_version_ = data_version_;
+}
+
+void BayesOpt::UpdateBounds() {
+  if (!options_.moving_bounds.enabled || told_since_bounds_ == 0 || incumbent_ < 0) {
+    told_since_bounds_ = 0;
+    return;
+  }
+  const Eigen::VectorXd& best = observations_[static_cast<std::size_t>(incumbent_)].u;
+  const double lambda = options_.moving_bounds.damping;
+  const double r = options_.moving_bounds.half_width;
+  for (int step = 0; step < told_since_bounds_; ++step) {
+    unit_upper_ = (lambda * unit_upper_ + (1.0 - lambda) * (best.array() + r).matrix()).cwiseMin(1.0).cwiseMax(0.0);
+    unit_lower_ = (lambda * unit_lower_ + (1.0 - lambda) * (best.array() - r).matrix()).cwiseMax(0.0).cwiseMin(1.0);
+  }
+  told_since_bounds_ = 0;
+}
+
+std::optional<BestPoint> BayesOpt::Best() const {
+  if (observations_.empty()) return std::nullopt;
+  int index = incumbent_;
+  double mean_std = incumbent_mean_std_;
+  double y_mean = 0.0;
+  double y_scale = 1.0;
+  if (model_version_ == data_version_ && incumbent_ >= 0) {
+    std::visit([&](const auto& gp) { y_mean = gp.OutputMean(); y_scale = gp.OutputScale(); }, model_);
+  } else {
+    Model copy = model_;
+    std::visit(
+        [&](auto& gp) {
+          const auto n = static_cast<Eigen::Index>(observations_.size());
+          Eigen::MatrixXd x(n, space_.Dim());
+          Eigen::VectorXd y(n), v(n), m(n);
+          for (Eigen::Index j = 0; j < n; ++j) {
+            const Observation& o = observations_[static_cast<std::size_t>(j)];
+            x.row(j) = o.u.transpose();
+            y[j] = o.value;
+            v[j] = o.noise_variance;
+            m[j] = NoiseMultiplier(o);
+          }
+          gp.SetData(x, y, v, m);
+          index = IncumbentIndex(gp, &mean_std);
+          y_mean = gp.OutputMean();
+          y_scale = gp.OutputScale();
+        },
+        copy);
+  }
+  const Observation& o = observations_[static_cast<std::size_t>(index)];
+  BestPoint best;
+  best.x = space_.FromUnit(o.u);
+  best.value = y_mean + y_scale * mean_std;
+  best.observed = o.value;
+  best.id = o.id;
+  return best;
+}
+
+void BayesOpt::Predict(const Eigen::VectorXd& x, double* mean, double* variance) {
+  const Eigen::VectorXd u = space_.ToUnit(x);
+  UpdateModel();
+  std::visit([&](const auto& gp) { gp.Predict(u, mean, variance); }, model_);
+}
+
+GpHyperparameters BayesOpt::Hyperparameters() const {
+  return std::visit([](const auto& gp) { return gp.Hyperparameters(); }, model_);
+}
+
+bool BayesOpt::IsDuplicate(const Eigen::VectorXd& u, const std::vector<Eigen::VectorXd>& batch) const {
+  for (const auto& [id, p] : pending_) {
+    if ((p - u).cwiseAbs().maxCoeff() < 1e-9) return true;
+  }
+  for (const auto& b : batch) {
+    if ((b - u).cwiseAbs().maxCoeff() < 1e-9) return true;
+  }
+  return false;
+}
+
+Candidate BayesOpt::Issue(const Eigen::VectorXd& u) {
+  Candidate c;
+  c.id = next_id_++;
+  c.x = space_.FromUnit(u);
+  pending_.emplace(c.id, u);
+  return c;
+}
+
+template <class Gp>
+void BayesOpt::ProposeBatch(Gp& gp, int count, std::vector<Eigen::VectorXd>* out) {
+  const int n0 = gp.Size();
+  const int d = space_.Dim();
+  double best_observed = observations_.front().value;
+  for (const auto& o : observations_) best_observed = std::min(best_observed, o.value);
+  auto fantasy = [&](const Eigen::VectorXd& u) {
+    if (options_.batch_strategy == BatchStrategy::kConstantLiar) return best_observed;
+    double m = 0.0;
+    gp.Predict(u, &m, nullptr);
+    return m;
+  };
+  for (const auto& [id, u] : pending_) gp.Append(u, fantasy(u), options_.default_noise_variance, 1.0);
+
+  // Pool: uniform in the bounds plus points scattered around the incumbent and the best value.
+  const int m = options_.acquisition_pool;
+  const int m_local = static_cast<int>(m * options_.local_pool_fraction);
+  Eigen::MatrixXd pool(d, m);
+  std::size_t best_value_index = 0;
+  for (std::size_t j = 0; j < observations_.size(); ++j) {
+    if (observations_[j].value < observations_[best_value_index].value) best_value_index = j;
+  }
+  const Eigen::VectorXd width = unit_upper_ - unit_lower_;
+  for (int c = 0; c < m; ++c) {
+    if (c < m - m_local) {
+      for (int i = 0; i < d; ++i) pool(i, c) = Uniform(rng_, unit_lower_[i], unit_upper_[i]);
+    } else {
+      const Eigen::VectorXd& centre =
+          observations_[(c % 2 == 0) ? static_cast<std::size_t>(incumbent_) : best_value_index].u;
+      const double scale = (c % 3 == 0) ? 0.01 : (c % 3 == 1 ? 0.05 : 0.2);
+      for (int i = 0; i < d; ++i) {
+        pool(i, c) = std::clamp(centre[i] + scale * std::max(width[i], 1e-3) * StandardNormal(rng_),
+                                unit_lower_[i], unit_upper_[i]);
+      }
+    }
+  }
+  Eigen::MatrixXd v;
+  Eigen::VectorXd mean, var;
+  gp.PredictPool(pool, &v, &mean, &var);
+
+  const double incumbent = incumbent_mean_std_;
+  const double xi = options_.exploration;
+  const ValueAndGradient neg_log_ei = [&](const Eigen::VectorXd& u, Eigen::VectorXd* grad) {
+    double mu = 0.0;
+    double s2 = 0.0;
+    Eigen::VectorXd dmu, ds2;
+    gp.PredictStandardized(u, &mu, &s2, grad ? &dmu : nullptr, grad ? &ds2 : nullptr);
+    const double sigma = std::sqrt(s2);
+    const double z = (incumbent - mu - xi) / sigma;
+    double lh = 0.0;
+    double dlh = 0.0;
+    LogH(z, &lh, &dlh);
+    if (grad) {
+      const Eigen::VectorXd dsigma = ds2 / (2.0 * sigma);
+      const Eigen::VectorXd dz = (-dmu - z * dsigma) / sigma;
+      *grad = -(dsigma / sigma + dlh * dz);
+    }
+    return -(std::log(sigma) + lh);
+  };
+  BoxLbfgsOptions local;
+  local.max_iterations = options_.acquisition_iterations;
+  local.gradient_tolerance = 1e-5;
+  local.relative_tolerance = 1e-6;
+
+  Eigen::VectorXd score(m);
+  std::vector<int> order(static_cast<std::size_t>(m));
+  for (int b = 0; b < count; ++b) {
+    for (int c = 0; c < m; ++c) score[c] = LogEi(incumbent, xi, mean[c], var[c]);
+    std::iota(order.begin(), order.end(), 0);
+    const int starts = std::max(1, std::min(options_.acquisition_starts, m));
+    std::partial_sort(order.begin(), order.begin() + starts, order.end(),
+                      [&](int a, int c) { return score[a] > score[c]; });
+    Eigen::VectorXd best_u = pool.col(order[0]);
+    double best_score = score[order[0]];
+    for (int s = 0; s < options_.acquisition_starts && s < m; ++s) {
+      Eigen::VectorXd u = pool.col(order[static_cast<std::size_t>(s)]);
+      const BoxLbfgsSummary r = MinimizeBox(neg_log_ei, u, unit_lower_, unit_upper_, local);
+      if (std::isfinite(r.value) && -r.value > best_score) {
+        best_score = -r.value;
+        best_u = u;
+      }
+    }
+    Eigen::VectorXd chosen = space_.SnapUnit(best_u);
+    if (IsDuplicate(chosen, *out)) {
+      std::sort(order.begin(), order.end(), [&](int a, int c) { return score[a] > score[c]; });
+      bool found = false;
+      for (int idx : order) {
+        const Eigen::VectorXd u = space_.SnapUnit(pool.col(idx));
+        if (!IsDuplicate(u, *out)) {
+          chosen = u;
+          found = true;
+          break;
+        }
+      }
+      for (int attempt = 0; !found && attempt < 100; ++attempt) {
+        Eigen::VectorXd u(d);
+        for (int i = 0; i < d; ++i) u[i] = Uniform(rng_, unit_lower_[i], unit_upper_[i]);
+        u = space_.SnapUnit(u);
+        found = !IsDuplicate(u, *out);
+        if (found) chosen = u;
+      }
+      if (!found) break;  // the (integer) bounds hold no further distinct point
+    }
+    out->push_back(chosen);
+    if (b + 1 < count) {
+      gp.Append(chosen, fantasy(chosen), options_.default_noise_variance, 1.0);
+      gp.ExtendPool(pool, &v, &mean, &var);
+    }
+  }
+  gp.Truncate(n0);
+}
+
+std::vector<Candidate> BayesOpt::DoAsk(int k) {
+  UpdateModel();
+  UpdateBounds();
+  const int d = space_.Dim();
+  if (!design_generated_) {
+    design_generated_ = true;
+    if (options_.initial_design_size > 0) {
+      const Eigen::MatrixXd design =
+          options_.initial_design == InitialDesign::kLatinHypercube
+              ? LatinHypercube(options_.initial_design_size, Eigen::VectorXd::Zero(d), Eigen::VectorXd::Ones(d), rng_)
+              : UniformDesign(options_.initial_design_size, Eigen::VectorXd::Zero(d), Eigen::VectorXd::Ones(d), rng_);
+      for (Eigen::Index r = 0; r < design.rows(); ++r) design_queue_.push_back(design.row(r).transpose());
+    }
+  }
+  std::vector<Candidate> out;
+  std::vector<Eigen::VectorXd> none;
+  while (static_cast<int>(out.size()) < k && !design_queue_.empty()) {
+    // Design points are fractions of the current bounds, so moving bounds also move them.
+    const Eigen::VectorXd t = design_queue_.front();
+    const Eigen::VectorXd u =
+        space_.SnapUnit(unit_lower_ + t.cwiseProduct(unit_upper_ - unit_lower_));
+    design_queue_.pop_front();
+    if (!IsDuplicate(u, none)) out.push_back(Issue(u));
+  }
+  const int remaining = k - static_cast<int>(out.size());
+  if (remaining <= 0) return out;
+  std::vector<Eigen::VectorXd> batch;
+  if (observations_.size() < 2) {
+    for (int r = 0; r < remaining; ++r) {
+      for (int attempt = 0; attempt < 100; ++attempt) {
+        Eigen::VectorXd u(d);
+        for (int i = 0; i < d; ++i) u[i] = Uniform(rng_, unit_lower_[i], unit_upper_[i]);
+        u = space_.SnapUnit(u);
+        if (!IsDuplicate(u, batch)) {
+          batch.push_back(u);
+          break;
+        }
+      }
+    }
+  } else {
+    std::visit([&](auto& gp) { ProposeBatch(gp, remaining, &batch); }, model_);
+  }
+  for (const auto& u : batch) out.push_back(Issue(u));
+  return out;
+}
+
+nlohmann::json BayesOpt::SaveState() const {
+  using detail::ToJson;
+  nlohmann::json j;
+  j["method"] = "bayes_opt";
+  j["dim"] = space_.Dim();
+  j["kernel"] = KernelName(options_.kernel);
+  j["rng"] = detail::RngToString(rng_);
+  j["next_id"] = next_id_;
+  j["design_generated"] = design_generated_;
+  j["design_queue"] = nlohmann::json::array();
+  for (const auto& u : design_queue_) j["design_queue"].push_back(ToJson(u));
+  j["observations"] = nlohmann::json::array();
+  for (const auto& o : observations_) {
+    j["observations"].push_back({{"id", o.id}, {"u", ToJson(o.u)}, {"value", o.value},
+                                 {"noise_variance", o.noise_variance}, {"discount_count", o.discount_count},
+                                 {"age", o.age}});
+  }
+  j["pending"] = nlohmann::json::array();
+  for (const auto& [id, u] : pending_) j["pending"].push_back({{"id", id}, {"u", ToJson(u)}});
+  j["unit_lower"] = ToJson(unit_lower_);
+  j["unit_upper"] = ToJson(unit_upper_);
+  const GpHyperparameters h = Hyperparameters();
+  j["hyper"] = {{"log_lengthscales", ToJson(h.log_lengthscales)},
+                {"log_signal_std", h.log_signal_std},
+                {"log_noise_std", h.log_noise_std}};
+  j["fitted"] = fitted_;
+  j["told_since_refit"] = told_since_refit_;
+  j["refit_count"] = refit_count_;
+  j["told_since_bounds"] = told_since_bounds_;
+  return j;
+}
+
+void BayesOpt::RestoreState(const nlohmann::json& state) {
+  detail::CheckHeader(state, "bayes_opt", space_.Dim());
+  const int d = space_.Dim();
+  detail::WithJsonErrors([&] {
+    if (state.at("kernel").get<std::string>() != KernelName(options_.kernel)) {
+      throw std::invalid_argument("BayesOpt::RestoreState: saved with kernel '" +
+                                  state.at("kernel").get<std::string>() + "'");
+    }
+    Rng rng = detail::RngFromString(state.at("rng").get<std::string>());
+    std::deque<Eigen::VectorXd> queue;
+    for (const auto& u : state.at("design_queue")) queue.push_back(detail::VectorFromJson(u, d));
+    std::vector<Observation> obs;
+    for (const auto& o : state.at("observations")) {
+      Observation x;
+      x.id = o.at("id").get<CandidateId>();
+      x.u = detail::VectorFromJson(o.at("u"), d);
+      x.value = o.at("value").get<double>();
+      x.noise_variance = o.at("noise_variance").get<double>();
+      x.discount_count = o.at("discount_count").get<int>();
+      x.age = o.at("age").get<double>();
+      obs.push_back(std::move(x));
+    }
+    std::map<CandidateId, Eigen::VectorXd> pending;
+    for (const auto& p : state.at("pending")) {
+      pending.emplace(p.at("id").get<CandidateId>(), detail::VectorFromJson(p.at("u"), d));
+    }
+    GpHyperparameters h;
+    h.log_lengthscales = detail::VectorFromJson(state.at("hyper").at("log_lengthscales"), d);
+    h.log_signal_std = state.at("hyper").at("log_signal_std").get<double>();
+    h.log_noise_std = state.at("hyper").at("log_noise_std").get<double>();
+    Model model = MakeModel(options_.kernel, d, options_.gp);
+    std::visit([&](auto& gp) { gp.SetHyperparameters(h); }, model);
+    const auto next_id = state.at("next_id").get<CandidateId>();
+    const bool design_generated = state.at("design_generated").get<bool>();
+    Eigen::VectorXd lower = detail::VectorFromJson(state.at("unit_lower"), d);
+    Eigen::VectorXd upper = detail::VectorFromJson(state.at("unit_upper"), d);
+    const bool fitted = state.at("fitted").get<bool>();
+    const int told_since_refit = state.at("told_since_refit").get<int>();
+    const int refit_count = state.at("refit_count").get<int>();
+    const int told_since_bounds = state.at("told_since_bounds").get<int>();
+    // Commit only after everything parsed.
+    rng_ = rng;
+    next_id_ = next_id;
+    design_generated_ = design_generated;
+    design_queue_ = std::move(queue);
+    observations_ = std::move(obs);
+    pending_ = std::move(pending);
+    unit_lower_ = std::move(lower);
+    unit_upper_ = std::move(upper);
+    model_ = std::move(model);
+    fitted_ = fitted;
+    told_since_refit_ = told_since_refit;
+    refit_count_ = refit_count;
+    told_since_bounds_ = told_since_bounds;
+    incumbent_ = -1;
+    ++data_version_;
+  });
+}
+
+}  // namespace quadtune::optimizers
