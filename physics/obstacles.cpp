@@ -9,6 +9,18 @@
 
 namespace quadtune::physics {
 
+std::string ObstacleId::ToString() const {
+  switch (kind) {
+    case ObstacleKind::kGround:
+      return "ground";
+    case ObstacleKind::kCylinder:
+      return "cylinders[" + std::to_string(index) + "]";
+    case ObstacleKind::kRing:
+      return "rings[" + std::to_string(index) + "]";
+  }
+  return "unknown";
+}
+
 Eigen::Vector3d RingObstacle::Axis_W() const { return {std::cos(yaw), std::sin(yaw), 0.0}; }
 
 double SignedDistance(const CylinderObstacle& c, const Eigen::Vector3d& p_W) {

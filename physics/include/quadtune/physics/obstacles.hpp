@@ -9,6 +9,7 @@
 /// Thread safety: values; safe to share read-only between threads.
 
 #include <Eigen/Core>
+#include <compare>
 #include <string>
 #include <vector>
 
@@ -63,5 +64,24 @@ struct ObstacleSet {
 [[nodiscard]] double SignedDistance(const CylinderObstacle& c, const Eigen::Vector3d& p_W);
 /// Signed distance (m) from p_W to a ring's surface (negative inside the rim).
 [[nodiscard]] double SignedDistance(const RingObstacle& r, const Eigen::Vector3d& p_W);
+
+/// Which kind of obstacle an ObstacleId refers to.
+enum class ObstacleKind {
+  kGround,    ///< the ground plane z = 0 (index 0)
+  kCylinder,  ///< ObstacleSet::cylinders[index]
+  kRing,      ///< ObstacleSet::rings[index]
+};
+
+/// Names one obstacle of an ObstacleSet (or the ground). A value type, ordered by (kind, index).
+struct ObstacleId {
+  ObstacleKind kind = ObstacleKind::kGround;
+  int index = 0;
+
+  /// Human-readable form: "ground", "cylinders[3]", "rings[0]".
+  [[nodiscard]] std::string ToString() const;
+
+  friend bool operator==(const ObstacleId&, const ObstacleId&) = default;
+  friend auto operator<=>(const ObstacleId&, const ObstacleId&) = default;
+};
 
 }  // namespace quadtune::physics
