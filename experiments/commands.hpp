@@ -1,0 +1,24 @@
+#pragma once
+/// \file
+/// Sub-commands of the `quadtune` program. Each Register* adds its sub-command to the app; the
+/// callback runs the command and returns the process exit code through the shared int.
+
+#include <CLI/CLI.hpp>
+#include <string>
+
+namespace quadtune::cli {
+
+/// `quadtune fly`: one closed-loop flight with given parameters, writing its log and figure.
+void RegisterFly(CLI::App& app, int& exit_code);
+/// `quadtune layout`: generate an obstacle layout and save it.
+void RegisterLayout(CLI::App& app, int& exit_code);
+/// `quadtune plot`: figures from outputs (matplotlib through Debian's python3).
+void RegisterPlot(CLI::App& app, int& exit_code);
+
+/// Runs the figure script with `args`; returns its exit status (0 on success).
+int RunPlotScript(const std::string& args);
+/// Path of an asset shipped with the sources (assets/…), found from the source tree or
+/// $QUADTUNE_ASSETS.
+std::string AssetPath(const std::string& relative);
+
+}  // namespace quadtune::cli

@@ -1,0 +1,54 @@
+#include <spdlog/spdlog.h>
+
+#include <cstdlib>
+#include <filesystem>
+
+#include "commands.hpp"
+
+namespace quadtune::cli {
+
+std::string AssetPath(const std::string& relative) {
+  namespace fs = std::filesystem;
+  if (const char* env = std::getenv("QUADTUNE_ASSETS")) {
+    if (fs::exists(fs::path(env) / relative)) return (fs::path(env) / relative).string();
+  }
+  const fs::path in_tree = fs::path(QUADTUNE_SOURCE_DIR) / "assets" / relative;
+  if (fs::exists(in_tree)) return in_tree.string();
+  return relative;
+}
+
+int RunPlotScript(const std::string& args) {
+  namespace fs = std::filesystem;
+  std::string script = (fs::path(QUADTUNE_SOURCE_DIR) / "experiments/plot/quadtune_plot.py").string();
+  if (const char* env = std::getenv("QUADTUNE_PLOT_SCRIPT")) script = env;
+  // Debian's interpreter, which has python3-matplotlib; a python3 earlier on PATH may not.
+  const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+  const std::string command = python + " '" + script + "' " + args;
+  spdlog::debug("running {}", command);
+  const int status = std::system(command.c_str());
+  if (status != 0) spdlog::error("figure script failed ({}): {}", status, command);
+  return status == 0 ? 0 : 1;
+}
+
+void RegisterPlot(CLI::App& app, int& exit_code) {
+  auto* cmd = app.add_subcommand("plot", "draw figures (PNG) from quadtune outputs");
+  auto* flight = cmd->add_subcommand("flight", "top-down figure of a flight directory");
+  static std::string dir;
+  flight->add_option("DIR", dir, "directory written by `quadtune fly`")->required()->check(
+      CLI::ExistingDirectory);
+  flight->callback([&exit_code] { exit_code = RunPlotScript("flight '" + dir + "'"); });
+  auto* flights = cmd->add_subcommand("flights", "summary figures and table of several flights");
+  static std::vector<std::string> dirs;
+  static std::string out;
+  flights->add_option("DIRS", dirs, "directories written by `quadtune fly`")->required()->check(
+      CLI::ExistingDirectory);
+  flights->add_option("--out", out, "output directory")->required();
+  flights->callback([&exit_code] {
+    std::string args = "flights --out '" + out + "'";
+    for (const auto& d : dirs) args += " '" + d + "'";
+    exit_code = RunPlotScript(args);
+  });
+  cmd->require_subcommand(1);
+}
+
+}  // namespace quadtune::cli

@@ -1,0 +1,434 @@
+#include "quadtune/planning/esdf.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <stdexcept>
+
+#include "quadtune/common/error.hpp"
+
+namespace quadtune::planning {
+namespace {
+
+constexpr std::int32_t kInfSq = std::numeric_limits<std::int32_t>::max() / 4;
+constexpr double kQuantumSteps = 32000.0;
+constexpr std::size_t kMaxCells = std::size_t{1} << 26;
+
+/// 1-D squared distance transform of f (kInfSq = no site) by the lower envelope of parabolas
+/// (Felzenszwalb & Huttenlocher). Writes d; values above `cap` become kInfSq. Scratch: v, fv
+/// (n entries), z (n + 1 entries). Intersections are exact enough in float: they are rationals
+/// with denominators ≤ 2n, so rounding never moves one across an integer.
+void LowerEnvelope(const std::int32_t* f, int n, std::int32_t* d, int* v, float* fv, float* z,
+                   std::int32_t cap) {
+  int k = -1;
+  for (int q = 0; q < n; ++q) {
+    if (f[q] >= kInfSq) continue;
+    const float fq = static_cast<float>(f[q]) + static_cast<float>(q * q);
+    // Pop the parabolas hidden by q: intersection s = (fq − fv) / (2 (q − v)) ≤ z[k], tested
+    // without the division (the denominator is positive).
+    float num = 0.0f;
+    float den = 1.0f;
+    while (k >= 0) {
+      num = fq - fv[k];
+      den = static_cast<float>(2 * (q - v[k]));
+      if (num > z[k] * den) break;
+      --k;
+    }
+    ++k;
+    v[k] = q;
+    fv[k] = fq;
+    z[k] = k == 0 ? -std::numeric_limits<float>::infinity() : num / den;
+  }
+  if (k < 0) {
+    std::fill(d, d + n, kInfSq);
+    return;
+  }
+  z[k + 1] = std::numeric_limits<float>::infinity();
+  int j = 0;
+  for (int q = 0; q < n; ++q) {
+    while (z[j + 1] < static_cast<float>(q)) ++j;
+    const int dq = q - v[j];
+    const std::int32_t val = dq * dq + f[v[j]];
+    d[q] = val > cap ? kInfSq : val;
+  }
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- options
+
+void EsdfOptions::Validate(const std::string& origin) const {
+  CheckInRange(max_distance, {0.0, 30.0, true, false}, origin, "max_distance");
+}
+
+EsdfOptions EsdfOptions::FromYaml(const YamlMap& map) {
+  map.RejectUnknownKeys({"max_distance", "use_inflated_occupancy"});
+  EsdfOptions o;
+  o.max_distance = map.Number("max_distance", o.max_distance);
+  o.use_inflated_occupancy = map.Bool("use_inflated_occupancy", o.use_inflated_occupancy);
+  o.Validate(map.file());
+  return o;
+}
+
+// ---------------------------------------------------------------- builder
+
+Esdf EsdfBuilder::Build(const LocalMap& map, const Eigen::AlignedBox3d& box_W,
+                        const EsdfOptions& options) {
+  options.Validate();
+  if (box_W.isEmpty() || !box_W.min().allFinite() || !box_W.max().allFinite()) {
+    throw std::invalid_argument("Esdf::Build: the box must be finite and non-empty");
+  }
+  CellIndex lo = map.CellOf(box_W.min());
+  const CellIndex hi = map.CellOf(box_W.max()) + CellIndex::Ones();  // exclusive
+  const bool ground = map.options().ground_is_obstacle;
+  const int ground_z = map.ground_cell_z(options.use_inflated_occupancy);
+  if (ground && lo.z() >= ground_z && lo.z() < hi.z()) {
+    // Include one layer of ground cells when the ground is within the truncation distance, so
+    // the interpolation near the ground sees it.
+    const double gap_cells = lo.z() - ground_z;
+    if (gap_cells * map.resolution() < options.max_distance) lo.z() = ground_z - 1;
+  }
+  const Eigen::Vector3i dims = hi - lo;
+  if ((dims.array() <= 0).any() ||
+      static_cast<double>(dims.x()) * dims.y() * dims.z() > static_cast<double>(kMaxCells)) {
+    throw std::invalid_argument("Esdf::Build: the box must hold between 1 and 2^26 cells");
+  }
+  // The ground enters analytically (distance to a plane), not as occupied cells: that keeps the
+  // transform's work to the sensed obstacles and gives the same distances.
+  map.ExtractOccupancy(lo, dims, options.use_inflated_occupancy, &occupancy_,
+                       /*include_ground=*/false);
+  // Compute does not touch occupancy_, so it can be passed straight through.
+  return Compute(lo.cast<double>() * map.resolution(), map.resolution(), dims, occupancy_, options,
+                 ground ? std::optional<int>(ground_z - lo.z()) : std::nullopt);
+}
+
+Esdf EsdfBuilder::FromOccupancy(const Eigen::Vector3d& origin_W, double resolution,
+                                const Eigen::Vector3i& dims,
+                                std::span<const std::uint8_t> occupancy,
+                                const EsdfOptions& options) {
+  return Compute(origin_W, resolution, dims, occupancy, options, std::nullopt);
+}
+
+Esdf EsdfBuilder::Compute(const Eigen::Vector3d& origin_W, double resolution,
+                          const Eigen::Vector3i& dims, std::span<const std::uint8_t> occupancy,
+                          const EsdfOptions& options, std::optional<int> ground_layer) {
+  options.Validate();
+  if (!(resolution > 0.0) || !std::isfinite(resolution) || !origin_W.allFinite() ||
+      (dims.array() <= 0).any() ||
+      static_cast<double>(dims.x()) * dims.y() * dims.z() > static_cast<double>(kMaxCells)) {
+    throw std::invalid_argument(
+        "Esdf::FromOccupancy: need resolution > 0, a finite origin and 1 to 2^26 cells");
+  }
+  const int nx = dims.x();
+  const int ny = dims.y();
+  const int nz = dims.z();
+  const std::size_t n = static_cast<std::size_t>(nx) * ny * nz;
+  if (occupancy.size() != n) {
+    throw std::invalid_argument("Esdf::FromOccupancy: occupancy holds " +
+                                std::to_string(occupancy.size()) + " cells, dims need " +
+                                std::to_string(n));
+  }
+
+  Esdf esdf;
+  esdf.origin_W_ = origin_W;
+  esdf.dims_ = dims;
+  esdf.res_ = resolution;
+  esdf.inv_res_ = 1.0 / resolution;
+  esdf.max_distance_ = options.max_distance;
+  esdf.quantum_ = options.max_distance / kQuantumSteps;
+  esdf.values_.resize(n);
+
+  // Truncation in cells: squared distances above cap need not be exact (they clamp anyway).
+  const int t_cells = static_cast<int>(std::ceil(options.max_distance / resolution + 0.5)) + 1;
+  const std::int32_t cap = t_cells * t_cells;
+
+  std::size_t n_occupied = 0;
+  for (std::uint8_t o : occupancy) n_occupied += o != 0 ? 1 : 0;
+
+  // Quantised signed distance for a squared cell distance; a table for the small exact values.
+  std::vector<std::int16_t> table(static_cast<std::size_t>(cap) + 1);
+  const double inv_q = 1.0 / esdf.quantum_;
+  for (std::int32_t sq = 0; sq <= cap; ++sq) {
+    const double d = std::min((std::sqrt(static_cast<double>(sq)) - 0.5) * resolution,
+                              options.max_distance);
+    table[static_cast<std::size_t>(sq)] = static_cast<std::int16_t>(std::lround(d * inv_q));
+  }
+  const auto q_max = static_cast<std::int16_t>(std::lround(options.max_distance * inv_q));
+  // The ground plane: stored value = min(value, height of the cell centre above the plane).
+  auto finish = [&]() -> Esdf {
+    if (!ground_layer.has_value()) return std::move(esdf);
+    for (int z = 0; z < nz; ++z) {
+      const double d = (z - *ground_layer + 0.5) * resolution;
+      if (d >= options.max_distance) break;
+      const auto qd = static_cast<std::int16_t>(
+          std::lround(std::max(d, -options.max_distance) * inv_q));
+      std::int16_t* layer = esdf.values_.data() + static_cast<std::size_t>(nx) * ny * z;
+      for (std::size_t i = 0; i < static_cast<std::size_t>(nx) * ny; ++i) {
+        layer[i] = std::min(layer[i], qd);
+      }
+    }
+    return std::move(esdf);
+  };
+  if (n_occupied == 0) {
+    std::fill(esdf.values_.begin(), esdf.values_.end(), q_max);
+    return finish();
+  }
+
+  // Outside: squared distance to the nearest occupied centre, for every cell.
+  SquaredEdt(occupancy.data(), dims, true, cap, &outside_);
+  const std::size_t snx = static_cast<std::size_t>(nx);
+  const std::size_t snxy = snx * static_cast<std::size_t>(ny);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (occupancy[i] == 0) {
+      const std::int32_t sq = outside_[i];
+      esdf.values_[i] = sq > cap ? q_max : table[static_cast<std::size_t>(sq)];
+    } else {
+      esdf.values_[i] = static_cast<std::int16_t>(-table[1]);  // nearest free centre 1 cell away
+    }
+  }
+
+  // Inside: an occupied cell with a free face neighbour is exactly one cell from free space.
+  // The others ("deep" cells) get an exact transform of the free set over their bounding box
+  // widened by the truncation (cells outside the box count as not free).
+  auto free_neighbour = [&](int x, int y, int z, std::size_t i) {
+    return (x > 0 && occupancy[i - 1] == 0) || (x + 1 < nx && occupancy[i + 1] == 0) ||
+           (y > 0 && occupancy[i - snx] == 0) || (y + 1 < ny && occupancy[i + snx] == 0) ||
+           (z > 0 && occupancy[i - snxy] == 0) || (z + 1 < nz && occupancy[i + snxy] == 0);
+  };
+  Eigen::Vector3i deep_lo = dims;
+  Eigen::Vector3i deep_hi = Eigen::Vector3i::Constant(-1);
+  for (int z = 0; z < nz; ++z) {
+    for (int y = 0; y < ny; ++y) {
+      const std::size_t row = snx * static_cast<std::size_t>(y) + snxy * static_cast<std::size_t>(z);
+      for (int x = 0; x < nx; ++x) {
+        const std::size_t i = row + static_cast<std::size_t>(x);
+        if (occupancy[i] == 0 || free_neighbour(x, y, z, i)) continue;
+        const Eigen::Vector3i c(x, y, z);
+        deep_lo = deep_lo.cwiseMin(c);
+        deep_hi = deep_hi.cwiseMax(c);
+      }
+    }
+  }
+  if ((deep_hi.array() < 0).any()) return finish();
+  const Eigen::Vector3i sub_lo = (deep_lo.array() - t_cells).max(0).matrix();
+  const Eigen::Vector3i sub_hi = (deep_hi.array() + t_cells).min(dims.array() - 1).matrix();
+  const Eigen::Vector3i sub_dims = sub_hi - sub_lo + Eigen::Vector3i::Ones();
+  const std::size_t sub_nx = static_cast<std::size_t>(sub_dims.x());
+  const std::size_t sub_nxy = sub_nx * static_cast<std::size_t>(sub_dims.y());
+  sub_occupancy_.resize(sub_nxy * static_cast<std::size_t>(sub_dims.z()));
+  auto full_index = [&](int x, int y, int z) {
+    return static_cast<std::size_t>(x) + snx * static_cast<std::size_t>(y) +
+           snxy * static_cast<std::size_t>(z);
+  };
+  for (int z = 0; z < sub_dims.z(); ++z) {
+    for (int y = 0; y < sub_dims.y(); ++y) {
+      const std::uint8_t* src =
+          occupancy.data() + full_index(sub_lo.x(), sub_lo.y() + y, sub_lo.z() + z);
+      std::copy(src, src + sub_nx,
+                sub_occupancy_.data() + sub_nx * static_cast<std::size_t>(y) +
+                    sub_nxy * static_cast<std::size_t>(z));
+    }
+  }
+  SquaredEdt(sub_occupancy_.data(), sub_dims, false, cap, &inside_);
+  for (int z = 0; z < sub_dims.z(); ++z) {
+    for (int y = 0; y < sub_dims.y(); ++y) {
+      for (int x = 0; x < sub_dims.x(); ++x) {
+        const std::size_t si = static_cast<std::size_t>(x) +
+                               sub_nx * static_cast<std::size_t>(y) +
+                               sub_nxy * static_cast<std::size_t>(z);
+        if (sub_occupancy_[si] == 0) continue;
+        const std::int32_t sq = inside_[si];
+        const int fx = sub_lo.x() + x;
+        const int fy = sub_lo.y() + y;
+        const int fz = sub_lo.z() + z;
+        const std::size_t fi = full_index(fx, fy, fz);
+        // Cells with a free face neighbour keep their exact one-cell value (that neighbour may
+        // lie outside the sub-box).
+        if (sq > 1 && free_neighbour(fx, fy, fz, fi)) continue;
+        esdf.values_[fi] =
+            sq > cap ? static_cast<std::int16_t>(-q_max)
+                     : static_cast<std::int16_t>(-table[static_cast<std::size_t>(sq)]);
+      }
+    }
+  }
+  return finish();
+}
+
+void EsdfBuilder::SquaredEdt(const std::uint8_t* occupancy, const Eigen::Vector3i& dims,
+                             bool target, std::int32_t cap, std::vector<std::int32_t>* out) {
+  const int nx = dims.x();
+  const int ny = dims.y();
+  const int nz = dims.z();
+  const std::size_t snx = static_cast<std::size_t>(nx);
+  const std::size_t snxy = snx * static_cast<std::size_t>(ny);
+  const std::size_t n = snxy * static_cast<std::size_t>(nz);
+  const int t_cells = static_cast<int>(std::lround(std::sqrt(static_cast<double>(cap))));
+  out->resize(n);
+  std::int32_t* g = out->data();
+
+  // Pass along x: two sweeps per row, then square (distances beyond the truncation: none).
+  for (std::size_t row = 0; row < static_cast<std::size_t>(ny) * static_cast<std::size_t>(nz); ++row) {
+    const std::uint8_t* o = occupancy + row * snx;
+    std::int32_t* r = g + row * snx;
+    int last = -(1 << 20);
+    for (int x = 0; x < nx; ++x) {
+      if ((o[x] != 0) == target) last = x;
+      r[x] = x - last;
+    }
+    last = 1 << 21;
+    for (int x = nx - 1; x >= 0; --x) {
+      if ((o[x] != 0) == target) last = x;
+      const int dx = std::min(r[x], last - x);
+      r[x] = dx > t_cells ? kInfSq : dx * dx;
+    }
+  }
+
+  // Passes along y and z on transposed slabs, so that every line is contiguous.
+  const int n_max = std::max({nx, ny, nz});
+  slab_.resize(snx * static_cast<std::size_t>(std::max(ny, nz)));
+  line_d_.resize(static_cast<std::size_t>(n_max));
+  hull_v_.resize(static_cast<std::size_t>(n_max));
+  hull_fv_.resize(static_cast<std::size_t>(n_max));
+  hull_z_.resize(static_cast<std::size_t>(n_max) + 1);
+  // Transforms the lines of a slab of `rows` rows (each nx values, `row_stride` apart in g).
+  auto slab_pass = [&](std::int32_t* base, int rows, std::size_t row_stride) {
+    std::int32_t* t = slab_.data();
+    const std::size_t srows = static_cast<std::size_t>(rows);
+    for (int r = 0; r < rows; ++r) {
+      const std::int32_t* src = base + row_stride * static_cast<std::size_t>(r);
+      for (int x = 0; x < nx; ++x) t[static_cast<std::size_t>(x) * srows + static_cast<std::size_t>(r)] = src[x];
+    }
+    for (int x = 0; x < nx; ++x) {
+      std::int32_t* line = t + static_cast<std::size_t>(x) * srows;
+      // A constant line (all zero, all without site, or any constant) is its own transform.
+      bool constant = true;
+      for (int i = 1; i < rows; ++i) constant &= line[i] == line[0];
+      if (constant) continue;
+      LowerEnvelope(line, rows, line_d_.data(), hull_v_.data(), hull_fv_.data(), hull_z_.data(),
+                    cap);
+      std::copy(line_d_.data(), line_d_.data() + rows, line);
+    }
+    for (int r = 0; r < rows; ++r) {
+      std::int32_t* dst = base + row_stride * static_cast<std::size_t>(r);
+      for (int x = 0; x < nx; ++x) dst[x] = t[static_cast<std::size_t>(x) * srows + static_cast<std::size_t>(r)];
+    }
+  };
+  if (ny > 1) {
+    for (int z = 0; z < nz; ++z) slab_pass(g + snxy * static_cast<std::size_t>(z), ny, snx);
+  }
+  if (nz > 1) {
+    for (int y = 0; y < ny; ++y) slab_pass(g + snx * static_cast<std::size_t>(y), nz, snxy);
+  }
+}
+
+// ---------------------------------------------------------------- field
+
+Esdf Esdf::Build(const LocalMap& map, const Eigen::AlignedBox3d& box_W,
+                 const EsdfOptions& options) {
+  EsdfBuilder builder;
+  return builder.Build(map, box_W, options);
+}
+
+Esdf Esdf::FromOccupancy(const Eigen::Vector3d& origin_W, double resolution,
+                         const Eigen::Vector3i& dims, std::span<const std::uint8_t> occupancy,
+                         const EsdfOptions& options) {
+  EsdfBuilder builder;
+  return builder.FromOccupancy(origin_W, resolution, dims, occupancy, options);
+}
+
+bool Esdf::Contains(const Eigen::Vector3d& p_W) const {
+  if (values_.empty()) return false;
+  const Eigen::Vector3d u = (p_W - origin_W_) * inv_res_;
+  for (int k = 0; k < 3; ++k) {
+    if (!(u[k] >= 0.0 && u[k] <= dims_[k])) return false;
+  }
+  return true;
+}
+
+double Esdf::CellDistance(const Eigen::Vector3i& idx) const {
+  QT_DEMAND((idx.array() >= 0).all() && (idx.array() < dims_.array()).all(),
+            "Esdf::CellDistance: index outside the box");
+  const std::size_t i = static_cast<std::size_t>(idx.x()) +
+                        static_cast<std::size_t>(dims_.x()) *
+                            (static_cast<std::size_t>(idx.y()) +
+                             static_cast<std::size_t>(dims_.y()) * idx.z());
+  return values_[i] * quantum_;
+}
+
+Eigen::Vector3d Esdf::CellCenter(const Eigen::Vector3i& idx) const {
+  return origin_W_ + (idx.cast<double>().array() + 0.5).matrix() * res_;
+}
+
+double Esdf::Evaluate(const Eigen::Vector3d& p_W, Eigen::Vector3d* grad_W) const {
+  if (!Contains(p_W)) {
+    if (grad_W != nullptr) grad_W->setZero();
+    return max_distance_;
+  }
+  // Continuous index relative to cell centres; per axis the two neighbours, the weight of the
+  // upper one and whether the weight moves with p (not in the clamped outer half-cells).
+  int i0[3];
+  int i1[3];
+  double t[3];
+  double dt[3];
+  for (int k = 0; k < 3; ++k) {
+    const double u = (p_W[k] - origin_W_[k]) * inv_res_ - 0.5;
+    const double fl = std::floor(u);
+    int c = static_cast<int>(fl);
+    if (c < 0) {
+      i0[k] = i1[k] = 0;
+      t[k] = 0.0;
+      dt[k] = 0.0;
+    } else if (c >= dims_[k] - 1) {
+      i0[k] = i1[k] = dims_[k] - 1;
+      t[k] = 0.0;
+      dt[k] = 0.0;
+    } else {
+      i0[k] = c;
+      i1[k] = c + 1;
+      t[k] = u - fl;
+      dt[k] = inv_res_;
+    }
+  }
+  const std::size_t sx = static_cast<std::size_t>(dims_.x());
+  const std::size_t sxy = sx * static_cast<std::size_t>(dims_.y());
+  auto at = [&](int x, int y, int z) {
+    return static_cast<double>(values_[static_cast<std::size_t>(x) +
+                                       sx * static_cast<std::size_t>(y) +
+                                       sxy * static_cast<std::size_t>(z)]);
+  };
+  const double c000 = at(i0[0], i0[1], i0[2]);
+  const double c100 = at(i1[0], i0[1], i0[2]);
+  const double c010 = at(i0[0], i1[1], i0[2]);
+  const double c110 = at(i1[0], i1[1], i0[2]);
+  const double c001 = at(i0[0], i0[1], i1[2]);
+  const double c101 = at(i1[0], i0[1], i1[2]);
+  const double c011 = at(i0[0], i1[1], i1[2]);
+  const double c111 = at(i1[0], i1[1], i1[2]);
+  const double tx = t[0];
+  const double ty = t[1];
+  const double tz = t[2];
+  // Interpolate along x, then y, then z.
+  const double c00 = c000 + tx * (c100 - c000);
+  const double c10 = c010 + tx * (c110 - c010);
+  const double c01 = c001 + tx * (c101 - c001);
+  const double c11 = c011 + tx * (c111 - c011);
+  const double c0 = c00 + ty * (c10 - c00);
+  const double c1 = c01 + ty * (c11 - c01);
+  const double value = c0 + tz * (c1 - c0);
+  if (grad_W != nullptr) {
+    const double dz = (c1 - c0) * dt[2];
+    const double dy = ((1.0 - tz) * (c10 - c00) + tz * (c11 - c01)) * dt[1];
+    const double ddx00 = c100 - c000;
+    const double ddx10 = c110 - c010;
+    const double ddx01 = c101 - c001;
+    const double ddx11 = c111 - c011;
+    const double dx = ((1.0 - tz) * ((1.0 - ty) * ddx00 + ty * ddx10) +
+                       tz * ((1.0 - ty) * ddx01 + ty * ddx11)) *
+                      dt[0];
+    *grad_W = Eigen::Vector3d(dx, dy, dz) * quantum_;
+  }
+  return value * quantum_;
+}
+
+}  // namespace quadtune::planning

@@ -1,0 +1,158 @@
+#pragma once
+/// \file
+/// The online replanning state machine, in the style of EGO-Planner's FSM:
+///
+///   kWaitMission ─StartMission→ kGenNewTraj ─plan ok→ kExecTraj ─waypoint reached→ kGenNewTraj …
+///                                                     │  every t_pl (not within
+///                                                     │  no_replan_near_goal of the waypoint),
+///                                                     │  or when the executing trajectory hits
+///                                                     │  the latest map → re-plan; a failed
+///                                                     │  re-plan keeps the old trajectory
+///                                                     └─ collision predicted within τ_c and the
+///                                                        re-plan failed → kEmergencyStop (brake
+///                                                        to hover) → kGenNewTraj once stopped
+///   last waypoint reached → kDone
+///
+/// Planning is instantaneous in simulated time (the simulation waits for the planner), so flights
+/// are reproducible; the wall-clock solve time t_c is recorded beside the deterministic compute
+/// units. Every plan is recorded (PlanRecord), and every planning query can be handed to an
+/// observer (the engine's short-term optimiser replays them with other θ_s).
+///
+/// Thread safety: one Replanner per flight; not thread-safe.
+
+#include <Eigen/Core>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "quadtune/physics/controller.hpp"
+#include "quadtune/planning/local_map.hpp"
+#include "quadtune/planning/local_planner.hpp"
+#include "quadtune/planning/parameters.hpp"
+#include "quadtune/planning/trajectory.hpp"
+#include "quadtune/planning/trajectory_optimizer.hpp"
+
+namespace quadtune::planning {
+
+/// States of the replanning FSM (see the file comment).
+enum class ReplanState { kWaitMission, kGenNewTraj, kExecTraj, kEmergencyStop, kDone };
+/// Short name of a state, e.g. "exec_traj".
+const char* ToString(ReplanState state);
+
+/// FSM settings (not tuned by the experiments).
+struct ReplannerOptions {
+  double check_interval = 0.05;   ///< collision check of the executing trajectory every (s), > 0
+  double check_dt = 0.05;         ///< sample spacing of that check along the trajectory (s), > 0
+  double retry_interval = 0.1;    ///< wait after a failed plan before trying again (s), >= 0
+  /// Plan from the measured state (not the reference) when the tracking error exceeds this (m).
+  double tracking_replan_error = 0.6;
+  double yaw_rate_max = 2.0;      ///< heading rate limit of the reference (rad/s), > 0
+  double brake_factor = 0.8;      ///< emergency braking uses this fraction of a_max, (0, 1]
+
+  /// Throws ConfigError(origin, key, ...) for the first bad field.
+  void Validate(const std::string& origin = "") const;
+};
+
+/// One planning step as the flight saw it.
+struct PlanRecord {
+  double time = 0.0;             ///< flight time of the step (s)
+  bool ok = false;               ///< a trajectory was produced
+  bool collision_triggered = false;  ///< triggered by a predicted collision
+  int failed_attempts = 0;       ///< n_s of the step (front-end failure counts as 1)
+  double solve_time_s = 0.0;     ///< wall-clock t_c over attempts (s)
+  double compute_units = 0.0;    ///< deterministic cost over attempts
+  PlanStatus status = PlanStatus::kInvalidInput;  ///< last back-end status
+  std::string message;           ///< failure detail
+  Trajectory trajectory;         ///< the new trajectory (empty on failure)
+  double min_clearance = 0.0;    ///< of the planned trajectory (m)
+  double jerk = 0.0;             ///< ∫|jerk|² of the planned trajectory
+  double duration = 0.0;         ///< duration of the planned trajectory (s)
+};
+
+/// The replanning FSM. See the file comment.
+class Replanner {
+ public:
+  /// `optimizer` must outlive the Replanner. Validates all options and `params`.
+  Replanner(const TrajectoryOptimizer& optimizer, const PlannerParams& params,
+            const ReplannerOptions& options = {}, const LocalPlannerOptions& planner_options = {});
+
+  /// Starts a mission through `waypoints_W` from rest at p_W with heading yaw at time t.
+  void StartMission(std::vector<Eigen::Vector3d> waypoints_W, const Eigen::Vector3d& p_W,
+                    double yaw, double t);
+  /// Replaces the parameters used by the following plans (validated).
+  void SetParams(const PlannerParams& params);
+  [[nodiscard]] const PlannerParams& params() const { return params_; }
+
+  /// Called before each plan with the time and the parameters, which it may change (the engine
+  /// injects the short-term optimiser's current best θ_s this way).
+  void SetParamsProvider(std::function<void(double time, PlannerParams& params)> provider);
+  /// Called after each plan that reached the back end, with its query and outcome.
+  void SetQueryObserver(std::function<void(const PlanningQuery&, const PlanOutcome&)> observer);
+
+  /// Advances the FSM at time t (s) given the measured position and velocity; `map` must hold the
+  /// latest scans.
+  void Tick(double t, const Eigen::Vector3d& p_W, const Eigen::Vector3d& v_W, const LocalMap& map);
+
+  /// The tracking reference at time t (for the controller). Heading follows the direction of
+  /// motion with a rate limit, so calls must come with non-decreasing t.
+  [[nodiscard]] physics::TrackingReference Reference(double t);
+  /// Position reference at t (m), without side effects.
+  [[nodiscard]] Eigen::Vector3d ReferencePosition(double t) const;
+  /// Jerk of the reference at t (m/s³).
+  [[nodiscard]] Eigen::Vector3d ReferenceJerk(double t) const;
+
+  [[nodiscard]] ReplanState state() const { return state_; }
+  [[nodiscard]] bool Done() const { return state_ == ReplanState::kDone; }
+  /// Time the last waypoint was reached (s); valid when Done().
+  [[nodiscard]] double mission_end_time() const { return end_time_; }
+  [[nodiscard]] int emergency_stops() const { return emergency_stops_; }
+  /// Index of the waypoint being approached.
+  [[nodiscard]] std::size_t waypoint_index() const { return waypoint_; }
+  [[nodiscard]] const std::vector<PlanRecord>& records() const { return records_; }
+  [[nodiscard]] const Trajectory& trajectory() const { return traj_; }
+  [[nodiscard]] double trajectory_start() const { return traj_t0_; }
+
+ private:
+  bool PlanFrom(double t, const Eigen::Vector3d& p0, const Eigen::Vector3d& v0,
+                const Eigen::Vector3d& a0, const LocalMap& map, bool from_trajectory,
+                bool collision_triggered);
+  std::optional<double> TimeToCollision(const LocalMap& map, double tau) const;
+  void EmergencyStop(double t, const Eigen::Vector3d& p, const Eigen::Vector3d& v,
+                     const Eigen::Vector3d& a);
+
+  const TrajectoryOptimizer& optimizer_;
+  PlannerParams params_;
+  ReplannerOptions options_;
+  LocalPlanner planner_;
+  std::function<void(double, PlannerParams&)> provider_;
+  std::function<void(const PlanningQuery&, const PlanOutcome&)> observer_;
+
+  ReplanState state_ = ReplanState::kWaitMission;
+  std::vector<Eigen::Vector3d> waypoints_;
+  std::size_t waypoint_ = 0;
+  Trajectory traj_;          // executing trajectory (empty: hold hold_p_)
+  double traj_t0_ = 0.0;     // its start time (s)
+  bool traj_reaches_waypoint_ = false;
+  Eigen::Vector3d hold_p_ = Eigen::Vector3d::Zero();
+  double last_plan_time_ = 0.0;
+  double next_try_time_ = 0.0;
+  double next_check_time_ = 0.0;
+  double end_time_ = 0.0;
+  int emergency_stops_ = 0;
+  std::uint64_t sequence_ = 0;
+  std::vector<PlanRecord> records_;
+  double yaw_ = 0.0;         // heading of the reference (rad)
+  double yaw_time_ = 0.0;    // time of the last Reference() call (s)
+};
+
+/// A quintic from (p0, v0, a0) to rest at a point chosen so that the average deceleration is
+/// `decel` (m/s², > 0): duration T = max(2|v0|/decel, 0.2 s). Used for emergency braking.
+[[nodiscard]] Trajectory BrakingTrajectory(const Eigen::Vector3d& p0, const Eigen::Vector3d& v0,
+                                           const Eigen::Vector3d& a0, double decel);
+
+/// The quintic of duration T (s) matching position, velocity and acceleration at both ends.
+[[nodiscard]] Trajectory::Coefficients QuinticBoundaryValue(
+    const Eigen::Vector3d& p0, const Eigen::Vector3d& v0, const Eigen::Vector3d& a0,
+    const Eigen::Vector3d& p1, const Eigen::Vector3d& v1, const Eigen::Vector3d& a1, double T);
+
+}  // namespace quadtune::planning

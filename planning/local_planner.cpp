@@ -1,0 +1,112 @@
+#include "quadtune/planning/local_planner.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "quadtune/common/error.hpp"
+
+namespace quadtune::planning {
+
+PlanRequest PlanningQuery::ToRequest(bool use_warm_start) const {
+  PlanRequest r;
+  r.p0_W = p0_W;
+  r.v0_W = v0_W;
+  r.a0_W = a0_W;
+  r.goal_W = goal_W;
+  r.goal_v_W = goal_v_W;
+  r.initial_path_W = initial_path_W;
+  if (use_warm_start && previous.has_value() && !previous->Empty()) {
+    r.warm_start = &*previous;
+    r.warm_start_time = previous_time;
+  }
+  return r;
+}
+
+std::size_t PlanningQuery::MemoryBytes() const {
+  std::size_t bytes = sizeof(PlanningQuery) + field.MemoryBytes() - sizeof(Esdf);
+  bytes += initial_path_W.capacity() * sizeof(Eigen::Vector3d);
+  if (previous) bytes += previous->Durations().size() * (sizeof(double) + sizeof(Trajectory::Coefficients));
+  return bytes;
+}
+
+void LocalPlannerOptions::Validate(const std::string& origin) const {
+  optimizer.Validate(origin);
+  search.Validate(origin);
+  esdf.Validate(origin);
+  CheckInRange(field_margin, Range::NonNegative(), origin, "field_margin");
+  CheckInRange(retry_slowdown, {0.0, 1.0, true, false}, origin, "retry_slowdown");
+}
+
+PlanOutcome SolveQuery(const TrajectoryOptimizer& optimizer, const PlanningQuery& query,
+                       const PlannerParams& params, double retry_slowdown) {
+  PlanOutcome out;
+  const int attempts = std::max(1, params.max_attempts);
+  for (int k = 0; k < attempts; ++k) {
+    PlannerParams p = params;
+    if (k >= 2) p.v_des = params.v_des * std::pow(retry_slowdown, k - 1);
+    const PlanRequest request = query.ToRequest(/*use_warm_start=*/k == 0);
+    PlanResult r = optimizer.Solve(request, query.field, p);
+    out.attempts = k + 1;
+    out.solve_time_s += r.solve_time_s;
+    out.compute_units += r.compute_units;
+    const bool ok = r.Ok();
+    out.result = std::move(r);
+    if (ok) {
+      out.failed_attempts = k;
+      return out;
+    }
+    out.failed_attempts = k + 1;
+  }
+  return out;
+}
+
+LocalPlanner::LocalPlanner(const LocalPlannerOptions& options)
+    : options_(options), searcher_(options.search) {
+  options_.Validate();
+}
+
+std::optional<PlanningQuery> LocalPlanner::MakeQuery(
+    const LocalMap& map, const Eigen::Vector3d& p0_W, const Eigen::Vector3d& v0_W,
+    const Eigen::Vector3d& a0_W, const Eigen::Vector3d& mission_goal_W,
+    const PlannerParams& params, const Trajectory* previous, double previous_time,
+    PathSearchResult* front_end) {
+  PathSearchResult path = searcher_.Plan(map, p0_W, mission_goal_W, params.h_pl);
+  const bool ok = path.ok() && path.waypoints.size() >= 2;
+  if (front_end != nullptr) *front_end = path;
+  if (!ok) return std::nullopt;
+
+  PlanningQuery q;
+  q.p0_W = p0_W;
+  q.v0_W = v0_W;
+  q.a0_W = a0_W;
+  q.goal_W = path.waypoints.back();
+  q.goal_is_mission_goal = path.goal_is_mission_goal;
+  q.initial_path_W = std::move(path.waypoints);
+  q.initial_path_W.front() = p0_W;  // the optimiser starts exactly at the drone's reference
+  q.params = params;
+  if (!q.goal_is_mission_goal) {
+    const std::size_t n = q.initial_path_W.size();
+    const Eigen::Vector3d last = q.initial_path_W[n - 1] - q.initial_path_W[n - 2];
+    if (last.norm() > 1e-6) q.goal_v_W = params.v_des * last.normalized();
+  }
+  if (previous != nullptr && !previous->Empty()) {
+    q.previous = *previous;
+    q.previous_time = previous_time;
+  }
+  Eigen::AlignedBox3d box;
+  for (const auto& w : q.initial_path_W) box.extend(w);
+  // Stopping from v0 may overshoot the start a little; include that region too.
+  box.extend(p0_W + v0_W * (v0_W.norm() / (2.0 * params.a_max)));
+  const double margin = params.clearance + options_.field_margin;
+  box.min() -= Eigen::Vector3d::Constant(margin);
+  box.max() += Eigen::Vector3d::Constant(margin);
+  q.field = builder_.Build(map, box, options_.esdf);
+  return q;
+}
+
+PlanOutcome LocalPlanner::Plan(const TrajectoryOptimizer& optimizer, const PlanningQuery& query,
+                               const PlannerParams& params) const {
+  return SolveQuery(optimizer, query, params, options_.retry_slowdown);
+}
+
+}  // namespace quadtune::planning

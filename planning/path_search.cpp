@@ -1,0 +1,429 @@
+#include "quadtune/planning/path_search.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <queue>
+
+#include "quadtune/common/error.hpp"
+
+namespace quadtune::planning {
+namespace {
+
+constexpr std::uint8_t kKnown = 1;     // occupancy looked up
+constexpr std::uint8_t kOccupied = 2;  // inflated-occupied
+constexpr std::uint8_t kClosed = 4;    // expanded
+
+/// 3-D octile distance (cells) for a 26-connected lattice with costs 1, √2, √3.
+double Octile(int dx, int dy, int dz) {
+  std::array<int, 3> a{std::abs(dx), std::abs(dy), std::abs(dz)};
+  std::sort(a.begin(), a.end());  // a[0] ≤ a[1] ≤ a[2]
+  constexpr double kS2 = 1.4142135623730951;
+  constexpr double kS3 = 1.7320508075688772;
+  return kS3 * a[0] + kS2 * (a[1] - a[0]) + (a[2] - a[1]);
+}
+
+struct OpenEntry {
+  float f;
+  float h;
+  float g;
+  std::int32_t idx;
+};
+
+/// Orders the priority queue so that top() is the smallest f, then smallest h, then index.
+struct WorseThan {
+  bool operator()(const OpenEntry& a, const OpenEntry& b) const {
+    if (a.f != b.f) return a.f > b.f;
+    if (a.h != b.h) return a.h > b.h;
+    return a.idx > b.idx;
+  }
+};
+
+struct Move {
+  Eigen::Vector3i d;
+  float cost;
+  int n_sub;                        // intermediate cells that must be free (corner cutting)
+  std::array<Eigen::Vector3i, 6> sub;
+};
+
+const std::vector<Move>& Moves() {
+  static const std::vector<Move> moves = [] {
+    std::vector<Move> out;
+    for (int dz = -1; dz <= 1; ++dz) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          if (dx == 0 && dy == 0 && dz == 0) continue;
+          Move m;
+          m.d = Eigen::Vector3i(dx, dy, dz);
+          m.cost = static_cast<float>(std::sqrt(dx * dx + dy * dy + dz * dz));
+          m.n_sub = 0;
+          const int nonzero = (dx != 0) + (dy != 0) + (dz != 0);
+          for (int mask = 1; mask < 7; ++mask) {
+            Eigen::Vector3i s = Eigen::Vector3i::Zero();
+            bool ok = true;
+            int count = 0;
+            for (int k = 0; k < 3; ++k) {
+              if ((mask >> k) & 1) {
+                if (m.d[k] == 0) ok = false;
+                s[k] = m.d[k];
+                ++count;
+              }
+            }
+            if (ok && count < nonzero) m.sub[static_cast<std::size_t>(m.n_sub++)] = s;
+          }
+          out.push_back(m);
+        }
+      }
+    }
+    return out;
+  }();
+  return moves;
+}
+
+double PolylineLength(const std::vector<Eigen::Vector3d>& p) {
+  double len = 0.0;
+  for (std::size_t i = 1; i < p.size(); ++i) len += (p[i] - p[i - 1]).norm();
+  return len;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- options
+
+void PathSearchOptions::Validate(const std::string& origin) const {
+  CheckInRange(max_expansions, Range::Closed(1, 1e8), origin, "max_expansions");
+  CheckInRange(search_margin, Range::Closed(0.0, 50.0), origin, "search_margin");
+  CheckInRange(z_min, Range::Any(), origin, "z_min");
+  CheckInRange(z_max, {z_min, std::numeric_limits<double>::infinity(), true, false}, origin,
+               "z_max");
+  CheckInRange(heuristic_weight, Range::Closed(1.0, 10.0), origin, "heuristic_weight");
+  CheckInRange(start_escape_radius, Range::Closed(0.0, 2.0), origin, "start_escape_radius");
+  CheckInRange(max_search_cells, Range::Closed(1, static_cast<double>(1 << 27)), origin,
+               "max_search_cells");
+}
+
+PathSearchOptions PathSearchOptions::FromYaml(const YamlMap& map) {
+  map.RejectUnknownKeys({"max_expansions", "search_margin", "z_min", "z_max", "heuristic_weight",
+                         "start_escape_radius", "max_search_cells"});
+  PathSearchOptions o;
+  o.max_expansions = static_cast<int>(map.Integer("max_expansions", o.max_expansions));
+  o.search_margin = map.Number("search_margin", o.search_margin);
+  o.z_min = map.Number("z_min", o.z_min);
+  o.z_max = map.Number("z_max", o.z_max);
+  o.heuristic_weight = map.Number("heuristic_weight", o.heuristic_weight);
+  o.start_escape_radius = map.Number("start_escape_radius", o.start_escape_radius);
+  o.max_search_cells = static_cast<int>(map.Integer("max_search_cells", o.max_search_cells));
+  o.Validate(map.file());
+  return o;
+}
+
+const char* ToString(PathSearchStatus status) {
+  switch (status) {
+    case PathSearchStatus::kSuccess: return "kSuccess";
+    case PathSearchStatus::kNoFreeLocalGoal: return "kNoFreeLocalGoal";
+    case PathSearchStatus::kStartOccupied: return "kStartOccupied";
+    case PathSearchStatus::kGoalOccupied: return "kGoalOccupied";
+    case PathSearchStatus::kNoPath: return "kNoPath";
+    case PathSearchStatus::kExpansionLimit: return "kExpansionLimit";
+    case PathSearchStatus::kSearchBoxTooLarge: return "kSearchBoxTooLarge";
+  }
+  return "unknown";
+}
+
+// ---------------------------------------------------------------- free functions
+
+LocalGoal ChooseLocalGoal(const LocalMap& map, const Eigen::Vector3d& start_W,
+                          const Eigen::Vector3d& mission_goal_W, double h_pl) {
+  CheckInRange(h_pl, Range::Positive(), "", "h_pl");
+  if (!start_W.allFinite() || !mission_goal_W.allFinite()) {
+    throw ConfigError("", "start/goal", "ChooseLocalGoal needs finite positions");
+  }
+  LocalGoal out;
+  const Eigen::Vector3d delta = mission_goal_W - start_W;
+  const double dist = delta.norm();
+  const bool mission = dist <= h_pl;
+  const double reach = mission ? dist : h_pl;
+  const Eigen::Vector3d dir = dist > 0.0 ? Eigen::Vector3d(delta / dist) : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d candidate = mission ? mission_goal_W : Eigen::Vector3d(start_W + dir * h_pl);
+  if (!map.IsOccupied(candidate)) {
+    out.found = true;
+    out.is_mission_goal = mission;
+    out.p_W = candidate;
+    return out;
+  }
+  const double step = 0.5 * map.resolution();
+  for (double s = reach - step; s >= 0.0; s -= step) {
+    const Eigen::Vector3d p = start_W + dir * s;
+    if (!map.IsOccupied(p)) {
+      out.found = true;
+      out.p_W = p;
+      return out;
+    }
+  }
+  return out;
+}
+
+std::vector<Eigen::Vector3d> PrunePath(const LocalMap& map,
+                                       const std::vector<Eigen::Vector3d>& points) {
+  if (points.size() <= 2) return points;
+  std::vector<Eigen::Vector3d> out{points.front()};
+  std::size_t anchor = 0;
+  const std::size_t last = points.size() - 1;
+  while (anchor < last) {
+    std::size_t next = anchor + 1;  // always progress, even if the first segment is blocked
+    for (std::size_t j = anchor + 2; j <= last; ++j) {
+      if (!map.SegmentFree(points[anchor], points[j])) break;
+      next = j;
+    }
+    out.push_back(points[next]);
+    anchor = next;
+  }
+  return out;
+}
+
+std::vector<Eigen::Vector3d> ResampleByArcLength(const std::vector<Eigen::Vector3d>& polyline,
+                                                 int n_pieces) {
+  QT_DEMAND(!polyline.empty() && n_pieces >= 1, "ResampleByArcLength: bad arguments");
+  std::vector<double> s(polyline.size(), 0.0);
+  for (std::size_t i = 1; i < polyline.size(); ++i) {
+    s[i] = s[i - 1] + (polyline[i] - polyline[i - 1]).norm();
+  }
+  const double total = s.back();
+  std::vector<Eigen::Vector3d> out;
+  out.reserve(static_cast<std::size_t>(n_pieces) + 1);
+  std::size_t seg = 0;
+  for (int k = 0; k <= n_pieces; ++k) {
+    if (k == n_pieces) {
+      out.push_back(polyline.back());
+      break;
+    }
+    const double target = total * k / n_pieces;
+    while (seg + 2 < polyline.size() && s[seg + 1] < target) ++seg;
+    if (polyline.size() == 1) {
+      out.push_back(polyline.front());
+      continue;
+    }
+    const double len = s[seg + 1] - s[seg];
+    const double t = len > 0.0 ? std::clamp((target - s[seg]) / len, 0.0, 1.0) : 0.0;
+    out.push_back(polyline[seg] + t * (polyline[seg + 1] - polyline[seg]));
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------- searcher
+
+PathSearcher::PathSearcher(const PathSearchOptions& options) : options_(options) {
+  options_.Validate();
+}
+
+PathSearchResult PathSearcher::Plan(const LocalMap& map, const Eigen::Vector3d& start_W,
+                                    const Eigen::Vector3d& mission_goal_W, double h_pl) {
+  const LocalGoal local = ChooseLocalGoal(map, start_W, mission_goal_W, h_pl);
+  if (!local.found) {
+    PathSearchResult r;
+    r.status = PathSearchStatus::kNoFreeLocalGoal;
+    r.start_W = start_W;
+    r.goal_W = mission_goal_W;
+    r.message = "no free local goal on the line from the drone towards the mission goal";
+    return r;
+  }
+  PathSearchResult r = Search(map, start_W, local.p_W);
+  r.goal_is_mission_goal = local.is_mission_goal;
+  return r;
+}
+
+PathSearchResult PathSearcher::Search(const LocalMap& map, const Eigen::Vector3d& start_W,
+                                      const Eigen::Vector3d& goal_W) {
+  if (!start_W.allFinite() || !goal_W.allFinite()) {
+    throw ConfigError("", "start/goal", "PathSearcher::Search needs finite positions");
+  }
+  PathSearchResult result;
+  result.start_W = start_W;
+  result.goal_W = goal_W;
+  auto fail = [&](PathSearchStatus status, std::string message) {
+    result.status = status;
+    result.message = std::move(message);
+    result.path.clear();
+    result.waypoints.clear();
+    return result;
+  };
+
+  const CellIndex start_cell = map.CellOf(start_W);
+  const CellIndex goal_cell = map.CellOf(goal_W);
+  if (map.IsOccupiedCell(goal_cell)) {
+    return fail(PathSearchStatus::kGoalOccupied, "the goal cell is occupied (inflated map)");
+  }
+
+  // Search box [lo, hi] (inclusive) in global cells.
+  const int margin = static_cast<int>(std::ceil(options_.search_margin / map.resolution()));
+  CellIndex lo = start_cell.cwiseMin(goal_cell);
+  CellIndex hi = start_cell.cwiseMax(goal_cell);
+  lo.head<2>().array() -= margin;
+  hi.head<2>().array() += margin;
+  const int z_lo = map.CellOf(Eigen::Vector3d(0, 0, options_.z_min)).z();
+  const int z_hi = map.CellOf(Eigen::Vector3d(0, 0, options_.z_max)).z();
+  lo.z() = std::min(lo.z(), z_lo);
+  hi.z() = std::max(hi.z(), std::max(z_hi, z_lo));
+  const Eigen::Vector3i dims = hi - lo + Eigen::Vector3i::Ones();
+  const double n_cells_d = static_cast<double>(dims.x()) * dims.y() * dims.z();
+  if (n_cells_d > options_.max_search_cells) {
+    return fail(PathSearchStatus::kSearchBoxTooLarge,
+                "the search box holds " + std::to_string(static_cast<long long>(n_cells_d)) +
+                    " cells, more than max_search_cells = " +
+                    std::to_string(options_.max_search_cells));
+  }
+  const std::size_t n_cells = static_cast<std::size_t>(n_cells_d);
+  if (cell_stamp_.size() < n_cells) {
+    cell_stamp_.assign(n_cells, 0);
+    g_.resize(n_cells);
+    parent_.resize(n_cells);
+    flags_.resize(n_cells);
+  }
+  if (++stamp_ == 0) {  // wrapped: invalidate everything
+    std::fill(cell_stamp_.begin(), cell_stamp_.end(), 0);
+    stamp_ = 1;
+  }
+
+  const int nx = dims.x();
+  const int nxy = dims.x() * dims.y();
+  auto local_index = [&](const CellIndex& g) {
+    const CellIndex l = g - lo;
+    return l.x() + nx * l.y() + nxy * l.z();
+  };
+  auto cell_of = [&](int idx) {
+    return CellIndex(lo.x() + idx % nx, lo.y() + (idx / nx) % dims.y(), lo.z() + idx / nxy);
+  };
+  auto inside = [&](const CellIndex& g) {
+    return (g.array() >= lo.array()).all() && (g.array() <= hi.array()).all();
+  };
+  auto touch = [&](int idx) {
+    if (cell_stamp_[static_cast<std::size_t>(idx)] != stamp_) {
+      cell_stamp_[static_cast<std::size_t>(idx)] = stamp_;
+      flags_[static_cast<std::size_t>(idx)] = 0;
+      g_[static_cast<std::size_t>(idx)] = std::numeric_limits<float>::infinity();
+      parent_[static_cast<std::size_t>(idx)] = -1;
+    }
+  };
+  auto occupied = [&](const CellIndex& g, int idx) {
+    touch(idx);
+    std::uint8_t& f = flags_[static_cast<std::size_t>(idx)];
+    if ((f & kKnown) == 0) f |= kKnown | (map.IsOccupiedCell(g) ? kOccupied : 0);
+    return (f & kOccupied) != 0;
+  };
+
+  // Start cell, or the nearest free cell within start_escape_radius.
+  CellIndex first = start_cell;
+  if (occupied(start_cell, local_index(start_cell))) {
+    const int r = static_cast<int>(std::ceil(options_.start_escape_radius / map.resolution()));
+    double best = std::numeric_limits<double>::infinity();
+    bool found = false;
+    for (int dz = -r; dz <= r; ++dz) {
+      for (int dy = -r; dy <= r; ++dy) {
+        for (int dx = -r; dx <= r; ++dx) {
+          const CellIndex c = start_cell + CellIndex(dx, dy, dz);
+          if (!inside(c)) continue;
+          const double d = (map.CellCenter(c) - start_W).norm();
+          if (d > options_.start_escape_radius || d >= best) continue;
+          if (occupied(c, local_index(c))) continue;
+          best = d;
+          first = c;
+          found = true;
+        }
+      }
+    }
+    if (!found) {
+      return fail(PathSearchStatus::kStartOccupied,
+                  "the start cell and every cell within start_escape_radius are occupied");
+    }
+  }
+
+  const float w = static_cast<float>(options_.heuristic_weight);
+  auto heuristic = [&](const CellIndex& g) {
+    const CellIndex d = goal_cell - g;
+    return static_cast<float>(Octile(d.x(), d.y(), d.z()));
+  };
+  std::priority_queue<OpenEntry, std::vector<OpenEntry>, WorseThan> open;
+  const int first_idx = local_index(first);
+  const int goal_idx = local_index(goal_cell);
+  g_[static_cast<std::size_t>(first_idx)] = 0.0f;
+  {
+    const float h = heuristic(first);
+    open.push({w * h, h, 0.0f, first_idx});
+  }
+  const std::vector<Move>& moves = Moves();
+  bool reached = false;
+  int expansions = 0;
+  while (!open.empty()) {
+    const OpenEntry top = open.top();
+    open.pop();
+    const auto ti = static_cast<std::size_t>(top.idx);
+    if ((flags_[ti] & kClosed) != 0 || top.g > g_[ti]) continue;  // stale entry
+    if (top.idx == goal_idx) {
+      reached = true;
+      break;
+    }
+    if (expansions >= options_.max_expansions) {
+      result.expansions = expansions;
+      return fail(PathSearchStatus::kExpansionLimit,
+                  "A* reached max_expansions = " + std::to_string(options_.max_expansions) +
+                      " before the goal");
+    }
+    flags_[ti] |= kClosed;
+    ++expansions;
+    const CellIndex c = cell_of(top.idx);
+    for (const Move& m : moves) {
+      const CellIndex nb = c + m.d;
+      if (!inside(nb)) continue;
+      const int ni = local_index(nb);
+      if (occupied(nb, ni)) continue;
+      const auto nu = static_cast<std::size_t>(ni);
+      if ((flags_[nu] & kClosed) != 0) continue;
+      bool blocked = false;
+      for (int s = 0; s < m.n_sub && !blocked; ++s) {
+        const CellIndex sc = c + m.sub[static_cast<std::size_t>(s)];
+        blocked = occupied(sc, local_index(sc));
+      }
+      if (blocked) continue;
+      const float g_new = top.g + m.cost;
+      if (g_new < g_[nu]) {
+        g_[nu] = g_new;
+        parent_[nu] = top.idx;
+        const float h = heuristic(nb);
+        open.push({g_new + w * h, h, g_new, ni});
+      }
+    }
+  }
+  result.expansions = expansions;
+  if (!reached) {
+    return fail(PathSearchStatus::kNoPath,
+                "no path: start or goal is enclosed, or the way around leaves the search box "
+                "(search_margin); " + std::to_string(expansions) + " cells expanded");
+  }
+
+  // Cell path, start → goal.
+  for (int idx = goal_idx; idx >= 0; idx = parent_[static_cast<std::size_t>(idx)]) {
+    result.path.push_back(map.CellCenter(cell_of(idx)));
+  }
+  std::reverse(result.path.begin(), result.path.end());
+  std::vector<Eigen::Vector3d> points;
+  points.reserve(result.path.size() + 2);
+  points.push_back(start_W);
+  points.insert(points.end(), result.path.begin(), result.path.end());
+  points.push_back(goal_W);
+  result.waypoints = PrunePath(map, points);
+  // Drop points that coincide with a neighbour (start/goal within their cell centres).
+  result.waypoints.erase(std::unique(result.waypoints.begin(), result.waypoints.end(),
+                                     [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+                                       return (a - b).squaredNorm() < 1e-18;
+                                     }),
+                         result.waypoints.end());
+  result.length = PolylineLength(result.waypoints);
+  result.status = PathSearchStatus::kSuccess;
+  result.message = "path found: " + std::to_string(result.path.size()) + " cells, " +
+                   std::to_string(result.waypoints.size()) + " waypoints, " +
+                   std::to_string(expansions) + " expansions";
+  return result;
+}
+
+}  // namespace quadtune::planning

@@ -1,0 +1,291 @@
+#include "quadtune/planning/replanner.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "quadtune/common/error.hpp"
+#include "quadtune/common/yaml.hpp"
+
+namespace quadtune::planning {
+
+const char* ToString(ReplanState state) {
+  switch (state) {
+    case ReplanState::kWaitMission: return "wait_mission";
+    case ReplanState::kGenNewTraj: return "gen_new_traj";
+    case ReplanState::kExecTraj: return "exec_traj";
+    case ReplanState::kEmergencyStop: return "emergency_stop";
+    case ReplanState::kDone: return "done";
+  }
+  return "?";
+}
+
+void ReplannerOptions::Validate(const std::string& origin) const {
+  CheckInRange(check_interval, Range::Positive(), origin, "check_interval");
+  CheckInRange(check_dt, Range::Positive(), origin, "check_dt");
+  CheckInRange(retry_interval, Range::NonNegative(), origin, "retry_interval");
+  CheckInRange(tracking_replan_error, Range::Positive(), origin, "tracking_replan_error");
+  CheckInRange(yaw_rate_max, Range::Positive(), origin, "yaw_rate_max");
+  CheckInRange(brake_factor, {0.0, 1.0, true, false}, origin, "brake_factor");
+}
+
+Trajectory::Coefficients QuinticBoundaryValue(const Eigen::Vector3d& p0, const Eigen::Vector3d& v0,
+                                              const Eigen::Vector3d& a0, const Eigen::Vector3d& p1,
+                                              const Eigen::Vector3d& v1, const Eigen::Vector3d& a1,
+                                              double T) {
+  QT_DEMAND(T > 0.0 && std::isfinite(T), "quintic duration must be positive");
+  Trajectory::Coefficients c;
+  c.col(0) = p0;
+  c.col(1) = v0;
+  c.col(2) = 0.5 * a0;
+  // End conditions for the three highest coefficients (rows: position, velocity, acceleration).
+  Eigen::Matrix3d m;
+  const double T2 = T * T, T3 = T2 * T, T4 = T3 * T, T5 = T4 * T;
+  m << T3, T4, T5, 3 * T2, 4 * T3, 5 * T4, 6 * T, 12 * T2, 20 * T3;
+  const Eigen::Matrix3d m_inv = m.inverse();
+  for (int axis = 0; axis < 3; ++axis) {
+    const Eigen::Vector3d rhs(p1[axis] - p0[axis] - v0[axis] * T - 0.5 * a0[axis] * T2,
+                              v1[axis] - v0[axis] - a0[axis] * T, a1[axis] - a0[axis]);
+    const Eigen::Vector3d high = m_inv * rhs;
+    c(axis, 3) = high[0];
+    c(axis, 4) = high[1];
+    c(axis, 5) = high[2];
+  }
+  return c;
+}
+
+Trajectory BrakingTrajectory(const Eigen::Vector3d& p0, const Eigen::Vector3d& v0,
+                             const Eigen::Vector3d& a0, double decel) {
+  QT_DEMAND(decel > 0.0, "braking deceleration must be positive");
+  const double T = std::max(2.0 * v0.norm() / decel, 0.2);
+  // Stopping point of a smooth stop: the distance covered at the mean speed |v0|/2, plus the
+  // contribution of the initial acceleration.
+  const Eigen::Vector3d p1 = p0 + 0.5 * v0 * T + a0 * T * T / 12.0;
+  return Trajectory({T}, {QuinticBoundaryValue(p0, v0, a0, p1, Eigen::Vector3d::Zero(),
+                                               Eigen::Vector3d::Zero(), T)});
+}
+
+Replanner::Replanner(const TrajectoryOptimizer& optimizer, const PlannerParams& params,
+                     const ReplannerOptions& options, const LocalPlannerOptions& planner_options)
+    : optimizer_(optimizer), params_(params), options_(options), planner_(planner_options) {
+  params_.Validate();
+  options_.Validate();
+}
+
+void Replanner::SetParams(const PlannerParams& params) {
+  params.Validate();
+  params_ = params;
+}
+
+void Replanner::SetParamsProvider(std::function<void(double, PlannerParams&)> provider) {
+  provider_ = std::move(provider);
+}
+
+void Replanner::SetQueryObserver(
+    std::function<void(const PlanningQuery&, const PlanOutcome&)> observer) {
+  observer_ = std::move(observer);
+}
+
+void Replanner::StartMission(std::vector<Eigen::Vector3d> waypoints_W, const Eigen::Vector3d& p_W,
+                             double yaw, double t) {
+  if (waypoints_W.empty()) throw std::invalid_argument("Replanner: a mission needs a waypoint");
+  waypoints_ = std::move(waypoints_W);
+  waypoint_ = 0;
+  traj_ = Trajectory();
+  hold_p_ = p_W;
+  yaw_ = yaw;
+  yaw_time_ = t;
+  last_plan_time_ = t;
+  next_try_time_ = t;
+  next_check_time_ = t;
+  emergency_stops_ = 0;
+  sequence_ = 0;
+  records_.clear();
+  state_ = ReplanState::kGenNewTraj;
+}
+
+Eigen::Vector3d Replanner::ReferencePosition(double t) const {
+  if (traj_.Empty()) return hold_p_;
+  return traj_.Position(t - traj_t0_);
+}
+
+Eigen::Vector3d Replanner::ReferenceJerk(double t) const {
+  if (traj_.Empty()) return Eigen::Vector3d::Zero();
+  const double tau = t - traj_t0_;
+  if (tau >= traj_.Duration()) return Eigen::Vector3d::Zero();
+  return traj_.Jerk(tau);
+}
+
+physics::TrackingReference Replanner::Reference(double t) {
+  physics::TrackingReference ref;
+  if (traj_.Empty()) {
+    ref.p_W = hold_p_;
+  } else {
+    const double tau = t - traj_t0_;
+    ref.p_W = traj_.Position(tau);
+    if (tau < traj_.Duration()) {
+      ref.v_W = traj_.Velocity(tau);
+      ref.a_W = traj_.Acceleration(tau);
+      ref.j_W = traj_.Jerk(tau);
+    }
+  }
+  // Heading along the horizontal direction of motion, rate-limited.
+  const double dt = std::max(0.0, t - yaw_time_);
+  yaw_time_ = t;
+  if (ref.v_W.head<2>().norm() > 0.3) {
+    const double target = std::atan2(ref.v_W.y(), ref.v_W.x());
+    double diff = std::remainder(target - yaw_, 2.0 * std::numbers::pi);
+    const double step = options_.yaw_rate_max * dt;
+    diff = std::clamp(diff, -step, step);
+    yaw_ = std::remainder(yaw_ + diff, 2.0 * std::numbers::pi);
+    ref.yaw_rate = dt > 0.0 ? diff / dt : 0.0;
+  }
+  ref.yaw = yaw_;
+  return ref;
+}
+
+std::optional<double> Replanner::TimeToCollision(const LocalMap& map, double tau) const {
+  if (traj_.Empty()) return std::nullopt;
+  const double T = traj_.Duration();
+  for (double s = std::max(0.0, tau); s <= T + 1e-9; s += options_.check_dt) {
+    if (map.IsOccupied(traj_.Position(std::min(s, T)))) return s - tau;
+  }
+  return std::nullopt;
+}
+
+bool Replanner::PlanFrom(double t, const Eigen::Vector3d& p0, const Eigen::Vector3d& v0,
+                         const Eigen::Vector3d& a0, const LocalMap& map, bool from_trajectory,
+                         bool collision_triggered) {
+  if (provider_) {
+    provider_(t, params_);
+    params_.Validate();
+  }
+  PlanRecord rec;
+  rec.time = t;
+  rec.collision_triggered = collision_triggered;
+  PathSearchResult front_end;
+  const Trajectory* previous = from_trajectory && !traj_.Empty() ? &traj_ : nullptr;
+  std::optional<PlanningQuery> query = planner_.MakeQuery(
+      map, p0, v0, a0, waypoints_[waypoint_], params_, previous, t - traj_t0_, &front_end);
+  if (!query) {
+    rec.failed_attempts = 1;
+    rec.message = "front end: " + front_end.message;
+    records_.push_back(std::move(rec));
+    return false;
+  }
+  query->sequence = sequence_++;
+  query->time = t;
+  PlanOutcome outcome = planner_.Plan(optimizer_, *query, params_);
+  if (observer_) observer_(*query, outcome);
+
+  rec.ok = outcome.Ok();
+  rec.failed_attempts = outcome.failed_attempts;
+  rec.solve_time_s = outcome.solve_time_s;
+  rec.compute_units = outcome.compute_units;
+  rec.status = outcome.result.status;
+  rec.min_clearance = outcome.result.min_clearance;
+  rec.jerk = outcome.result.cost.jerk;
+  rec.duration = outcome.result.duration;
+  if (!rec.ok) {
+    rec.message = outcome.result.message;
+    records_.push_back(std::move(rec));
+    return false;
+  }
+  traj_ = outcome.result.trajectory;
+  traj_t0_ = t;
+  traj_reaches_waypoint_ = query->goal_is_mission_goal;
+  last_plan_time_ = t;
+  rec.trajectory = traj_;
+  records_.push_back(std::move(rec));
+  state_ = ReplanState::kExecTraj;
+  return true;
+}
+
+void Replanner::EmergencyStop(double t, const Eigen::Vector3d& p, const Eigen::Vector3d& v,
+                              const Eigen::Vector3d& a) {
+  ++emergency_stops_;
+  traj_ = BrakingTrajectory(p, v, a, options_.brake_factor * params_.a_max);
+  traj_t0_ = t;
+  traj_reaches_waypoint_ = false;
+  state_ = ReplanState::kEmergencyStop;
+}
+
+void Replanner::Tick(double t, const Eigen::Vector3d& p_W, const Eigen::Vector3d& v_W,
+                     const LocalMap& map) {
+  switch (state_) {
+    case ReplanState::kWaitMission:
+    case ReplanState::kDone:
+      return;
+
+    case ReplanState::kGenNewTraj: {
+      if (t < next_try_time_) return;
+      if (!traj_.Empty()) hold_p_ = ReferencePosition(t);
+      traj_ = Trajectory();
+      if (!PlanFrom(t, p_W, v_W, Eigen::Vector3d::Zero(), map, false, false)) {
+        next_try_time_ = t + options_.retry_interval;
+      }
+      return;
+    }
+
+    case ReplanState::kEmergencyStop: {
+      if (t - traj_t0_ >= traj_.Duration()) {
+        state_ = ReplanState::kGenNewTraj;
+        next_try_time_ = t;
+      }
+      return;
+    }
+
+    case ReplanState::kExecTraj: {
+      const double tau = t - traj_t0_;
+      const Eigen::Vector3d& waypoint = waypoints_[waypoint_];
+      const bool finished = tau >= traj_.Duration();
+      if (traj_reaches_waypoint_ && finished &&
+          (p_W - waypoint).norm() <= params_.goal_tolerance) {
+        ++waypoint_;
+        if (waypoint_ >= waypoints_.size()) {
+          end_time_ = t;
+          hold_p_ = traj_.Position(traj_.Duration());
+          state_ = ReplanState::kDone;
+        } else {
+          state_ = ReplanState::kGenNewTraj;
+          next_try_time_ = t;
+        }
+        return;
+      }
+
+      std::optional<double> collision_in;
+      if (t >= next_check_time_) {
+        next_check_time_ = t + options_.check_interval;
+        collision_in = TimeToCollision(map, tau);
+      }
+      const bool periodic = t - last_plan_time_ >= params_.t_pl &&
+                            (p_W - waypoint).norm() > params_.no_replan_near_goal;
+      // A finished local trajectory that did not bring the drone to its waypoint: plan again.
+      const bool stalled = finished;
+      if (!collision_in && !periodic && !stalled) return;
+      if (!collision_in && t < next_try_time_) return;
+
+      const Eigen::Vector3d p_ref = traj_.Position(tau);
+      const bool track_ok = (p_W - p_ref).norm() <= options_.tracking_replan_error;
+      bool ok = false;
+      if (track_ok && !finished) {
+        ok = PlanFrom(t, p_ref, traj_.Velocity(tau), traj_.Acceleration(tau), map, true,
+                      collision_in.has_value());
+      } else {
+        ok = PlanFrom(t, p_W, v_W, Eigen::Vector3d::Zero(), map, false, collision_in.has_value());
+      }
+      if (!ok) {
+        next_try_time_ = t + options_.retry_interval;
+        if (collision_in && *collision_in < params_.tau_c) {
+          const bool on_traj = track_ok && !finished;
+          EmergencyStop(t, on_traj ? p_ref : p_W, on_traj ? traj_.Velocity(tau) : v_W,
+                        on_traj ? traj_.Acceleration(tau) : Eigen::Vector3d::Zero());
+        }
+      }
+      return;
+    }
+  }
+}
+
+}  // namespace quadtune::planning

@@ -1,0 +1,255 @@
+#include "quadtune/planning/esdf.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <thread>
+
+#include "mapping_scenes.hpp"
+#include "quadtune/common/random.hpp"
+
+namespace quadtune::planning {
+namespace {
+
+using Eigen::Vector3d;
+using Eigen::Vector3i;
+
+std::size_t Index(const Vector3i& i, const Vector3i& dims) {
+  return static_cast<std::size_t>(i.x() + dims.x() * (i.y() + dims.y() * i.z()));
+}
+
+/// Brute force: signed distance between cell centres as documented in esdf.hpp.
+double BruteForce(const std::vector<std::uint8_t>& occ, const Vector3i& dims, const Vector3i& c,
+                  double res) {
+  const bool self = occ[Index(c, dims)] != 0;
+  double best = std::numeric_limits<double>::infinity();
+  for (int z = 0; z < dims.z(); ++z) {
+    for (int y = 0; y < dims.y(); ++y) {
+      for (int x = 0; x < dims.x(); ++x) {
+        const Vector3i o(x, y, z);
+        if ((occ[Index(o, dims)] != 0) == self) continue;
+        best = std::min(best, (o - c).cast<double>().norm());
+      }
+    }
+  }
+  const double d = (best - 0.5) * res;
+  return self ? -d : d;
+}
+
+TEST(Esdf, MatchesBruteForceOnRandomOccupancy) {
+  const Vector3i dims(23, 17, 11);
+  const double res = 0.1;
+  EsdfOptions opt;
+  opt.max_distance = 5.0;  // larger than any distance in the box: no truncation
+  for (double density : {0.002, 0.05, 0.3, 0.9}) {
+    Rng rng(DeriveSeed(5, {static_cast<std::uint64_t>(density * 1000)}));
+    std::vector<std::uint8_t> occ(static_cast<std::size_t>(dims.prod()));
+    for (auto& o : occ) o = Uniform01(rng) < density ? 1 : 0;
+    const Esdf esdf = Esdf::FromOccupancy(Vector3d(-1.0, 0.5, 0.0), res, dims, occ, opt);
+    double worst = 0.0;
+    for (int z = 0; z < dims.z(); ++z) {
+      for (int y = 0; y < dims.y(); ++y) {
+        for (int x = 0; x < dims.x(); ++x) {
+          const Vector3i c(x, y, z);
+          const double expected = BruteForce(occ, dims, c, res);
+          worst = std::max(worst, std::abs(esdf.CellDistance(c) - expected));
+          // Evaluate at a cell centre returns the stored value.
+          ASSERT_NEAR(esdf.Evaluate(esdf.CellCenter(c), nullptr), esdf.CellDistance(c), 1e-12);
+        }
+      }
+    }
+    EXPECT_LE(worst, esdf.quantum()) << "density " << density;
+  }
+}
+
+TEST(Esdf, TruncatesAtMaxDistance) {
+  const Vector3i dims(40, 5, 5);
+  std::vector<std::uint8_t> occ(static_cast<std::size_t>(dims.prod()), 0);
+  occ[Index(Vector3i(0, 2, 2), dims)] = 1;
+  EsdfOptions opt;
+  opt.max_distance = 1.0;
+  const Esdf esdf = Esdf::FromOccupancy(Vector3d::Zero(), 0.1, dims, occ, opt);
+  EXPECT_NEAR(esdf.CellDistance(Vector3i(5, 2, 2)), 0.45, 1e-4);
+  EXPECT_NEAR(esdf.CellDistance(Vector3i(10, 2, 2)), 0.95, 1e-4);
+  EXPECT_NEAR(esdf.CellDistance(Vector3i(30, 2, 2)), 1.0, 1e-12);
+  EXPECT_NEAR(esdf.CellDistance(Vector3i(0, 2, 2)), -0.05, 1e-4);
+  // An empty box is max_distance everywhere; outside the box too, with zero gradient.
+  const Esdf empty = Esdf::FromOccupancy(Vector3d::Zero(), 0.1, dims,
+                                         std::vector<std::uint8_t>(occ.size(), 0), opt);
+  Vector3d grad(1, 1, 1);
+  EXPECT_DOUBLE_EQ(empty.Evaluate(Vector3d(1, 0.2, 0.2), &grad), 1.0);
+  EXPECT_EQ(grad, Vector3d::Zero());
+  grad.setOnes();
+  EXPECT_DOUBLE_EQ(esdf.Evaluate(Vector3d(-0.5, 0.2, 0.2), &grad), 1.0);
+  EXPECT_EQ(grad, Vector3d::Zero());
+  EXPECT_DOUBLE_EQ(Esdf().Evaluate(Vector3d::Zero(), nullptr), 2.0);
+}
+
+TEST(Esdf, GradientMatchesFiniteDifferences) {
+  const Vector3i dims(30, 25, 20);
+  Rng rng(17);
+  std::vector<std::uint8_t> occ(static_cast<std::size_t>(dims.prod()));
+  for (auto& o : occ) o = Uniform01(rng) < 0.02 ? 1 : 0;
+  const double res = 0.1;
+  const Vector3d origin(0.3, -1.2, 0.0);
+  const Esdf esdf = Esdf::FromOccupancy(origin, res, dims, occ);
+  const double h = 1e-6;
+  int checked = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const Vector3d p = origin + Vector3d(Uniform(rng, 0, 3.0), Uniform(rng, 0, 2.5),
+                                         Uniform(rng, 0, 2.0));
+    // Skip points within h of a cell-centre plane, where the interpolant's gradient jumps.
+    const Vector3d u = (p - origin) / res - Vector3d::Constant(0.5);
+    bool near_plane = false;
+    for (int k = 0; k < 3; ++k) near_plane |= std::abs(u[k] - std::round(u[k])) < 1e-4;
+    if (near_plane) continue;
+    Vector3d grad;
+    esdf.Evaluate(p, &grad);
+    for (int k = 0; k < 3; ++k) {
+      Vector3d e = Vector3d::Zero();
+      e[k] = h;
+      const double fd = (esdf.Evaluate(p + e, nullptr) - esdf.Evaluate(p - e, nullptr)) / (2 * h);
+      ASSERT_NEAR(grad[k], fd, 1e-6 * std::max(1.0, std::abs(fd))) << "axis " << k << " at " << p.transpose();
+    }
+    ++checked;
+  }
+  EXPECT_GT(checked, 2900);
+}
+
+TEST(Esdf, ApproximatesObstacleSetDistanceFromSensedSurfaces) {
+  const physics::ObstacleSet scene = test::Forest(1.3, 0.5, 7.0, -2.5, 2.5, 21);
+  LocalMapOptions mo;
+  mo.inflation = 0.1;
+  mo.size = Vector3d(16, 12, 4);
+  LocalMap map(mo, Vector3d(4, 0, 1.5));
+  const std::vector<Vector3d> surface = test::SurfaceSamples(scene, 0.03);
+  map.Insert(Vector3d(4, 0, 1.5), surface);
+  const Eigen::AlignedBox3d box(Vector3d(-1.0, -3.0, 0.0), Vector3d(9.0, 3.0, 3.0));
+  const Esdf esdf = Esdf::Build(map, box);
+  EXPECT_LE(esdf.box().min().z(), -0.1 + 1e-9);  // one ground layer added
+  Rng rng(23);
+  int checked = 0;
+  double worst = 0.0;
+  for (int i = 0; i < 20000; ++i) {
+    const Vector3d p(Uniform(rng, -0.5, 8.5), Uniform(rng, -2.5, 2.5), Uniform(rng, 0.05, 2.5));
+    const double truth = scene.Distance(p);
+    if (truth <= 0.0 || truth > 1.5) continue;  // the map knows surfaces, not interiors
+    worst = std::max(worst, std::abs(esdf.Evaluate(p, nullptr) - truth));
+    ++checked;
+  }
+  EXPECT_GT(checked, 10000);
+  EXPECT_LT(worst, 0.15);  // 1.5 voxels
+}
+
+TEST(Esdf, SignedDistanceOfSolidOccupancyMatchesObstacleSet) {
+  physics::ObstacleSet scene;
+  scene.ground = false;
+  // Tall enough that the cylinders' end faces are far from the sampled heights.
+  scene.cylinders.push_back({Eigen::Vector2d(1.02, 0.97), 0.5, -5.0, 5.0});
+  scene.cylinders.push_back({Eigen::Vector2d(2.41, 1.6), 0.3, -5.0, 5.0});
+  const Vector3i dims(40, 30, 10);
+  const double res = 0.1;
+  std::vector<std::uint8_t> occ(static_cast<std::size_t>(dims.prod()));
+  for (int z = 0; z < dims.z(); ++z) {
+    for (int y = 0; y < dims.y(); ++y) {
+      for (int x = 0; x < dims.x(); ++x) {
+        const Vector3d c = (Vector3i(x, y, z).cast<double>().array() + 0.5).matrix() * res;
+        occ[Index(Vector3i(x, y, z), dims)] = scene.Distance(c) < 0.0 ? 1 : 0;
+      }
+    }
+  }
+  const Esdf esdf = Esdf::FromOccupancy(Vector3d::Zero(), res, dims, occ);
+  Rng rng(29);
+  double worst = 0.0;
+  for (int i = 0; i < 5000; ++i) {
+    const Vector3d p(Uniform(rng, 0.1, 3.9), Uniform(rng, 0.1, 2.9), Uniform(rng, 0.3, 0.7));
+    worst = std::max(worst, std::abs(esdf.Evaluate(p, nullptr) - scene.Distance(p)));
+  }
+  EXPECT_LT(worst, 0.1);  // one voxel, inside the cylinders too
+  // Inside, the gradient points out of the obstacle.
+  Vector3d grad;
+  const double d = esdf.Evaluate(Vector3d(1.32, 0.97, 0.5), &grad);
+  EXPECT_LT(d, 0.0);
+  EXPECT_GT(grad.x(), 0.5);
+}
+
+TEST(Esdf, GroundLayerGivesHeightAboveGround) {
+  LocalMapOptions mo;
+  LocalMap map(mo, Vector3d(0, 0, 1.5));
+  const Esdf esdf = Esdf::Build(map, Eigen::AlignedBox3d(Vector3d(-2, -2, 0), Vector3d(2, 2, 3)));
+  EXPECT_NEAR(esdf.Evaluate(Vector3d(0.3, 0.2, 0.55), nullptr), 0.55, 1e-3);
+  Vector3d grad;
+  esdf.Evaluate(Vector3d(0.3, 0.2, 1.23), &grad);
+  EXPECT_NEAR(grad.z(), 1.0, 1e-3);
+  EXPECT_NEAR(esdf.Evaluate(Vector3d(0.3, 0.2, 2.5), nullptr), 2.0, 1e-9);  // truncated
+}
+
+TEST(Esdf, IsACopyableValueSafeForConcurrentEvaluate) {
+  const physics::ObstacleSet scene = test::Forest(1.3, 0.5, 7.0, -2.5, 2.5, 31);
+  LocalMap map(LocalMapOptions{}, Vector3d(3, 0, 1.5));
+  map.Insert(Vector3d(3, 0, 1.5), test::SurfaceSamples(scene, 0.05));
+  Esdf original = Esdf::Build(map, Eigen::AlignedBox3d(Vector3d(0, -3, 0), Vector3d(7, 3, 3)));
+  const Esdf copy = original;  // a snapshot
+  EXPECT_EQ(copy.MemoryBytes(), original.MemoryBytes());
+  EXPECT_LT(copy.MemoryBytes(), sizeof(Esdf) + 2 * 71 * 61 * 32 + 64);
+  Rng rng(37);
+  std::vector<Vector3d> pts(4000);
+  for (auto& p : pts) p = Vector3d(Uniform(rng, -0.5, 7.5), Uniform(rng, -3.5, 3.5), Uniform(rng, 0, 3));
+  std::vector<double> serial(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) serial[i] = copy.Evaluate(pts[i], nullptr);
+  original = Esdf();  // the copy does not depend on the original
+  for (int threads : {1, 2, 4, 8}) {
+    std::vector<std::vector<double>> out(static_cast<std::size_t>(threads),
+                                         std::vector<double>(pts.size()));
+    std::vector<std::thread> pool;
+    for (int t = 0; t < threads; ++t) {
+      pool.emplace_back([&, t] {
+        for (std::size_t i = 0; i < pts.size(); ++i) {
+          Vector3d g;
+          out[static_cast<std::size_t>(t)][i] = copy.Evaluate(pts[i], &g);
+        }
+      });
+    }
+    for (auto& th : pool) th.join();
+    for (const auto& o : out) ASSERT_EQ(o, serial) << threads << " threads";
+  }
+  const DistanceField& field = copy;  // usable through the optimiser's interface
+  EXPECT_DOUBLE_EQ(field.Evaluate(pts[0], nullptr), serial[0]);
+}
+
+TEST(Esdf, BuilderReuseGivesIdenticalFields) {
+  const physics::ObstacleSet scene = test::Forest(1.3, 0.5, 7.0, -2.5, 2.5, 41);
+  LocalMap map(LocalMapOptions{}, Vector3d(3, 0, 1.5));
+  map.Insert(Vector3d(3, 0, 1.5), test::SurfaceSamples(scene, 0.05));
+  EsdfBuilder builder;
+  const Eigen::AlignedBox3d big(Vector3d(0, -3, 0), Vector3d(7, 3, 3));
+  const Eigen::AlignedBox3d small(Vector3d(1, -1, 0.5), Vector3d(3, 1, 2));
+  const Esdf a = builder.Build(map, big);
+  (void)builder.Build(map, small);
+  const Esdf b = builder.Build(map, big);
+  const Esdf c = Esdf::Build(map, big);
+  for (const Vector3d& p : {Vector3d(1, 0, 1), Vector3d(3.3, 1.1, 2.2), Vector3d(6.5, -2.9, 0.1)}) {
+    EXPECT_EQ(a.Evaluate(p, nullptr), b.Evaluate(p, nullptr));
+    EXPECT_EQ(a.Evaluate(p, nullptr), c.Evaluate(p, nullptr));
+  }
+}
+
+TEST(EsdfOptions, ValidateRejectsEachBadValue) {
+  EXPECT_NO_THROW(EsdfOptions{}.Validate());
+  EsdfOptions o;
+  o.max_distance = 0.0;
+  EXPECT_THROW(o.Validate(), ConfigError);
+  o.max_distance = 40.0;
+  EXPECT_THROW(o.Validate(), ConfigError);
+  EXPECT_THROW((void)EsdfOptions::FromYaml(YamlMap::FromString("max_dist: 1\n")), ConfigError);
+  EXPECT_DOUBLE_EQ(EsdfOptions::FromYaml(YamlMap::FromString("max_distance: 1.5\n")).max_distance,
+                   1.5);
+  LocalMap map(LocalMapOptions{});
+  EXPECT_THROW((void)Esdf::Build(map, Eigen::AlignedBox3d()), std::invalid_argument);
+  EXPECT_THROW((void)Esdf::FromOccupancy(Vector3d::Zero(), 0.1, Vector3i(2, 2, 2),
+                                         std::vector<std::uint8_t>(7, 0)),
+               std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace quadtune::planning

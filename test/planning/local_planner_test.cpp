@@ -1,0 +1,147 @@
+#include "quadtune/planning/local_planner.hpp"
+
+#include <gtest/gtest.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <thread>
+
+#include "scene_util.hpp"
+
+namespace quadtune::planning {
+namespace {
+
+/// A map of the small forest and a query from x = 0 towards x = 10.
+struct ForestQuery {
+  ForestQuery() : map(LocalMapOptions::FromPlannerParams(params), Eigen::Vector3d(4, 0, 1.5)) {
+    map.Insert(Eigen::Vector3d(0, 0, 1.2), testing::SurfacePoints(testing::SmallForest()));
+    LocalPlanner planner;
+    PathSearchResult front;
+    auto q = planner.MakeQuery(map, Eigen::Vector3d(0, 0, 1.2), Eigen::Vector3d(1.0, 0, 0),
+                               Eigen::Vector3d::Zero(), Eigen::Vector3d(10, 0, 1.2), params,
+                               nullptr, 0.0, &front);
+    EXPECT_TRUE(q.has_value()) << front.message;
+    if (q) query = std::move(*q);
+  }
+  PlannerParams params;
+  LocalMap map;
+  PlanningQuery query;
+};
+
+void ExpectSameOutcome(const PlanOutcome& a, const PlanOutcome& b) {
+  EXPECT_EQ(a.result.status, b.result.status);
+  EXPECT_EQ(a.result.trajectory, b.result.trajectory);
+  EXPECT_EQ(a.result.iterations, b.result.iterations);
+  EXPECT_EQ(a.result.cost.total, b.result.cost.total);
+  EXPECT_EQ(a.attempts, b.attempts);
+  EXPECT_EQ(a.failed_attempts, b.failed_attempts);
+  EXPECT_EQ(a.compute_units, b.compute_units);
+}
+
+TEST(LocalPlanner, QueryHoldsTheWholeProblem) {
+  ForestQuery f;
+  const PlanningQuery& q = f.query;
+  EXPECT_EQ(q.p0_W, Eigen::Vector3d(0, 0, 1.2));
+  EXPECT_GE(q.initial_path_W.size(), 2u);
+  EXPECT_EQ(q.initial_path_W.front(), q.p0_W);
+  EXPECT_EQ(q.initial_path_W.back(), q.goal_W);
+  // The local goal lies at the horizon h_pl, not at the mission goal 10 m away.
+  EXPECT_FALSE(q.goal_is_mission_goal);
+  EXPECT_NEAR((q.goal_W - q.p0_W).norm(), f.params.h_pl, 0.2);
+  EXPECT_NEAR(q.goal_v_W.norm(), f.params.v_des, 1e-9);
+  // The distance field covers the path with a margin and sees the pillars.
+  for (const auto& w : q.initial_path_W) EXPECT_TRUE(q.field.Contains(w));
+  // On the surface of the pillar at (3.0, 0.4), radius 0.25 m (the map holds its surface).
+  EXPECT_LT(std::abs(q.field.Evaluate(Eigen::Vector3d(3.25, 0.4, 1.2), nullptr)), 0.1);
+  EXPECT_GT(q.field.Evaluate(Eigen::Vector3d(1.5, 0.0, 1.2), nullptr), 0.9);
+  EXPECT_GT(q.MemoryBytes(), q.field.dims().prod() * sizeof(std::int16_t));
+}
+
+TEST(LocalPlanner, SnapshotResolvedInAnotherThreadIsIdentical) {
+  ForestQuery f;
+  const TrajectoryOptimizer optimizer;
+  const PlanOutcome here = SolveQuery(optimizer, f.query, f.params);
+  ASSERT_TRUE(here.Ok()) << here.result.message;
+  PlanOutcome there;
+  const PlanningQuery copy = f.query;  // a copy, solved elsewhere
+  std::thread worker([&] { there = SolveQuery(optimizer, copy, f.params); });
+  worker.join();
+  ExpectSameOutcome(here, there);
+}
+
+TEST(LocalPlanner, ConcurrentResolvesWithOtherShortTermParametersMatchSerial) {
+  ForestQuery f;
+  const TrajectoryOptimizer optimizer;
+  std::vector<PlannerParams> thetas;
+  for (int i = 0; i < 24; ++i) {
+    PlannerParams p = f.params;
+    p.w_col = 0.2 + 0.15 * (i % 6);
+    p.w_dyn = 0.05 + 0.05 * (i % 4);
+    p.n_pol = 3 + i % 5;
+    thetas.push_back(p);
+  }
+  std::vector<PlanOutcome> serial(thetas.size());
+  for (std::size_t i = 0; i < thetas.size(); ++i) serial[i] = SolveQuery(optimizer, f.query, thetas[i]);
+  for (int threads : {2, 4}) {
+    std::vector<PlanOutcome> parallel(thetas.size());
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+      tbb::parallel_for(std::size_t{0}, thetas.size(), [&](std::size_t i) {
+        parallel[i] = SolveQuery(optimizer, f.query, thetas[i]);
+      });
+    });
+    for (std::size_t i = 0; i < thetas.size(); ++i) ExpectSameOutcome(serial[i], parallel[i]);
+  }
+}
+
+TEST(LocalPlanner, FrontEndFailureReturnsNoQuery) {
+  PlannerParams params;
+  LocalMap map(LocalMapOptions::FromPlannerParams(params), Eigen::Vector3d(0, 0, 1.5));
+  // Enclose the start: walls on every side.
+  std::vector<Eigen::Vector3d> box;
+  for (double a = -1.0; a <= 1.0; a += 0.05) {
+    for (double z = 0.0; z <= 4.0; z += 0.05) {
+      box.emplace_back(1.0, a, z);
+      box.emplace_back(-1.0, a, z);
+      box.emplace_back(a, 1.0, z);
+      box.emplace_back(a, -1.0, z);
+    }
+  }
+  for (double x = -1.0; x <= 1.0; x += 0.05) {
+    for (double y = -1.0; y <= 1.0; y += 0.05) box.emplace_back(x, y, 3.0);
+  }
+  map.Insert(Eigen::Vector3d(0, 0, 1.2), box);
+  LocalPlanner planner;
+  PathSearchResult front;
+  const auto q = planner.MakeQuery(map, Eigen::Vector3d(0, 0, 1.2), Eigen::Vector3d::Zero(),
+                                   Eigen::Vector3d::Zero(), Eigen::Vector3d(8, 0, 1.2), params,
+                                   nullptr, 0.0, &front);
+  EXPECT_FALSE(q.has_value());
+  EXPECT_FALSE(front.ok());
+  EXPECT_FALSE(front.message.empty());
+}
+
+TEST(LocalPlanner, FailedTrialsAreCounted) {
+  ForestQuery f;
+  // An impossible limit: 3 attempts, all failing, n_s = 3.
+  PlannerParams impossible = f.params;
+  impossible.a_max = 0.05;
+  const TrajectoryOptimizer optimizer;
+  const PlanOutcome out = SolveQuery(optimizer, f.query, impossible);
+  EXPECT_FALSE(out.Ok());
+  EXPECT_EQ(out.attempts, impossible.max_attempts);
+  EXPECT_EQ(out.failed_attempts, impossible.max_attempts);
+  EXPECT_GT(out.compute_units, 0.0);
+}
+
+TEST(LocalPlannerOptions, BadValuesNameTheKey) {
+  LocalPlannerOptions o;
+  o.retry_slowdown = 0.0;
+  EXPECT_THROW(o.Validate(), ConfigError);
+  o = LocalPlannerOptions{};
+  o.field_margin = -1.0;
+  EXPECT_THROW(o.Validate(), ConfigError);
+}
+
+}  // namespace
+}  // namespace quadtune::planning

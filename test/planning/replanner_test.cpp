@@ -1,0 +1,163 @@
+#include "quadtune/planning/replanner.hpp"
+
+#include <gtest/gtest.h>
+
+#include "scene_util.hpp"
+
+namespace quadtune::planning {
+namespace {
+
+TEST(QuinticBoundaryValue, MeetsBothEnds) {
+  const Eigen::Vector3d p0(1, 2, 3), v0(0.5, -1, 0.2), a0(0.1, 0.3, -0.2);
+  const Eigen::Vector3d p1(4, 0, 2), v1(1, 1, 0), a1(0, 0.5, 0);
+  const double T = 1.7;
+  const Trajectory traj({T}, {QuinticBoundaryValue(p0, v0, a0, p1, v1, a1, T)});
+  EXPECT_TRUE(traj.Position(0).isApprox(p0, 1e-12));
+  EXPECT_TRUE(traj.Velocity(0).isApprox(v0, 1e-12));
+  EXPECT_TRUE(traj.Acceleration(0).isApprox(a0, 1e-12));
+  EXPECT_LT((traj.Position(T) - p1).norm(), 1e-10);
+  EXPECT_LT((traj.Velocity(T) - v1).norm(), 1e-10);
+  EXPECT_LT((traj.Acceleration(T) - a1).norm(), 1e-10);
+}
+
+TEST(BrakingTrajectory, StopsAheadWithBoundedDeceleration) {
+  const Eigen::Vector3d p0(0, 0, 1), v0(3, 0, 0);
+  const double decel = 2.4;
+  const Trajectory brake = BrakingTrajectory(p0, v0, Eigen::Vector3d::Zero(), decel);
+  const double T = brake.Duration();
+  EXPECT_NEAR(T, 2.0 * 3.0 / decel, 1e-12);
+  EXPECT_LT(brake.Velocity(T).norm(), 1e-9);
+  EXPECT_LT(brake.Acceleration(T).norm(), 1e-9);
+  EXPECT_GT(brake.Position(T).x(), p0.x());
+  // The speed never increases and never reverses.
+  double last = v0.norm();
+  for (double t = 0.0; t <= T; t += 0.01) {
+    const Eigen::Vector3d v = brake.Velocity(t);
+    EXPECT_GE(v.x(), -1e-9);
+    EXPECT_LE(v.norm(), last + 1e-9);
+    last = v.norm();
+    // A smooth stop peaks at 1.875 times the mean deceleration.
+    EXPECT_LE(brake.Acceleration(t).norm(), 1.875 * decel + 1e-9);
+  }
+}
+
+/// Flies the FSM with perfect tracking (the drone is where the reference says).
+struct KinematicFlight {
+  explicit KinematicFlight(const PlannerParams& params)
+      : replanner(optimizer, params),
+        map(LocalMapOptions::FromPlannerParams(params), Eigen::Vector3d(3, 0, 1.2)) {}
+
+  void Start(const Eigen::Vector3d& start, std::vector<Eigen::Vector3d> waypoints) {
+    p = start;
+    v.setZero();
+    replanner.StartMission(std::move(waypoints), start, 0.0, 0.0);
+  }
+  void Step() {
+    replanner.Tick(t, p, v, map);
+    t += 0.01;
+    const physics::TrackingReference ref = replanner.Reference(t);
+    p = ref.p_W;
+    v = ref.v_W;
+  }
+
+  TrajectoryOptimizer optimizer;
+  Replanner replanner;
+  LocalMap map;
+  double t = 0.0;
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+};
+
+TEST(Replanner, ReachesEveryWaypointInFreeSpace) {
+  KinematicFlight f{PlannerParams{}};
+  const Eigen::Vector3d start(0, 0, 1.2), goal(8, 0, 1.2);
+  f.Start(start, {goal, start});
+  while (!f.replanner.Done() && f.t < 40.0) f.Step();
+  ASSERT_TRUE(f.replanner.Done()) << "state " << ToString(f.replanner.state());
+  EXPECT_LT((f.p - start).norm(), PlannerParams{}.goal_tolerance);
+  EXPECT_EQ(f.replanner.emergency_stops(), 0);
+  EXPECT_GE(f.replanner.records().size(), 2u);
+  for (const auto& r : f.replanner.records()) EXPECT_TRUE(r.ok) << r.message;
+  // Without obstacles the mission takes about 16 m / v_des plus acceleration phases.
+  EXPECT_GT(f.replanner.mission_end_time(), 16.0 / PlannerParams{}.v_des);
+  EXPECT_LT(f.replanner.mission_end_time(), 30.0);
+}
+
+TEST(Replanner, ReplansPeriodically) {
+  PlannerParams params;
+  params.t_pl = 0.5;
+  KinematicFlight f{params};
+  f.Start({0, 0, 1.2}, {{20, 0, 1.2}});
+  while (f.t < 4.0) f.Step();
+  // One plan at start, then one every t_pl.
+  EXPECT_GE(f.replanner.records().size(), 7u);
+  EXPECT_LE(f.replanner.records().size(), 9u);
+}
+
+TEST(Replanner, AvoidsObstaclesInTheMap) {
+  KinematicFlight f{PlannerParams{}};
+  const physics::ObstacleSet forest = testing::SmallForest();
+  const auto points = testing::SurfacePoints(forest);
+  f.map.Insert(Eigen::Vector3d(0, 0, 1.2), points);
+  f.Start({0, 0, 1.2}, {{9, 0, 1.2}});
+  double min_clearance = 1e9;
+  while (!f.replanner.Done() && f.t < 40.0) {
+    f.Step();
+    min_clearance = std::min(min_clearance, forest.Distance(f.p));
+  }
+  ASSERT_TRUE(f.replanner.Done());
+  EXPECT_GT(min_clearance, 0.15);
+}
+
+TEST(Replanner, EmergencyStopWhenAnObstacleAppearsInsideTheBrakingDistance) {
+  PlannerParams params;
+  params.v_des = 2.5;
+  KinematicFlight f{params};
+  f.Start({0, 0, 1.2}, {{30, 0, 1.2}});
+  // Accelerate in free space until at speed.
+  while (f.v.norm() < 2.0 && f.t < 10.0) f.Step();
+  ASSERT_GE(f.v.norm(), 2.0);
+  ASSERT_EQ(f.replanner.emergency_stops(), 0);
+  // A wall appears 0.45 m ahead: stopping from 2 m/s at a_max = 3 m/s² needs 0.67 m.
+  const double x_wall = f.p.x() + 0.45;
+  f.map.Insert(f.p, testing::WallPoints(x_wall, 8.0, 4.0));
+  for (int i = 0; i < 20 && f.replanner.emergency_stops() == 0; ++i) f.Step();
+  EXPECT_EQ(f.replanner.emergency_stops(), 1);
+  EXPECT_EQ(f.replanner.state(), ReplanState::kEmergencyStop);
+  // The braking trajectory brings the drone to rest.
+  for (int i = 0; i < 300 && f.replanner.state() == ReplanState::kEmergencyStop; ++i) f.Step();
+  EXPECT_LT(f.v.norm(), 1e-6);
+}
+
+TEST(Replanner, NoEmergencyStopWhenReplanningSucceeds) {
+  KinematicFlight f{PlannerParams{}};
+  f.Start({0, 0, 1.2}, {{30, 0, 1.2}});
+  while (f.v.norm() < 1.5 && f.t < 10.0) f.Step();
+  // A single pillar 4 m ahead on the path: a re-plan goes around it.
+  physics::ObstacleSet pillar;
+  pillar.cylinders.push_back({{f.p.x() + 4.0, 0.0}, 0.3, 0.0, 3.0});
+  f.map.Insert(f.p, testing::SurfacePoints(pillar));
+  for (int i = 0; i < 300; ++i) f.Step();
+  EXPECT_EQ(f.replanner.emergency_stops(), 0);
+  EXPECT_GT(pillar.Distance(f.p), 0.0);
+}
+
+TEST(Replanner, RejectsAnEmptyMission) {
+  TrajectoryOptimizer optimizer;
+  Replanner replanner(optimizer, PlannerParams{});
+  EXPECT_THROW(replanner.StartMission({}, Eigen::Vector3d::Zero(), 0.0, 0.0),
+               std::invalid_argument);
+}
+
+TEST(Replanner, InvalidOptionsNameTheKey) {
+  TrajectoryOptimizer optimizer;
+  ReplannerOptions options;
+  options.brake_factor = 1.5;
+  EXPECT_THROW(Replanner(optimizer, PlannerParams{}, options), ConfigError);
+  PlannerParams bad;
+  bad.t_pl = 0.0;
+  EXPECT_THROW(Replanner(optimizer, bad), ConfigError);
+}
+
+}  // namespace
+}  // namespace quadtune::planning
