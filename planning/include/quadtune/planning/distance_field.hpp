@@ -22,6 +22,32 @@ class DistanceField {
   /// Distance (m) at p_W; writes d(distance)/d(p_W) into *grad_W when grad_W is not null.
   /// Points outside the known region return a large positive distance with zero gradient.
   virtual double Evaluate(const Eigen::Vector3d& p_W, Eigen::Vector3d* grad_W) const = 0;
+
+  /// The distance (m) that the trajectory optimiser's collision cost reads, with its gradient
+  /// (*grad_W, 1) and Hessian (*hess_W, 1/m; symmetric) when the pointers are not null.
+  ///
+  /// Newton's method on the cost converges quadratically only when this function is C² and its
+  /// Hessian is exact; the exact nearest-obstacle distance is not (its gradient jumps on the
+  /// ridges between obstacles, and a trilinear ESDF's across voxel faces). An implementation
+  /// should therefore return a C² approximation of Evaluate() with its exact derivatives (a
+  /// soft-min over obstacles, a tricubic B-spline of ESDF samples) that never exceeds Evaluate()
+  /// by more than a small, documented margin (under-estimating is the safe side). The
+  /// post-solve collision check keeps using Evaluate().
+  ///
+  /// Default: Evaluate() with a zero Hessian, i.e. the optimiser falls back to Gauss–Newton for
+  /// the collision term (correct, but linearly convergent and slower).
+  /// Thread safety: as Evaluate().
+  virtual double EvaluateWithHessian(const Eigen::Vector3d& p_W, Eigen::Vector3d* grad_W,
+                                     Eigen::Matrix3d* hess_W) const {
+    if (hess_W != nullptr) hess_W->setZero();
+    return Evaluate(p_W, grad_W);
+  }
+
+  /// True when EvaluateWithHessian() returns a C² distance with its exact Hessian (an override as
+  /// described there); false (the default) for a field that only offers Evaluate(). The
+  /// optimiser then knows that its Newton model is exact, and arms its stagnation safeguard
+  /// for non-smooth fields only (TrajectoryOptimizerOptions::stall_relative_change).
+  [[nodiscard]] virtual bool ProvidesCurvature() const { return false; }
 };
 
 }  // namespace quadtune::planning

@@ -1,0 +1,164 @@
+#pragma once
+/// \file
+/// The planner's back-end: a minimum-jerk trajectory optimiser solved by Ipopt (paper Sec. III,
+/// modelled on EGO-Planner's gradient-based back-end).
+///
+/// Given the start state, a local goal, the front-end's initial path and the distance field, it
+/// minimises w_smooth·∫|jerk|² + w_col·J_col + w_dyn·J_dyn + w_time·T over the inner waypoints
+/// and one global time scale (MinJerkProblem documents the formulation and the derivatives).
+///
+/// Why this formulation solves in few Ipopt iterations:
+///  - few variables (3(N−1)+1 ≤ 34), all unbounded, no constraints: Ipopt runs a plain Newton
+///    method with line search — no barrier-parameter continuation and no multipliers;
+///  - for fixed nominal durations the spline is linear in the waypoints, so the jerk term is an
+///    exact quadratic, and every Hessian is exact — the collision term's too, through the field's
+///    C² distance and its curvature (DistanceField::EvaluateWithHessian) — so Ipopt takes true
+///    Newton steps and converges quadratically to `tol` (a field without curvature degrades the
+///    collision Hessian to Gauss–Newton: correct but linearly convergent, see stall_*);
+///  - the nominal time allocation (trapezoidal profile from v_des and a_max along the initial
+///    path) makes τ ≈ 1 and the waypoints ≈ metres, so the problem is well scaled;
+///  - warm starts place the waypoints on the previous (executing) trajectory;
+///  - callbacks allocate nothing once warm (per-thread scratch), `max_soc 0` (second-order
+///    corrections only cost evaluations without constraints), and Ipopt's internal timers read
+///    the vDSO clock instead of getrusage (see trajectory_optimizer.cpp).
+///
+/// Ipopt runs with one application per thread (thread_local, created on the first solve of a
+/// thread), the option file disabled, print level 0, `linear_solver ma27` backed by the
+/// thread-safe dense solver of dense_ma27.hpp, and deterministic options only (iteration
+/// limit, no CPU/wall-time limit). Same inputs give bit-identical results on any thread.
+///
+/// Thread safety: TrajectoryOptimizer is immutable; Solve() may run concurrently from many threads
+/// (each thread uses its own Ipopt application). A failed solve is reported in PlanResult, never
+/// thrown; only invalid Options throw (in the constructor).
+
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "quadtune/planning/distance_field.hpp"
+#include "quadtune/planning/min_jerk_problem.hpp"
+#include "quadtune/planning/parameters.hpp"
+#include "quadtune/planning/trajectory.hpp"
+
+namespace quadtune::planning {
+
+/// One planning query (world frame W, SI units).
+struct PlanRequest {
+  Eigen::Vector3d p0_W = Eigen::Vector3d::Zero();    ///< start position (m)
+  Eigen::Vector3d v0_W = Eigen::Vector3d::Zero();    ///< start velocity (m/s)
+  Eigen::Vector3d a0_W = Eigen::Vector3d::Zero();    ///< start acceleration (m/s^2)
+  Eigen::Vector3d goal_W = Eigen::Vector3d::Zero();  ///< local goal position (m)
+  /// Goal velocity (m/s); zero when empty. The goal acceleration is zero.
+  std::optional<Eigen::Vector3d> goal_v_W;
+  /// Front-end path from (near) the start to (near) the goal, used to allocate time and place
+  /// the initial inner waypoints. Empty: the straight segment start–goal.
+  std::vector<Eigen::Vector3d> initial_path_W;
+  /// Optional warm start: the previous (executing) trajectory and the time on it (s) that
+  /// corresponds to this query's start. Not owned; must outlive the Solve() call.
+  const Trajectory* warm_start = nullptr;
+  double warm_start_time = 0.0;  ///< (s), >= 0
+};
+
+/// Solver settings (not tuned by the experiments).
+struct TrajectoryOptimizerOptions {
+  double sample_spacing = 0.2;     ///< spacing of penalty samples along the nominal path (m), > 0
+  int min_samples_per_piece = 3;   ///< >= 1
+  int max_samples_per_piece = 40;  ///< >= min_samples_per_piece
+  double tolerance = 1e-8;         ///< Ipopt `tol` on the scaled problem, (0, 1e-2]
+  int max_iterations = 200;        ///< Ipopt `max_iter`, >= 1
+  /// Stagnation safeguard, armed only for a field whose ProvidesCurvature() is false (e.g. a
+  /// trilinear ESDF without EvaluateWithHessian): there the collision Hessian is Gauss–Newton and
+  /// the nearest-obstacle distance has gradient jumps (Voronoi ridges, voxel faces), so a
+  /// trajectory squeezed between obstacles has its optimum on a kink where the gradient never
+  /// reaches `tolerance`. Such a solve also ends (Ipopt "acceptable", message "stalled
+  /// (non-smooth field)", reported as converged) when the relative objective change
+  /// |Δf|/max(1,|f|) stays below this value for `stall_iterations` consecutive iterations.
+  /// With a C² field (ProvidesCurvature() true) it is off: every solve must meet `tolerance`.
+  /// Deterministic. (0, 1e-3].
+  double stall_relative_change = 1e-6;
+  int stall_iterations = 3;  ///< >= 1
+  double check_dt = 0.01;    ///< time step of the post-solve check samples (s), > 0
+  /// Relative tolerance on the limits in the post-solve check: success needs
+  /// max|v| <= v_des (1 + tol) and max|a| <= a_max (1 + tol). >= 0.
+  double limit_tolerance = 0.05;
+  /// A check sample with distance < collision_margin (m) is a collision. >= 0.
+  double collision_margin = 0.0;
+  double collision_scale = 100.0;    ///< κ_col of MinJerkCostParams, > 0
+  double feasibility_scale = 100.0;  ///< κ_dyn of MinJerkCostParams, > 0
+
+  /// Throws ConfigError(origin, key, allowed range) for the first bad field.
+  void Validate(const std::string& origin = "") const;
+};
+
+/// Outcome of a solve.
+enum class PlanStatus {
+  kSuccess,           ///< converged, collision-free on the check samples, within the limits
+  kCollision,         ///< converged but a check sample is closer than collision_margin
+  kDynamicsViolated,  ///< converged, collision-free, but over the v/a limits (with tolerance)
+  kMaxIterations,     ///< Ipopt's iteration limit (the last iterate is returned)
+  kSolverFailure,     ///< Ipopt failed (restoration, step computation, ...)
+  kNumericalError,    ///< NaN/Inf in the cost, derivatives or result
+  kInvalidInput,      ///< the request or parameters are invalid (nothing solved)
+};
+
+/// Short name of a status ("success", "collision", ...).
+const char* ToString(PlanStatus status);
+
+/// Summary of one solve.
+struct PlanResult {
+  Trajectory trajectory;  ///< the optimised trajectory (empty when nothing was solved)
+  PlanStatus status = PlanStatus::kInvalidInput;
+  std::string message;            ///< human-readable detail (Ipopt status, reason of failure)
+  MinJerkCostTerms cost;          ///< cost terms at the solution
+  double max_speed = 0.0;         ///< max |v_W| on the check samples (m/s)
+  double max_acceleration = 0.0;  ///< max |a_W| on the check samples (m/s^2)
+  double min_clearance = 0.0;     ///< min distance-field value on the check samples (m)
+  double duration = 0.0;          ///< trajectory duration (s)
+  double solve_time_s = 0.0;      ///< wall-clock time t_c of the whole Solve() call (s)
+  int iterations = 0;             ///< Ipopt iterations
+  int function_evaluations = 0;   ///< Ipopt objective evaluations
+  int gradient_evaluations = 0;   ///< Ipopt gradient evaluations
+  int hessian_evaluations = 0;    ///< Ipopt Hessian evaluations
+  long distance_queries = 0;      ///< DistanceField::Evaluate calls inside the optimisation
+  int num_variables = 0;          ///< decision variables
+  /// Deterministic cost measure (same inputs → same value on any machine/thread): a weighted
+  /// count of the work done, in nominal units of 0.1 ms taken from Ipopt's measured overheads
+  /// (≈0.2 ms per solve + 0.13 ms per iteration, shared/DESIGN.md) plus evaluation work:
+  /// 2 + 1.3·iterations + 0.4·(function + gradient evaluations) + 0.002·distance_queries +
+  /// 1e-4·(n³/3)·hessian_evaluations (n = num_variables). Use it, not solve_time_s, where an
+  /// experiment must be exactly reproducible; it is not a wall-clock prediction.
+  double compute_units = 0.0;
+  int ipopt_status = 0;  ///< Ipopt's ApplicationReturnStatus (raw)
+
+  /// True for kSuccess.
+  [[nodiscard]] bool Ok() const { return status == PlanStatus::kSuccess; }
+};
+
+/// The Ipopt minimum-jerk back-end. See the file comment.
+class TrajectoryOptimizer {
+ public:
+  /// Validates `options` (throws ConfigError).
+  explicit TrajectoryOptimizer(const TrajectoryOptimizerOptions& options = {});
+
+  /// Plans a trajectory for `request` in `field` with the planner's θ_s and limits (n_pol pieces,
+  /// w_col, w_dyn, v_des, a_max, clearance, w_smooth, w_time). Never throws for solver or input
+  /// failures: they come back as the result's status and message.
+  [[nodiscard]] PlanResult Solve(const PlanRequest& request, const DistanceField& field,
+                                 const PlannerParams& params) const;
+
+  /// The options.
+  [[nodiscard]] const TrajectoryOptimizerOptions& Options() const { return options_; }
+
+  /// Nominal time allocation used by Solve(): durations (s) of `num_pieces` pieces of equal arc
+  /// length along `path_W` (start to goal) for a trapezoidal speed profile from `v0` to `vf`
+  /// (m/s, clamped to v_max) with limits v_max, a_max. Public for tests.
+  [[nodiscard]] static std::vector<double> AllocateTime(const std::vector<Eigen::Vector3d>& path_W,
+                                                        int num_pieces, double v0, double vf,
+                                                        double v_max, double a_max);
+
+ private:
+  TrajectoryOptimizerOptions options_;
+};
+
+}  // namespace quadtune::planning

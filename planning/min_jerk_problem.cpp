@@ -1,0 +1,389 @@
+#include "quadtune/planning/min_jerk_problem.hpp"
+
+#include <Eigen/LU>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "quadtune/common/error.hpp"
+
+namespace quadtune::planning {
+namespace {
+
+// β_d(s): row of d-th derivative of the monomial basis 1, s, ..., s^5 at s.
+Eigen::Matrix<double, 1, 6> BasisRow(double s, int d) {
+  Eigen::Matrix<double, 1, 6> row = Eigen::Matrix<double, 1, 6>::Zero();
+  for (int k = d; k < 6; ++k) {
+    double factor = 1.0;
+    for (int m = 0; m < d; ++m) factor *= static_cast<double>(k - m);
+    row(k) = factor * std::pow(s, k - d);
+  }
+  return row;
+}
+
+// Q with cᵀ Q c = ∫_0^T |c'''(s)|² ds for one axis of a quintic.
+Eigen::Matrix<double, 6, 6> JerkGram(double t) {
+  const double t2 = t * t;
+  const double t3 = t2 * t;
+  const double t4 = t3 * t;
+  const double t5 = t4 * t;
+  Eigen::Matrix<double, 6, 6> q = Eigen::Matrix<double, 6, 6>::Zero();
+  q(3, 3) = 36.0 * t;
+  q(3, 4) = q(4, 3) = 72.0 * t2;
+  q(3, 5) = q(5, 3) = 120.0 * t3;
+  q(4, 4) = 192.0 * t3;
+  q(4, 5) = q(5, 4) = 360.0 * t4;
+  q(5, 5) = 720.0 * t5;
+  return q;
+}
+
+}  // namespace
+
+MinJerkCostParams MinJerkCostParams::FromPlannerParams(const PlannerParams& params) {
+  MinJerkCostParams c;
+  c.w_smooth = params.w_smooth;
+  c.w_col = params.w_col;
+  c.w_dyn = params.w_dyn;
+  c.w_time = params.w_time;
+  c.clearance = params.clearance;
+  c.v_max = params.v_des;
+  c.a_max = params.a_max;
+  return c;
+}
+
+MinJerkProblem::MinJerkProblem(const MinJerkBoundary& boundary,
+                               std::vector<double> nominal_durations,
+                               std::vector<int> samples_per_piece, const DistanceField& field,
+                               const MinJerkCostParams& params)
+    : boundary_(boundary),
+      nominal_(std::move(nominal_durations)),
+      field_(&field),
+      params_(params),
+      num_pieces_(static_cast<int>(nominal_.size())) {
+  if (num_pieces_ < 1 || samples_per_piece.size() != nominal_.size()) {
+    throw std::invalid_argument("MinJerkProblem: need >= 1 piece and one sample count per piece");
+  }
+  for (std::size_t i = 0; i < nominal_.size(); ++i) {
+    if (!std::isfinite(nominal_[i]) || nominal_[i] <= 0.0) {
+      throw std::invalid_argument("MinJerkProblem: nominal duration " + std::to_string(i) +
+                                  " must be finite and > 0");
+    }
+    if (samples_per_piece[i] < 1) {
+      throw std::invalid_argument("MinJerkProblem: samples_per_piece must be >= 1");
+    }
+  }
+  if (!(params_.clearance > 0.0) || !(params_.v_max > 0.0) || !(params_.a_max > 0.0) ||
+      !(params_.w_smooth > 0.0) || params_.w_col < 0.0 || params_.w_dyn < 0.0 ||
+      params_.w_time < 0.0 || !(params_.collision_scale > 0.0) ||
+      !(params_.feasibility_scale > 0.0)) {
+    throw std::invalid_argument("MinJerkProblem: weights/limits out of range");
+  }
+
+  const int n = num_pieces_;
+  const int nb = BoundarySize();
+  // Min-jerk system M c = E b (per axis): boundary p, v, a at both ends; at each inner knot the
+  // waypoint on both sides and continuity of derivatives 1..4.
+  Eigen::MatrixXd m = Eigen::MatrixXd::Zero(6 * n, 6 * n);
+  Eigen::MatrixXd e = Eigen::MatrixXd::Zero(6 * n, nb);
+  for (int d = 0; d < 3; ++d) {
+    m.block(d, 0, 1, 6) = BasisRow(0.0, d);
+    e(d, d) = 1.0;
+  }
+  for (int i = 0; i + 1 < n; ++i) {
+    const int r = 3 + 6 * i;
+    const double t = nominal_[static_cast<std::size_t>(i)];
+    m.block(r, 6 * i, 1, 6) = BasisRow(t, 0);
+    e(r, 3 + i) = 1.0;
+    m.block(r + 1, 6 * (i + 1), 1, 6) = BasisRow(0.0, 0);
+    e(r + 1, 3 + i) = 1.0;
+    for (int d = 1; d <= 4; ++d) {
+      m.block(r + 1 + d, 6 * i, 1, 6) = BasisRow(t, d);
+      m.block(r + 1 + d, 6 * (i + 1), 1, 6) = -BasisRow(0.0, d);
+    }
+  }
+  const double t_last = nominal_.back();
+  for (int d = 0; d < 3; ++d) {
+    m.block(6 * n - 3 + d, 6 * (n - 1), 1, 6) = BasisRow(t_last, d);
+    e(6 * n - 3 + d, n + 2 + d) = 1.0;
+  }
+  coeff_map_ = m.partialPivLu().solve(e);
+  for (double t : nominal_) sum_nominal_ += t;
+
+  jerk_hess_ = Eigen::MatrixXd::Zero(nb, nb);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::MatrixXd ki = coeff_map_.block(6 * i, 0, 6, nb);
+    jerk_hess_ += ki.transpose() * JerkGram(nominal_[static_cast<std::size_t>(i)]) * ki;
+  }
+  jerk_hess_ = 0.5 * (jerk_hess_ + jerk_hess_.transpose()).eval();
+
+  int total_samples = 0;
+  for (int k : samples_per_piece) total_samples += k;
+  for (auto& rows : sample_rows_) rows.resize(total_samples, nb);
+  sample_piece_.reserve(static_cast<std::size_t>(total_samples));
+  int j = 0;
+  for (int i = 0; i < n; ++i) {
+    const int count = samples_per_piece[static_cast<std::size_t>(i)];
+    const Eigen::MatrixXd ki = coeff_map_.block(6 * i, 0, 6, nb);
+    for (int k = 1; k <= count; ++k) {
+      const double s = nominal_[static_cast<std::size_t>(i)] * static_cast<double>(k) /
+                       static_cast<double>(count);
+      for (int d = 0; d < 3; ++d) sample_rows_[d].row(j) = BasisRow(s, d) * ki;
+      sample_piece_.push_back(i);
+      ++j;
+    }
+  }
+}
+
+Eigen::VectorXd MinJerkProblem::Pack(const std::vector<Eigen::Vector3d>& inner_waypoints_W,
+                                     double time_scale) const {
+  const int m = num_pieces_ - 1;
+  QT_DEMAND(static_cast<int>(inner_waypoints_W.size()) == m, "need N-1 inner waypoints");
+  QT_DEMAND(time_scale > 0.0, "time scale must be > 0");
+  Eigen::VectorXd z(NumVariables());
+  for (int a = 0; a < 3; ++a) {
+    for (int i = 0; i < m; ++i) z(a * m + i) = inner_waypoints_W[static_cast<std::size_t>(i)](a);
+  }
+  z(NumVariables() - 1) = std::log(time_scale);
+  return z;
+}
+
+std::vector<Eigen::Vector3d> MinJerkProblem::InnerWaypoints(const Eigen::VectorXd& z) const {
+  const int m = num_pieces_ - 1;
+  std::vector<Eigen::Vector3d> q(static_cast<std::size_t>(m));
+  for (int i = 0; i < m; ++i) {
+    for (int a = 0; a < 3; ++a) q[static_cast<std::size_t>(i)](a) = z(a * m + i);
+  }
+  return q;
+}
+
+double MinJerkProblem::TimeScale(const Eigen::VectorXd& z) { return std::exp(z(z.size() - 1)); }
+
+void MinJerkProblem::BoundaryVectors(const Eigen::VectorXd& z, Eigen::MatrixXd* b,
+                                     Eigen::MatrixXd* db, Eigen::MatrixXd* ddb) const {
+  const int m = num_pieces_ - 1;
+  const int nb = BoundarySize();
+  const double tau = std::exp(z(NumVariables() - 1));
+  const double tau2 = tau * tau;
+  b->setZero(nb, 3);
+  if (db != nullptr) db->setZero(nb, 3);
+  if (ddb != nullptr) ddb->setZero(nb, 3);
+  for (int a = 0; a < 3; ++a) {
+    (*b)(0, a) = boundary_.p0_W(a);
+    (*b)(1, a) = tau * boundary_.v0_W(a);
+    (*b)(2, a) = tau2 * boundary_.a0_W(a);
+    for (int i = 0; i < m; ++i) (*b)(3 + i, a) = z(a * m + i);
+    (*b)(nb - 3, a) = boundary_.pf_W(a);
+    (*b)(nb - 2, a) = tau * boundary_.vf_W(a);
+    (*b)(nb - 1, a) = tau2 * boundary_.af_W(a);
+    // d/dρ of τ^k x is k τ^k x; second derivative k² τ^k x.
+    if (db != nullptr) {
+      (*db)(1, a) = (*b)(1, a);
+      (*db)(2, a) = 2.0 * (*b)(2, a);
+      (*db)(nb - 2, a) = (*b)(nb - 2, a);
+      (*db)(nb - 1, a) = 2.0 * (*b)(nb - 1, a);
+    }
+    if (ddb != nullptr) {
+      (*ddb)(1, a) = (*b)(1, a);
+      (*ddb)(2, a) = 4.0 * (*b)(2, a);
+      (*ddb)(nb - 2, a) = (*b)(nb - 2, a);
+      (*ddb)(nb - 1, a) = 4.0 * (*b)(nb - 1, a);
+    }
+  }
+}
+
+namespace {
+
+// Per-thread scratch of MinJerkProblem::Evaluate (sized on first use, reused afterwards: the
+// Ipopt callbacks then run without heap allocations). Holds no state between calls.
+struct EvaluateScratch {
+  Eigen::MatrixXd b;
+  Eigen::MatrixXd db;
+  Eigen::MatrixXd ddb;
+  Eigen::MatrixXd hb;
+  Eigen::MatrixXd hdb;
+  Eigen::VectorXd v;  // ∂r/∂q_a(i) / e_a for one sample: τ^-d · row(3 + i)
+};
+
+EvaluateScratch& Scratch() {
+  thread_local EvaluateScratch scratch;
+  return scratch;
+}
+
+}  // namespace
+
+MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::VectorXd* grad,
+                                          Eigen::MatrixXd* hess) const {
+  const int n = NumVariables();
+  const int m = num_pieces_ - 1;
+  const int nb = BoundarySize();
+  const int ir = n - 1;  // index of ρ
+  QT_DEMAND(z.size() == n, "wrong number of variables");
+  const bool want_grad = grad != nullptr || hess != nullptr;
+  const bool want_hess = hess != nullptr;
+  EvaluateScratch& ws = Scratch();
+  Eigen::VectorXd g_local;
+  Eigen::VectorXd& g = grad != nullptr ? *grad : g_local;
+  if (want_grad) g.setZero(n);
+  // The Hessian is accumulated in its lower triangle and mirrored at the end.
+  if (want_hess) hess->setZero(n, n);
+
+  const double rho = z(ir);
+  const double tau = std::exp(rho);
+  BoundaryVectors(z, &ws.b, want_grad ? &ws.db : nullptr, want_hess ? &ws.ddb : nullptr);
+  const Eigen::MatrixXd& b = ws.b;
+  const Eigen::MatrixXd& db = ws.db;
+  const Eigen::MatrixXd& ddb = ws.ddb;
+  MinJerkCostTerms terms;
+
+  // ---- jerk energy: τ^-5 Σ_a b_aᵀ H̄ b_a ----
+  {
+    const double w_s = params_.w_smooth;
+    const double e5 = std::exp(-5.0 * rho);
+    ws.hb.noalias() = jerk_hess_ * b;
+    const Eigen::MatrixXd& hb = ws.hb;
+    const double g0 = (b.array() * hb.array()).sum();
+    terms.jerk = e5 * g0;
+    if (want_grad) {
+      const double g1 = 2.0 * (db.array() * hb.array()).sum();
+      for (int a = 0; a < 3; ++a) {
+        for (int i = 0; i < m; ++i) g(a * m + i) += w_s * e5 * 2.0 * hb(3 + i, a);
+      }
+      g(ir) += w_s * e5 * (g1 - 5.0 * g0);
+      if (want_hess) {
+        ws.hdb.noalias() = jerk_hess_ * db;
+        const Eigen::MatrixXd& hdb = ws.hdb;
+        const double g2 =
+            2.0 * ((db.array() * hdb.array()).sum() + (ddb.array() * hb.array()).sum());
+        for (int a = 0; a < 3; ++a) {
+          hess->block(a * m, a * m, m, m) += (w_s * e5 * 2.0) * jerk_hess_.block(3, 3, m, m);
+          for (int i = 0; i < m; ++i) {
+            (*hess)(ir, a * m + i) += w_s * e5 * (2.0 * hdb(3 + i, a) - 10.0 * hb(3 + i, a));
+          }
+        }
+        (*hess)(ir, ir) += w_s * e5 * (g2 - 10.0 * g1 + 25.0 * g0);
+      }
+    }
+  }
+
+  // ---- total time: τ Σ T̄ ----
+  terms.time = tau * sum_nominal_;
+  if (want_grad) g(ir) += params_.w_time * terms.time;
+  if (want_hess) (*hess)(ir, ir) += params_.w_time * terms.time;
+
+  // ---- sampled penalties ----
+  const double inv_c = 1.0 / params_.clearance;
+  const double limits_sq[3] = {0.0, params_.v_max * params_.v_max, params_.a_max * params_.a_max};
+  const double inv_tau_pow[3] = {1.0, 1.0 / tau, 1.0 / (tau * tau)};
+  const double weights[3] = {params_.w_col, params_.w_dyn, params_.w_dyn};
+  ws.v.resize(m);
+  Eigen::VectorXd& v = ws.v;
+  for (int j = 0; j < NumSamples(); ++j) {
+    for (int d = 0; d < 3; ++d) {
+      const double* row = sample_rows_[d].row(j).data();
+      const double scale = inv_tau_pow[d];
+      Eigen::Vector3d w = Eigen::Vector3d::Zero();
+      for (int k = 0; k < nb; ++k) w += row[k] * b.row(k).transpose();
+      const Eigen::Vector3d r = scale * w;
+
+      Eigen::Vector3d gamma;      // ∂ψ/∂r
+      Eigen::Matrix3d big_gamma;  // ∂²ψ/∂r²
+      if (d == 0) {
+        Eigen::Vector3d grad_d;
+        Eigen::Matrix3d hess_d;
+        const double dist = field_->EvaluateWithHessian(r, want_grad ? &grad_d : nullptr,
+                                                        want_hess ? &hess_d : nullptr);
+        const double e = (params_.clearance - dist) * inv_c;
+        if (!(e > 0.0)) {
+          if (!std::isfinite(dist)) terms.collision = std::numeric_limits<double>::quiet_NaN();
+          continue;
+        }
+        // ψ = κ e³, e = (C − d)/C: ∂ψ/∂r = −3κe²/C ∇d, ∂²ψ/∂r² = 6κe/C² ∇d∇dᵀ − 3κe²/C ∇²d.
+        const double k = params_.collision_scale;
+        terms.collision += k * e * e * e;
+        if (!want_grad) continue;
+        gamma = (-3.0 * k * e * e * inv_c) * grad_d;
+        if (want_hess) {
+          big_gamma = (6.0 * k * e * inv_c * inv_c) * (grad_d * grad_d.transpose()) -
+                      (3.0 * k * e * e * inv_c) * hess_d;
+        }
+      } else {
+        const double inv_l = 1.0 / limits_sq[d];
+        const double viol = r.squaredNorm() * inv_l - 1.0;
+        if (!(viol > 0.0)) continue;
+        const double k = params_.feasibility_scale;
+        terms.feasibility += k * viol * viol * viol;
+        if (!want_grad) continue;
+        const Eigen::Vector3d dviol = 2.0 * inv_l * r;
+        gamma = (3.0 * k * viol * viol) * dviol;
+        if (want_hess) {
+          big_gamma = (6.0 * k * viol) * (dviol * dviol.transpose()) +
+                      (6.0 * k * viol * viol * inv_l) * Eigen::Matrix3d::Identity();
+        }
+      }
+      const double weight = weights[d];
+      if (weight == 0.0) continue;
+
+      // r = τ^-d S_j b: ∂r/∂q_a(i) = τ^-d row(3+i) e_a, ∂r/∂ρ = τ^-d (S_j b' − d S_j b).
+      Eigen::Vector3d w1 = Eigen::Vector3d::Zero();
+      for (int k = 0; k < nb; ++k) w1 += row[k] * db.row(k).transpose();
+      const double dd = static_cast<double>(d);
+      const Eigen::Vector3d r_rho = scale * (w1 - dd * w);
+      for (int i = 0; i < m; ++i) v(i) = scale * row[3 + i];
+      const Eigen::Vector3d wg = weight * gamma;
+      for (int a = 0; a < 3; ++a) g.segment(a * m, m) += wg(a) * v;
+      g(ir) += wg.dot(r_rho);
+      if (!want_hess) continue;
+
+      const Eigen::Matrix3d wgg = weight * big_gamma;
+      // q–q blocks (lower triangle): Σ_j wΓ_ab v vᵀ.
+      for (int a = 0; a < 3; ++a) {
+        for (int bb = 0; bb <= a; ++bb) {
+          const double c = wgg(a, bb);
+          if (c == 0.0) continue;
+          for (int k = 0; k < m; ++k) {
+            const double cv = c * v(k);
+            const int i_end = a == bb ? k : 0;  // diagonal blocks: rows i >= k only
+            for (int i = m - 1; i >= i_end; --i) (*hess)(a * m + i, bb * m + k) += cv * v(i);
+          }
+        }
+      }
+      // ρ row: ∂²ψ/∂ρ∂q = (wΓ r_ρ)_a v_i + wγ_a ∂²r_a/∂ρ∂q_a(i), the latter = −d v_i.
+      const Eigen::Vector3d t = wgg * r_rho - dd * wg;
+      for (int a = 0; a < 3; ++a) hess->row(ir).segment(a * m, m) += t(a) * v.transpose();
+      Eigen::Vector3d w2 = Eigen::Vector3d::Zero();
+      for (int k = 0; k < nb; ++k) w2 += row[k] * ddb.row(k).transpose();
+      const Eigen::Vector3d r_rhorho = scale * (w2 - 2.0 * dd * w1 + dd * dd * w);
+      (*hess)(ir, ir) += r_rho.dot(wgg * r_rho) + wg.dot(r_rhorho);
+    }
+  }
+  if (want_hess) hess->triangularView<Eigen::StrictlyUpper>() = hess->transpose();
+
+  terms.total = params_.w_smooth * terms.jerk + params_.w_col * terms.collision +
+                params_.w_dyn * terms.feasibility + params_.w_time * terms.time;
+  return terms;
+}
+
+Trajectory MinJerkProblem::ToTrajectory(const Eigen::VectorXd& z) const {
+  Eigen::MatrixXd b;
+  BoundaryVectors(z, &b, nullptr, nullptr);
+  const double tau = TimeScale(z);
+  const Eigen::MatrixXd c = coeff_map_ * b;  // 6N × 3, normalised time
+  std::vector<double> durations;
+  std::vector<Trajectory::Coefficients> coeffs;
+  durations.reserve(static_cast<std::size_t>(num_pieces_));
+  coeffs.reserve(static_cast<std::size_t>(num_pieces_));
+  for (int i = 0; i < num_pieces_; ++i) {
+    Trajectory::Coefficients ci;
+    double inv_tau_k = 1.0;
+    for (int k = 0; k < 6; ++k) {
+      ci.col(k) = c.row(6 * i + k).transpose() * inv_tau_k;
+      inv_tau_k /= tau;
+    }
+    coeffs.push_back(ci);
+    durations.push_back(tau * nominal_[static_cast<std::size_t>(i)]);
+  }
+  return Trajectory(std::move(durations), std::move(coeffs));
+}
+
+}  // namespace quadtune::planning

@@ -1,0 +1,310 @@
+#include "quadtune/planning/min_jerk_problem.hpp"
+
+#include <gtest/gtest.h>
+
+#include "analytic_fields.hpp"
+
+namespace quadtune::planning {
+namespace {
+
+using testing::CylinderField;
+using testing::HalfSpaceField;
+
+MinJerkBoundary Boundary() {
+  MinJerkBoundary b;
+  b.p0_W = Eigen::Vector3d(0.0, 0.0, 1.0);
+  b.v0_W = Eigen::Vector3d(1.2, 0.3, 0.1);
+  b.a0_W = Eigen::Vector3d(0.5, -0.4, 0.2);
+  b.pf_W = Eigen::Vector3d(7.0, 1.0, 1.2);
+  b.vf_W = Eigen::Vector3d(0.8, 0.1, 0.0);
+  b.af_W = Eigen::Vector3d(0.0, 0.0, 0.0);
+  return b;
+}
+
+MinJerkCostParams TightParams() {
+  MinJerkCostParams p;
+  p.v_max = 1.0;  // low limits so that the feasibility penalty is active
+  p.a_max = 0.8;
+  p.clearance = 0.8;
+  p.w_col = 2.0;
+  p.w_dyn = 0.5;
+  return p;
+}
+
+Eigen::VectorXd PointNear(const MinJerkProblem& problem, double wiggle) {
+  std::vector<Eigen::Vector3d> q;
+  const int m = problem.NumPieces() - 1;
+  for (int i = 1; i <= m; ++i) {
+    const double f = static_cast<double>(i) / problem.NumPieces();
+    q.push_back((1 - f) * problem.Boundary().p0_W + f * problem.Boundary().pf_W +
+                Eigen::Vector3d(0.1 * wiggle * i, -0.2 * wiggle, 0.05 * i));
+  }
+  return problem.Pack(q, 0.8);
+}
+
+// Central-difference gradient of the total cost.
+Eigen::VectorXd FdGradient(const MinJerkProblem& problem, const Eigen::VectorXd& z, double h) {
+  Eigen::VectorXd g(z.size());
+  for (int i = 0; i < z.size(); ++i) {
+    Eigen::VectorXd zp = z;
+    Eigen::VectorXd zm = z;
+    zp(i) += h;
+    zm(i) -= h;
+    g(i) = (problem.Evaluate(zp, nullptr, nullptr).total -
+            problem.Evaluate(zm, nullptr, nullptr).total) /
+           (2 * h);
+  }
+  return g;
+}
+
+Eigen::MatrixXd FdHessian(const MinJerkProblem& problem, const Eigen::VectorXd& z, double h) {
+  Eigen::MatrixXd hess(z.size(), z.size());
+  for (int i = 0; i < z.size(); ++i) {
+    Eigen::VectorXd zp = z;
+    Eigen::VectorXd zm = z;
+    zp(i) += h;
+    zm(i) -= h;
+    Eigen::VectorXd gp;
+    Eigen::VectorXd gm;
+    problem.Evaluate(zp, &gp, nullptr);
+    problem.Evaluate(zm, &gm, nullptr);
+    hess.col(i) = (gp - gm) / (2 * h);
+  }
+  return hess;
+}
+
+TEST(MinJerkProblem, SplineMeetsBoundaryAndIsC4AtJoints) {
+  const HalfSpaceField field(Eigen::Vector3d::UnitZ(), -10.0);
+  const MinJerkProblem problem(Boundary(), {1.0, 1.5, 0.8, 1.2}, {4, 4, 4, 4}, field, {});
+  const Eigen::VectorXd z = PointNear(problem, 1.0);
+  const Trajectory traj = problem.ToTrajectory(z);
+  const auto b = Boundary();
+  EXPECT_LT((traj.Position(0) - b.p0_W).norm(), 1e-9);
+  EXPECT_LT((traj.Velocity(0) - b.v0_W).norm(), 1e-9);
+  EXPECT_LT((traj.Acceleration(0) - b.a0_W).norm(), 1e-9);
+  EXPECT_LT((traj.Position(traj.Duration()) - b.pf_W).norm(), 1e-9);
+  EXPECT_LT((traj.Velocity(traj.Duration()) - b.vf_W).norm(), 1e-9);
+  EXPECT_LT((traj.Acceleration(traj.Duration()) - b.af_W).norm(), 1e-9);
+  const auto q = problem.InnerWaypoints(z);
+  double t = 0.0;
+  for (int i = 0; i + 1 < traj.NumPieces(); ++i) {
+    t += traj.PieceDuration(i);
+    const auto& c = traj.PieceCoefficients(i);
+    const auto& next = traj.PieceCoefficients(i + 1);
+    const double len = traj.PieceDuration(i);
+    // Derivatives 0..4 at the end of piece i equal those at the start of piece i+1.
+    for (int d = 0; d <= 4; ++d) {
+      Eigen::Vector3d end = Eigen::Vector3d::Zero();
+      for (int k = d; k < 6; ++k) {
+        double f = 1.0;
+        for (int m = 0; m < d; ++m) f *= k - m;
+        end += f * c.col(k) * std::pow(len, k - d);
+      }
+      double f0 = 1.0;
+      for (int m = 1; m <= d; ++m) f0 *= m;
+      EXPECT_LT((end - f0 * next.col(d)).norm(), 1e-7 * (1.0 + end.norm()))
+          << "joint " << i << " derivative " << d;
+    }
+    EXPECT_LT((traj.Position(t) - q[static_cast<std::size_t>(i)]).norm(), 1e-9);
+  }
+  EXPECT_NEAR(problem.Evaluate(z, nullptr, nullptr).jerk, traj.JerkEnergy(),
+              1e-9 * traj.JerkEnergy());
+}
+
+TEST(MinJerkProblem, GradientMatchesFiniteDifferences) {
+  physics::CylinderObstacle c1;
+  c1.center_W = Eigen::Vector2d(2.5, 0.6);
+  c1.radius = 0.4;
+  physics::CylinderObstacle c2;
+  c2.center_W = Eigen::Vector2d(4.5, 0.2);
+  c2.radius = 0.3;
+  const CylinderField field({c1, c2});
+  for (int pieces : {2, 3, 5}) {
+    std::vector<double> durations;
+    for (int i = 0; i < pieces; ++i) durations.push_back(4.0 / pieces * (1.0 + 0.1 * i));
+    const MinJerkProblem problem(Boundary(), durations,
+                                 std::vector<int>(static_cast<std::size_t>(pieces), 9), field,
+                                 TightParams());
+    const Eigen::VectorXd z = PointNear(problem, 1.0);
+    Eigen::VectorXd grad;
+    Eigen::MatrixXd hess;
+    const MinJerkCostTerms terms = problem.Evaluate(z, &grad, &hess);
+    ASSERT_GT(terms.collision, 0.0) << "collision term must be active";
+    ASSERT_GT(terms.feasibility, 0.0) << "feasibility term must be active";
+    const Eigen::VectorXd fd = FdGradient(problem, z, 1e-6);
+    EXPECT_LT((grad - fd).norm(), 1e-5 * (1.0 + grad.norm())) << pieces << " pieces\n"
+                                                              << grad.transpose() << "\n"
+                                                              << fd.transpose();
+    EXPECT_LT((hess - hess.transpose()).norm(), 1e-12 * (1.0 + hess.norm()));
+  }
+}
+
+TEST(MinJerkProblem, HessianMatchesFiniteDifferencesForAffineField) {
+  // With an affine distance field the Gauss–Newton drop (∇²d) is zero: the Hessian is exact.
+  const HalfSpaceField field(Eigen::Vector3d(0.2, -1.0, 0.1), -0.3);
+  for (int pieces : {2, 4}) {
+    std::vector<double> durations;
+    for (int i = 0; i < pieces; ++i) durations.push_back(4.0 / pieces * (1.0 + 0.1 * i));
+    const MinJerkProblem problem(Boundary(), durations,
+                                 std::vector<int>(static_cast<std::size_t>(pieces), 9), field,
+                                 TightParams());
+    const Eigen::VectorXd z = PointNear(problem, 2.0);
+    Eigen::VectorXd grad;
+    Eigen::MatrixXd hess;
+    const MinJerkCostTerms terms = problem.Evaluate(z, &grad, &hess);
+    ASSERT_GT(terms.collision, 0.0);
+    ASSERT_GT(terms.feasibility, 0.0);
+    const Eigen::MatrixXd fd = FdHessian(problem, z, 1e-6);
+    EXPECT_LT((hess - fd).norm(), 1e-5 * (1.0 + hess.norm())) << pieces << " pieces\n"
+                                                              << hess << "\n\n"
+                                                              << fd;
+    EXPECT_LT((grad - FdGradient(problem, z, 1e-6)).norm(), 1e-5 * (1.0 + grad.norm()));
+  }
+}
+
+TEST(MinJerkProblem, HessianMatchesFiniteDifferencesForCylinderField) {
+  // The collision term's Hessian is exact (∇²d of the field's C² soft-min distance included).
+  physics::CylinderObstacle c1;
+  c1.center_W = Eigen::Vector2d(2.5, 0.6);
+  c1.radius = 0.4;
+  physics::CylinderObstacle c2;
+  c2.center_W = Eigen::Vector2d(3.2, -0.4);
+  c2.radius = 0.3;
+  physics::CylinderObstacle c3;
+  c3.center_W = Eigen::Vector2d(4.5, 0.2);
+  c3.radius = 0.3;
+  const CylinderField field({c1, c2, c3});
+  for (int pieces : {2, 3, 5}) {
+    std::vector<double> durations;
+    for (int i = 0; i < pieces; ++i) durations.push_back(4.0 / pieces * (1.0 + 0.1 * i));
+    const MinJerkProblem problem(Boundary(), durations,
+                                 std::vector<int>(static_cast<std::size_t>(pieces), 9), field,
+                                 TightParams());
+    const Eigen::VectorXd z = PointNear(problem, 1.0);
+    Eigen::VectorXd grad;
+    Eigen::MatrixXd hess;
+    const MinJerkCostTerms terms = problem.Evaluate(z, &grad, &hess);
+    ASSERT_GT(terms.collision, 0.0);
+    ASSERT_GT(terms.feasibility, 0.0);
+    const Eigen::MatrixXd fd = FdHessian(problem, z, 1e-6);
+    EXPECT_LT((hess - fd).norm(), 1e-5 * (1.0 + hess.norm())) << pieces << " pieces\n"
+                                                              << hess << "\n\n"
+                                                              << fd;
+    EXPECT_EQ((hess - hess.transpose()).norm(), 0.0);
+  }
+}
+
+TEST(CylinderField, SmoothDistanceDerivativesMatchFiniteDifferences) {
+  physics::CylinderObstacle c1;
+  c1.center_W = Eigen::Vector2d(0.0, 0.0);
+  c1.radius = 0.3;
+  c1.z_max = 2.0;
+  physics::CylinderObstacle c2;
+  c2.center_W = Eigen::Vector2d(1.0, 0.1);
+  c2.radius = 0.2;
+  c2.z_max = 3.0;
+  const CylinderField field({c1, c2});
+  const double h = 1e-6;
+  // Free space, near the ridge between the two, above a cap (corner region), inside a cylinder.
+  for (const Eigen::Vector3d& p :
+       {Eigen::Vector3d(-0.5, 0.4, 1.0), Eigen::Vector3d(0.52, 0.06, 1.0),
+        Eigen::Vector3d(0.5, 0.2, 1.5), Eigen::Vector3d(0.45, 0.0, 2.2),
+        Eigen::Vector3d(0.1, 0.05, 1.0)}) {
+    Eigen::Vector3d grad;
+    Eigen::Matrix3d hess;
+    const double d = field.EvaluateWithHessian(p, &grad, &hess);
+    EXPECT_LE(d, field.Evaluate(p, nullptr) + 1e-15) << "never above the exact distance";
+    EXPECT_GE(d, field.Evaluate(p, nullptr) - field.Smoothing() * std::log(2.0) - 1e-12);
+    Eigen::Vector3d fd_grad;
+    Eigen::Matrix3d fd_hess;
+    for (int i = 0; i < 3; ++i) {
+      const Eigen::Vector3d e = h * Eigen::Vector3d::Unit(i);
+      Eigen::Vector3d gp;
+      Eigen::Vector3d gm;
+      Eigen::Matrix3d unused;
+      fd_grad(i) = (field.EvaluateWithHessian(p + e, &gp, &unused) -
+                    field.EvaluateWithHessian(p - e, &gm, &unused)) /
+                   (2 * h);
+      fd_hess.col(i) = (gp - gm) / (2 * h);
+    }
+    EXPECT_LT((grad - fd_grad).norm(), 1e-7) << p.transpose();
+    EXPECT_LT((hess - fd_hess).norm(), 1e-5 * (1.0 + hess.norm())) << p.transpose() << "\n"
+                                                                   << hess << "\n\n"
+                                                                   << fd_hess;
+    EXPECT_LT((hess - hess.transpose()).norm(), 1e-12);
+  }
+}
+
+TEST(CylinderField, DefaultEvaluateWithHessianIsGaussNewton) {
+  // A field without its own curvature: the default reports Evaluate() and a zero Hessian.
+  const HalfSpaceField field(Eigen::Vector3d(0.0, 1.0, 0.0), 0.5);
+  const Eigen::Vector3d p(0.3, 2.0, 1.0);
+  Eigen::Vector3d grad;
+  Eigen::Matrix3d hess = Eigen::Matrix3d::Ones();
+  EXPECT_EQ(field.EvaluateWithHessian(p, &grad, &hess), field.Evaluate(p, nullptr));
+  EXPECT_EQ(grad, Eigen::Vector3d(0.0, 1.0, 0.0));
+  EXPECT_EQ(hess, Eigen::Matrix3d::Zero());
+}
+
+TEST(BSplineEsdfField, DerivativesMatchFiniteDifferencesAndValuesTheEsdf) {
+  physics::CylinderObstacle c1;
+  c1.center_W = Eigen::Vector2d(1.0, 0.0);
+  c1.radius = 0.25;
+  physics::CylinderObstacle c2;
+  c2.center_W = Eigen::Vector2d(1.9, 0.5);
+  c2.radius = 0.15;
+  const Esdf esdf = testing::VoxelisedCylinders({c1, c2}, 0.0, 3.0, -1.0, 1.5, 0.0, 2.0);
+  const testing::BSplineEsdfField field(esdf);
+  ASSERT_TRUE(field.ProvidesCurvature());
+  const double h = 1e-6;
+  for (const Eigen::Vector3d& p :
+       {Eigen::Vector3d(0.5, 0.3, 1.0), Eigen::Vector3d(1.45, 0.27, 1.03),
+        Eigen::Vector3d(1.0, 0.41, 0.95), Eigen::Vector3d(2.3, -0.2, 1.27)}) {
+    Eigen::Vector3d grad;
+    Eigen::Matrix3d hess;
+    const double d = field.EvaluateWithHessian(p, &grad, &hess);
+    EXPECT_NEAR(d, esdf.Evaluate(p, nullptr), 0.02) << p.transpose();
+    Eigen::Vector3d fd_grad;
+    Eigen::Matrix3d fd_hess;
+    for (int i = 0; i < 3; ++i) {
+      const Eigen::Vector3d e = h * Eigen::Vector3d::Unit(i);
+      Eigen::Vector3d gp;
+      Eigen::Vector3d gm;
+      fd_grad(i) = (field.EvaluateWithHessian(p + e, &gp, nullptr) -
+                    field.EvaluateWithHessian(p - e, &gm, nullptr)) /
+                   (2 * h);
+      fd_hess.col(i) = (gp - gm) / (2 * h);
+    }
+    EXPECT_LT((grad - fd_grad).norm(), 1e-7) << p.transpose();
+    EXPECT_LT((hess - fd_hess).norm(), 1e-5 * (1.0 + hess.norm())) << p.transpose();
+    EXPECT_EQ(hess, hess.transpose());
+  }
+}
+
+TEST(MinJerkProblem, HessianOfJerkAndTimeTermsIsExact) {
+  // No active penalty: f = w_smooth τ^-5 bᵀH̄b + w_time τ ΣT̄, Hessian exact.
+  const HalfSpaceField field(Eigen::Vector3d::UnitZ(), -100.0);
+  MinJerkCostParams params;
+  params.v_max = 100.0;
+  params.a_max = 100.0;
+  const MinJerkProblem problem(Boundary(), {1.0, 1.2, 0.9}, {5, 5, 5}, field, params);
+  const Eigen::VectorXd z = PointNear(problem, 1.0);
+  Eigen::VectorXd grad;
+  Eigen::MatrixXd hess;
+  problem.Evaluate(z, &grad, &hess);
+  EXPECT_LT((hess - FdHessian(problem, z, 1e-6)).norm(), 1e-6 * (1.0 + hess.norm()));
+}
+
+TEST(MinJerkProblem, RejectsBadInput) {
+  const HalfSpaceField field(Eigen::Vector3d::UnitZ(), 0.0);
+  EXPECT_THROW(MinJerkProblem(Boundary(), {}, {}, field, {}), std::invalid_argument);
+  EXPECT_THROW(MinJerkProblem(Boundary(), {1.0, -1.0}, {3, 3}, field, {}), std::invalid_argument);
+  EXPECT_THROW(MinJerkProblem(Boundary(), {1.0, 1.0}, {3}, field, {}), std::invalid_argument);
+  EXPECT_THROW(MinJerkProblem(Boundary(), {1.0, 1.0}, {3, 0}, field, {}), std::invalid_argument);
+  MinJerkCostParams bad;
+  bad.clearance = 0.0;
+  EXPECT_THROW(MinJerkProblem(Boundary(), {1.0, 1.0}, {3, 3}, field, bad), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace quadtune::planning

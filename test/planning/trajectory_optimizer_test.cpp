@@ -1,0 +1,307 @@
+#include "quadtune/planning/trajectory_optimizer.hpp"
+
+#include <gtest/gtest.h>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/task_arena.h>
+
+#include <atomic>
+#include <string>
+#include <vector>
+
+#include "analytic_fields.hpp"
+#include "forest_scene.hpp"
+#include "quadtune/common/error.hpp"
+
+namespace quadtune::planning {
+namespace {
+
+using testing::CylinderField;
+using testing::EmptyField;
+
+physics::CylinderObstacle Cylinder(double x, double y, double r) {
+  physics::CylinderObstacle c;
+  c.center_W = Eigen::Vector2d(x, y);
+  c.radius = r;
+  return c;
+}
+
+// Three pillars on and near the straight line from the start to the goal.
+CylinderField ThreePillars() {
+  return CylinderField(
+      {Cylinder(2.5, 0.1, 0.3), Cylinder(4.5, -0.2, 0.25), Cylinder(3.6, 1.3, 0.3)});
+}
+
+PlanRequest StraightRequest() {
+  PlanRequest r;
+  r.p0_W = Eigen::Vector3d(0.0, 0.0, 1.0);
+  r.goal_W = Eigen::Vector3d(7.5, 0.0, 1.0);
+  return r;
+}
+
+void ExpectSameResult(const PlanResult& a, const PlanResult& b) {
+  EXPECT_EQ(a.status, b.status);
+  EXPECT_TRUE(a.trajectory == b.trajectory);
+  EXPECT_EQ(a.cost.total, b.cost.total);
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_EQ(a.function_evaluations, b.function_evaluations);
+  EXPECT_EQ(a.compute_units, b.compute_units);
+}
+
+TEST(TrajectoryOptimizer, AvoidsPillarsOnTheStraightLine) {
+  const CylinderField field = ThreePillars();
+  const TrajectoryOptimizer optimizer;
+  PlannerParams params;
+  for (int n_pol : {4, 6}) {
+    params.n_pol = n_pol;
+    const PlanResult r = optimizer.Solve(StraightRequest(), field, params);
+    ASSERT_EQ(r.status, PlanStatus::kSuccess) << r.message;
+    EXPECT_GT(r.min_clearance, 0.0);
+    EXPECT_GT(r.min_clearance, 0.5 * params.clearance) << "n_pol " << n_pol;
+    EXPECT_LT(r.min_clearance, 1.5 * params.clearance);
+    EXPECT_LT((r.trajectory.Position(r.trajectory.Duration()) - StraightRequest().goal_W).norm(),
+              1e-9);
+    EXPECT_GT(r.iterations, 0);
+    EXPECT_GT(r.compute_units, 0.0);
+  }
+}
+
+TEST(TrajectoryOptimizer, PlansThroughForestQueries) {
+  const TrajectoryOptimizer optimizer;
+  PlannerParams params;
+  params.n_pol = 6;
+  for (unsigned seed : {0U, 1U, 2U}) {
+    const testing::ForestQuery q = testing::MakeForestQuery(seed);
+    ASSERT_FALSE(q.request.initial_path_W.empty());
+    const PlanResult r = optimizer.Solve(q.request, *q.field, params);
+    EXPECT_EQ(r.status, PlanStatus::kSuccess) << "seed " << seed << ": " << r.message;
+    EXPECT_GT(r.min_clearance, 0.0) << "seed " << seed;
+    EXPECT_LE(r.max_speed, params.v_des * 1.05);
+    EXPECT_LE(r.max_acceleration, params.a_max * 1.05);
+  }
+}
+
+TEST(TrajectoryOptimizer, SmoothFieldConvergesToToleranceWithoutStallSafeguard) {
+  // With the field's curvature the Newton model is exact: every forest solve meets `tol`
+  // (Ipopt Solve_Succeeded), never the stagnation safeguard.
+  const TrajectoryOptimizer optimizer;
+  PlannerParams params;
+  for (int n_pol : {3, 5, 8}) {
+    params.n_pol = n_pol;
+    for (unsigned seed : {0U, 1U, 4U, 7U}) {
+      const testing::ForestQuery q = testing::MakeForestQuery(seed);
+      ASSERT_TRUE(q.field->ProvidesCurvature());
+      const PlanResult r = optimizer.Solve(q.request, *q.field, params);
+      EXPECT_EQ(r.ipopt_status, 0) << "n_pol " << n_pol << " seed " << seed << ": " << r.message;
+      EXPECT_EQ(r.message.rfind("stalled", 0), std::string::npos) << r.message;
+      EXPECT_LT(r.iterations, 60);
+    }
+  }
+}
+
+TEST(TrajectoryOptimizer, EsdfWithCurvatureConvergesToTolerance) {
+  // An Esdf of a forest query with the proposed C² curvature (cubic B-spline of its samples):
+  // Newton meets `tol` without the stagnation safeguard, and the plan is collision-free on the
+  // Esdf's own (trilinear) distance.
+  const TrajectoryOptimizer optimizer;
+  PlannerParams params;
+  params.n_pol = 5;
+  for (unsigned seed : {0U, 1U}) {
+    const testing::ForestQuery q = testing::MakeForestQuery(seed);
+    const Esdf esdf = testing::ForestEsdf(q);
+    const testing::BSplineEsdfField field(esdf);
+    const PlanResult r = optimizer.Solve(q.request, field, params);
+    EXPECT_EQ(r.ipopt_status, 0) << "seed " << seed << ": " << r.message;
+    EXPECT_EQ(r.status, PlanStatus::kSuccess) << "seed " << seed << ": " << r.message;
+    EXPECT_GT(r.min_clearance, 0.0);
+  }
+}
+
+// A field that offers only Evaluate() (no curvature, exact nearest distance with its kinks): the
+// collision Hessian is Gauss–Newton and the stagnation safeguard is armed; it still plans.
+class NoCurvatureField final : public DistanceField {
+ public:
+  explicit NoCurvatureField(const DistanceField& inner) : inner_(inner) {}
+  double Evaluate(const Eigen::Vector3d& p_W, Eigen::Vector3d* grad_W) const override {
+    return inner_.Evaluate(p_W, grad_W);
+  }
+
+ private:
+  const DistanceField& inner_;
+};
+
+TEST(TrajectoryOptimizer, PlansWithAFieldWithoutCurvature) {
+  const CylinderField pillars = ThreePillars();
+  const NoCurvatureField field(pillars);
+  ASSERT_FALSE(field.ProvidesCurvature());
+  const TrajectoryOptimizer optimizer;
+  PlannerParams params;
+  const PlanResult r = optimizer.Solve(StraightRequest(), field, params);
+  ASSERT_EQ(r.status, PlanStatus::kSuccess) << r.message;
+  EXPECT_GT(r.min_clearance, 0.5 * params.clearance);
+  const PlanResult again = optimizer.Solve(StraightRequest(), field, params);
+  ExpectSameResult(r, again);
+}
+
+TEST(TrajectoryOptimizer, RespectsVelocityAndAccelerationLimits) {
+  const EmptyField field;
+  const TrajectoryOptimizer optimizer;
+  PlannerParams params;
+  params.v_des = 1.5;
+  params.a_max = 2.0;
+  params.w_time = 5.0;  // pushes towards fast flight: the feasibility penalty must hold it back
+  params.w_dyn = 1.0;
+  PlanRequest request = StraightRequest();
+  request.v0_W = Eigen::Vector3d(1.0, 0.5, 0.0);
+  request.goal_W = Eigen::Vector3d(6.0, 3.0, 1.5);
+  const PlanResult r = optimizer.Solve(request, field, params);
+  ASSERT_EQ(r.status, PlanStatus::kSuccess) << r.message;
+  EXPECT_LE(r.max_speed, params.v_des * 1.05);
+  EXPECT_LE(r.max_acceleration, params.a_max * 1.05);
+  EXPECT_GT(r.max_speed, 0.7 * params.v_des) << "time weight should make it fly near v_des";
+  // The start state is met exactly.
+  EXPECT_LT((r.trajectory.Velocity(0.0) - request.v0_W).norm(), 1e-9);
+  EXPECT_LT((r.trajectory.Acceleration(0.0) - request.a0_W).norm(), 1e-9);
+}
+
+TEST(TrajectoryOptimizer, TrajectoryIsContinuousToAcceleration) {
+  const CylinderField field = ThreePillars();
+  const TrajectoryOptimizer optimizer;
+  const PlanResult r = optimizer.Solve(StraightRequest(), field, PlannerParams{});
+  ASSERT_FALSE(r.trajectory.Empty());
+  double t = 0.0;
+  for (int i = 0; i + 1 < r.trajectory.NumPieces(); ++i) {
+    t += r.trajectory.PieceDuration(i);
+    for (int order = 0; order <= 3; ++order) {
+      const Eigen::Vector3d before = r.trajectory.Evaluate(t - 1e-7, order);
+      const Eigen::Vector3d after = r.trajectory.Evaluate(t + 1e-7, order);
+      EXPECT_LT((before - after).norm(), 1e-4) << "joint " << i << " order " << order;
+    }
+  }
+}
+
+TEST(TrajectoryOptimizer, SameInputsGiveBitIdenticalResults) {
+  const testing::ForestQuery q = testing::MakeForestQuery(3);
+  const TrajectoryOptimizer optimizer;
+  PlannerParams params;
+  params.n_pol = 5;
+  const PlanResult a = optimizer.Solve(q.request, *q.field, params);
+  const PlanResult b = optimizer.Solve(q.request, *q.field, params);
+  ExpectSameResult(a, b);
+}
+
+TEST(TrajectoryOptimizer, WarmStartFromThePreviousTrajectory) {
+  const CylinderField field = ThreePillars();
+  const TrajectoryOptimizer optimizer;
+  PlannerParams params;
+  const PlanResult cold = optimizer.Solve(StraightRequest(), field, params);
+  ASSERT_EQ(cold.status, PlanStatus::kSuccess);
+  // Re-plan 0.8 s later from the state on the executing trajectory to the same goal.
+  PlanRequest request = StraightRequest();
+  const double t = 0.8;
+  request.p0_W = cold.trajectory.Position(t);
+  request.v0_W = cold.trajectory.Velocity(t);
+  request.a0_W = cold.trajectory.Acceleration(t);
+  request.warm_start = &cold.trajectory;
+  request.warm_start_time = t;
+  const PlanResult warm = optimizer.Solve(request, field, params);
+  ASSERT_EQ(warm.status, PlanStatus::kSuccess) << warm.message;
+  EXPECT_GT(warm.min_clearance, 0.5 * params.clearance);
+  // Same problem re-solved from its own solution: converges in few iterations.
+  PlanRequest same = StraightRequest();
+  same.warm_start = &cold.trajectory;
+  const PlanResult resolved = optimizer.Solve(same, field, params);
+  ASSERT_EQ(resolved.status, PlanStatus::kSuccess);
+  EXPECT_LE(resolved.iterations, cold.iterations);
+  EXPECT_NEAR(resolved.cost.total, cold.cost.total, 1e-3 * cold.cost.total);
+}
+
+TEST(TrajectoryOptimizer, ReportsInvalidInputWithoutThrowing) {
+  const EmptyField field;
+  const TrajectoryOptimizer optimizer;
+  PlanRequest request = StraightRequest();
+  request.goal_W = request.p0_W;
+  EXPECT_EQ(optimizer.Solve(request, field, PlannerParams{}).status, PlanStatus::kInvalidInput);
+  request = StraightRequest();
+  request.v0_W.x() = std::nan("");
+  EXPECT_EQ(optimizer.Solve(request, field, PlannerParams{}).status, PlanStatus::kInvalidInput);
+  PlannerParams bad;
+  bad.n_pol = 1;
+  const PlanResult r = optimizer.Solve(StraightRequest(), field, bad);
+  EXPECT_EQ(r.status, PlanStatus::kInvalidInput);
+  EXPECT_FALSE(r.message.empty());
+}
+
+TEST(TrajectoryOptimizer, RejectsBadOptions) {
+  TrajectoryOptimizerOptions o;
+  o.sample_spacing = 0.0;
+  EXPECT_THROW(TrajectoryOptimizer{o}, ConfigError);
+  o = {};
+  o.tolerance = 0.1;
+  EXPECT_THROW(TrajectoryOptimizer{o}, ConfigError);
+  o = {};
+  o.max_iterations = 0;
+  EXPECT_THROW(TrajectoryOptimizer{o}, ConfigError);
+  o = {};
+  o.max_samples_per_piece = 1;
+  EXPECT_THROW(TrajectoryOptimizer{o}, ConfigError);
+  o = {};
+  o.stall_relative_change = 0.0;
+  EXPECT_THROW(TrajectoryOptimizer{o}, ConfigError);
+}
+
+TEST(TrajectoryOptimizer, AllocatesMoreTimeWhereItAcceleratesFromRest) {
+  const std::vector<Eigen::Vector3d> path{Eigen::Vector3d::Zero(), Eigen::Vector3d(8, 0, 0)};
+  const auto t = TrajectoryOptimizer::AllocateTime(path, 4, 0.0, 0.0, 2.0, 3.0);
+  ASSERT_EQ(t.size(), 4U);
+  EXPECT_GT(t[0], t[1]);
+  EXPECT_GT(t[3], t[2]);
+  EXPECT_NEAR(t[1], 2.0 / 2.0, 1e-9);  // cruise piece: 2 m at 2 m/s
+}
+
+// Many solves at once on 8 worker threads (would crash with Ipopt's MUMPS): every result equals
+// the single-threaded one.
+TEST(TrajectoryOptimizer, ConcurrentSolvesMatchSingleThreaded) {
+  const TrajectoryOptimizer optimizer;
+  const CylinderField field = ThreePillars();
+  constexpr int kQueries = 8;
+  std::vector<PlanRequest> requests;
+  std::vector<PlannerParams> params;
+  for (int k = 0; k < kQueries; ++k) {
+    PlanRequest r = StraightRequest();
+    r.goal_W.y() = -0.6 + 0.15 * k;
+    r.v0_W = Eigen::Vector3d(0.1 * k, 0.0, 0.0);
+    requests.push_back(r);
+    PlannerParams p;
+    p.n_pol = 3 + k % 3;
+    p.w_col = 0.5 + 0.1 * k;
+    params.push_back(p);
+  }
+  std::vector<PlanResult> reference;
+  for (int k = 0; k < kQueries; ++k)
+    reference.push_back(optimizer.Solve(requests[k], field, params[k]));
+  for (int threads : {2, 8}) {
+    constexpr int kSolves = 200;
+    std::vector<PlanResult> results(kSolves);
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+      tbb::parallel_for(0, kSolves, 1, [&](int i) {
+        results[static_cast<std::size_t>(i)] =
+            optimizer.Solve(requests[static_cast<std::size_t>(i % kQueries)], field,
+                            params[static_cast<std::size_t>(i % kQueries)]);
+      });
+    });
+    int mismatches = 0;
+    for (int i = 0; i < kSolves; ++i) {
+      const PlanResult& a = results[static_cast<std::size_t>(i)];
+      const PlanResult& b = reference[static_cast<std::size_t>(i % kQueries)];
+      if (a.status != b.status || !(a.trajectory == b.trajectory) || a.cost.total != b.cost.total ||
+          a.iterations != b.iterations || a.compute_units != b.compute_units) {
+        ++mismatches;
+      }
+    }
+    EXPECT_EQ(mismatches, 0) << threads << " threads";
+  }
+}
+
+}  // namespace
+}  // namespace quadtune::planning
