@@ -360,6 +360,69 @@ Eigen::Vector3d Esdf::CellCenter(const Eigen::Vector3i& idx) const {
   return origin_W_ + (idx.cast<double>().array() + 0.5).matrix() * res_;
 }
 
+double Esdf::EvaluateWithHessian(const Eigen::Vector3d& p_W, Eigen::Vector3d* grad_W,
+                                 Eigen::Matrix3d* hess_W) const {
+  if (!Contains(p_W)) {
+    if (grad_W != nullptr) grad_W->setZero();
+    if (hess_W != nullptr) hess_W->setZero();
+    return max_distance_;
+  }
+  // Per axis: the four B-spline basis weights around the point and their first and second
+  // derivatives (cell centre i sits at origin + (i + 1/2)·res; u is the coordinate in cells).
+  const Eigen::Vector3d u = (p_W - origin_W_) * inv_res_ - Eigen::Vector3d::Constant(0.5);
+  double w[3][4], dw[3][4], ddw[3][4];
+  int base[3];
+  for (int a = 0; a < 3; ++a) {
+    const double fl = std::floor(u(a));
+    const double t = u(a) - fl, t2 = t * t, t3 = t2 * t, s = 1.0 - t;
+    base[a] = static_cast<int>(fl) - 1;
+    w[a][0] = s * s * s / 6.0;
+    w[a][1] = (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0;
+    w[a][2] = (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0;
+    w[a][3] = t3 / 6.0;
+    dw[a][0] = -0.5 * s * s;
+    dw[a][1] = 1.5 * t2 - 2.0 * t;
+    dw[a][2] = -1.5 * t2 + t + 0.5;
+    dw[a][3] = 0.5 * t2;
+    ddw[a][0] = s;
+    ddw[a][1] = 3.0 * t - 2.0;
+    ddw[a][2] = -3.0 * t + 1.0;
+    ddw[a][3] = t;
+  }
+  double value = 0.0;
+  Eigen::Vector3d g = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
+  for (int k = 0; k < 4; ++k) {
+    const std::size_t z = static_cast<std::size_t>(std::clamp(base[2] + k, 0, dims_.z() - 1));
+    for (int j = 0; j < 4; ++j) {
+      const std::size_t y = static_cast<std::size_t>(std::clamp(base[1] + j, 0, dims_.y() - 1));
+      const std::size_t row = static_cast<std::size_t>(dims_.x()) *
+                              (y + static_cast<std::size_t>(dims_.y()) * z);
+      const double wyz = w[1][j] * w[2][k];
+      for (int i = 0; i < 4; ++i) {
+        const int x = std::clamp(base[0] + i, 0, dims_.x() - 1);
+        const double c = values_[row + static_cast<std::size_t>(x)] * quantum_;
+        value += c * w[0][i] * wyz;
+        g(0) += c * dw[0][i] * wyz;
+        g(1) += c * w[0][i] * dw[1][j] * w[2][k];
+        g(2) += c * w[0][i] * w[1][j] * dw[2][k];
+        h(0, 0) += c * ddw[0][i] * wyz;
+        h(1, 1) += c * w[0][i] * ddw[1][j] * w[2][k];
+        h(2, 2) += c * w[0][i] * w[1][j] * ddw[2][k];
+        h(0, 1) += c * dw[0][i] * dw[1][j] * w[2][k];
+        h(0, 2) += c * dw[0][i] * w[1][j] * dw[2][k];
+        h(1, 2) += c * w[0][i] * dw[1][j] * dw[2][k];
+      }
+    }
+  }
+  h(1, 0) = h(0, 1);
+  h(2, 0) = h(0, 2);
+  h(2, 1) = h(1, 2);
+  if (grad_W != nullptr) *grad_W = g * inv_res_;
+  if (hess_W != nullptr) *hess_W = h * (inv_res_ * inv_res_);
+  return value;
+}
+
 double Esdf::Evaluate(const Eigen::Vector3d& p_W, Eigen::Vector3d* grad_W) const {
   if (!Contains(p_W)) {
     if (grad_W != nullptr) grad_W->setZero();

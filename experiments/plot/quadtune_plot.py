@@ -153,7 +153,10 @@ def plot_flights(directories, out_dir):
     ax2.plot(spacing, [f[1]["mean_speed"] for f in flights], "s--", color="tab:orange",
              label="mean speed (m/s)")
     ax2.set_ylabel("mean speed (m/s)")
-    fig.legend(loc="upper center", fontsize=8, ncol=2)
+    handles = ax.get_legend_handles_labels()
+    handles2 = ax2.get_legend_handles_labels()
+    ax.legend(handles[0] + handles2[0], handles[1] + handles2[1], loc="upper left", fontsize=8)
+    ax.set_title("Go-and-return flights against obstacle density")
     fig.tight_layout()
     density = os.path.join(out_dir, "flight_time_vs_spacing.png")
     fig.savefig(density, dpi=120)

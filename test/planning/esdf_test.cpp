@@ -5,6 +5,7 @@
 #include <cmath>
 #include <thread>
 
+#include "analytic_fields.hpp"
 #include "mapping_scenes.hpp"
 #include "quadtune/common/random.hpp"
 
@@ -249,6 +250,50 @@ TEST(EsdfOptions, ValidateRejectsEachBadValue) {
   EXPECT_THROW((void)Esdf::FromOccupancy(Vector3d::Zero(), 0.1, Vector3i(2, 2, 2),
                                          std::vector<std::uint8_t>(7, 0)),
                std::invalid_argument);
+}
+
+TEST(Esdf, CurvatureIsExactDerivativeOfASmoothFieldCloseToTheSamples) {
+  physics::CylinderObstacle c1;
+  c1.center_W = Eigen::Vector2d(1.0, 0.0);
+  c1.radius = 0.25;
+  physics::CylinderObstacle c2;
+  c2.center_W = Eigen::Vector2d(1.9, 0.5);
+  c2.radius = 0.15;
+  const Esdf esdf = testing::VoxelisedCylinders({c1, c2}, 0.0, 3.0, -1.0, 1.5, 0.0, 2.0);
+  const Esdf& field = esdf;
+  ASSERT_TRUE(field.ProvidesCurvature());
+  const double h = 1e-6;
+  for (const Eigen::Vector3d& p :
+       {Eigen::Vector3d(0.5, 0.3, 1.0), Eigen::Vector3d(1.45, 0.27, 1.03),
+        Eigen::Vector3d(1.0, 0.41, 0.95), Eigen::Vector3d(2.3, -0.2, 1.27)}) {
+    Eigen::Vector3d grad;
+    Eigen::Matrix3d hess;
+    const double d = field.EvaluateWithHessian(p, &grad, &hess);
+    EXPECT_NEAR(d, esdf.Evaluate(p, nullptr), 0.02) << p.transpose();
+    Eigen::Vector3d fd_grad;
+    Eigen::Matrix3d fd_hess;
+    for (int i = 0; i < 3; ++i) {
+      const Eigen::Vector3d e = h * Eigen::Vector3d::Unit(i);
+      Eigen::Vector3d gp;
+      Eigen::Vector3d gm;
+      fd_grad(i) = (field.EvaluateWithHessian(p + e, &gp, nullptr) -
+                    field.EvaluateWithHessian(p - e, &gm, nullptr)) /
+                   (2 * h);
+      fd_hess.col(i) = (gp - gm) / (2 * h);
+    }
+    EXPECT_LT((grad - fd_grad).norm(), 1e-7) << p.transpose();
+    EXPECT_LT((hess - fd_hess).norm(), 1e-5 * (1.0 + hess.norm())) << p.transpose();
+    EXPECT_EQ(hess, hess.transpose());
+  }
+}
+
+TEST(Esdf, CurvatureOutsideTheBoxIsFlat) {
+  const Esdf esdf = testing::VoxelisedCylinders({}, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0);
+  Eigen::Vector3d g;
+  Eigen::Matrix3d h;
+  EXPECT_EQ(esdf.EvaluateWithHessian(Eigen::Vector3d(5, 5, 5), &g, &h), esdf.max_distance());
+  EXPECT_EQ(g, Eigen::Vector3d::Zero());
+  EXPECT_EQ(h, Eigen::Matrix3d::Zero());
 }
 
 }  // namespace

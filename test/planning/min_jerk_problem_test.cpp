@@ -246,41 +246,6 @@ TEST(CylinderField, DefaultEvaluateWithHessianIsGaussNewton) {
   EXPECT_EQ(hess, Eigen::Matrix3d::Zero());
 }
 
-TEST(BSplineEsdfField, DerivativesMatchFiniteDifferencesAndValuesTheEsdf) {
-  physics::CylinderObstacle c1;
-  c1.center_W = Eigen::Vector2d(1.0, 0.0);
-  c1.radius = 0.25;
-  physics::CylinderObstacle c2;
-  c2.center_W = Eigen::Vector2d(1.9, 0.5);
-  c2.radius = 0.15;
-  const Esdf esdf = testing::VoxelisedCylinders({c1, c2}, 0.0, 3.0, -1.0, 1.5, 0.0, 2.0);
-  const testing::BSplineEsdfField field(esdf);
-  ASSERT_TRUE(field.ProvidesCurvature());
-  const double h = 1e-6;
-  for (const Eigen::Vector3d& p :
-       {Eigen::Vector3d(0.5, 0.3, 1.0), Eigen::Vector3d(1.45, 0.27, 1.03),
-        Eigen::Vector3d(1.0, 0.41, 0.95), Eigen::Vector3d(2.3, -0.2, 1.27)}) {
-    Eigen::Vector3d grad;
-    Eigen::Matrix3d hess;
-    const double d = field.EvaluateWithHessian(p, &grad, &hess);
-    EXPECT_NEAR(d, esdf.Evaluate(p, nullptr), 0.02) << p.transpose();
-    Eigen::Vector3d fd_grad;
-    Eigen::Matrix3d fd_hess;
-    for (int i = 0; i < 3; ++i) {
-      const Eigen::Vector3d e = h * Eigen::Vector3d::Unit(i);
-      Eigen::Vector3d gp;
-      Eigen::Vector3d gm;
-      fd_grad(i) = (field.EvaluateWithHessian(p + e, &gp, nullptr) -
-                    field.EvaluateWithHessian(p - e, &gm, nullptr)) /
-                   (2 * h);
-      fd_hess.col(i) = (gp - gm) / (2 * h);
-    }
-    EXPECT_LT((grad - fd_grad).norm(), 1e-7) << p.transpose();
-    EXPECT_LT((hess - fd_hess).norm(), 1e-5 * (1.0 + hess.norm())) << p.transpose();
-    EXPECT_EQ(hess, hess.transpose());
-  }
-}
-
 TEST(MinJerkProblem, HessianOfJerkAndTimeTermsIsExact) {
   // No active penalty: f = w_smooth τ^-5 bᵀH̄b + w_time τ ΣT̄, Hessian exact.
   const HalfSpaceField field(Eigen::Vector3d::UnitZ(), -100.0);

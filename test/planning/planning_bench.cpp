@@ -109,9 +109,21 @@ void BM_Solve(benchmark::State& state) {
 }
 BENCHMARK(BM_Solve)->DenseRange(3, 8)->Iterations(48)->Unit(benchmark::kMillisecond);
 
-// The same queries on an Esdf of the forest (0.1 m voxels): arg 1 = 0 plans on the Esdf as it is
-// (trilinear, no curvature: Gauss–Newton collision Hessian and the stagnation safeguard),
-// arg 1 = 1 on BSplineEsdfField (the C² curvature proposed for Esdf::EvaluateWithHessian).
+// An Esdf seen only through its trilinear Evaluate(): no curvature, so the collision Hessian is
+// Gauss–Newton and the stagnation safeguard is armed.
+class TrilinearOnly final : public quadtune::planning::DistanceField {
+ public:
+  explicit TrilinearOnly(const quadtune::planning::Esdf& esdf) : esdf_(esdf) {}
+  double Evaluate(const Eigen::Vector3d& p_W, Eigen::Vector3d* grad_W) const override {
+    return esdf_.Evaluate(p_W, grad_W);
+  }
+
+ private:
+  const quadtune::planning::Esdf& esdf_;
+};
+
+// The same queries on an Esdf of the forest (0.1 m voxels): arg 1 = 0 plans on its trilinear
+// values alone (TrilinearOnly), arg 1 = 1 on the Esdf itself with its C² B-spline curvature.
 void BM_SolveEsdf(benchmark::State& state) {
   const TrajectoryOptimizer optimizer;
   PlannerParams params;
@@ -123,8 +135,8 @@ void BM_SolveEsdf(benchmark::State& state) {
     for (const auto& q : Queries()) e.push_back(quadtune::planning::testing::ForestEsdf(q));
     return e;
   }();
-  std::vector<quadtune::planning::testing::BSplineEsdfField> splines;
-  for (const auto& e : esdfs) splines.emplace_back(e);
+  std::vector<TrilinearOnly> trilinear;
+  for (const auto& e : esdfs) trilinear.emplace_back(e);
   std::vector<double> times_ms;
   std::vector<double> iteration_counts;
   double cost = 0.0;
@@ -135,7 +147,7 @@ void BM_SolveEsdf(benchmark::State& state) {
   for (auto _ : state) {
     const std::size_t i = k++ % queries.size();
     const quadtune::planning::DistanceField& field =
-        smooth ? static_cast<const quadtune::planning::DistanceField&>(splines[i]) : esdfs[i];
+        smooth ? static_cast<const quadtune::planning::DistanceField&>(esdfs[i]) : trilinear[i];
     const auto t0 = std::chrono::steady_clock::now();
     const PlanResult r = optimizer.Solve(queries[i].request, field, params);
     const auto t1 = std::chrono::steady_clock::now();

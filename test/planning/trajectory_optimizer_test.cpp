@@ -99,7 +99,7 @@ TEST(TrajectoryOptimizer, SmoothFieldConvergesToToleranceWithoutStallSafeguard) 
 }
 
 TEST(TrajectoryOptimizer, EsdfWithCurvatureConvergesToTolerance) {
-  // An Esdf of a forest query with the proposed C² curvature (cubic B-spline of its samples):
+  // An Esdf of a forest query, with its C² curvature (cubic B-spline of its samples):
   // Newton meets `tol` without the stagnation safeguard, and the plan is collision-free on the
   // Esdf's own (trilinear) distance.
   const TrajectoryOptimizer optimizer;
@@ -108,8 +108,7 @@ TEST(TrajectoryOptimizer, EsdfWithCurvatureConvergesToTolerance) {
   for (unsigned seed : {0U, 1U}) {
     const testing::ForestQuery q = testing::MakeForestQuery(seed);
     const Esdf esdf = testing::ForestEsdf(q);
-    const testing::BSplineEsdfField field(esdf);
-    const PlanResult r = optimizer.Solve(q.request, field, params);
+    const PlanResult r = optimizer.Solve(q.request, esdf, params);
     EXPECT_EQ(r.ipopt_status, 0) << "seed " << seed << ": " << r.message;
     EXPECT_EQ(r.status, PlanStatus::kSuccess) << "seed " << seed << ": " << r.message;
     EXPECT_GT(r.min_clearance, 0.0);

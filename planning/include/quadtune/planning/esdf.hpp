@@ -82,6 +82,15 @@ class Esdf final : public DistanceField {
 
   /// Signed distance (m) at p_W, trilinearly interpolated; d/dp_W into *grad_W when not null.
   double Evaluate(const Eigen::Vector3d& p_W, Eigen::Vector3d* grad_W) const override;
+  /// The C² distance the trajectory optimiser's collision cost reads: the uniform cubic B-spline
+  /// over the cell-centre samples (4×4×4 samples around p_W, indices clamped to the box), with its
+  /// exact gradient (1) and Hessian (1/m). Being an approximating spline it differs from the
+  /// samples by about res²/6 times their second difference (≈ 1 mm at 0.1 m voxels next to a
+  /// 0.2 m pillar). Outside the box: max_distance with zero derivatives.
+  double EvaluateWithHessian(const Eigen::Vector3d& p_W, Eigen::Vector3d* grad_W,
+                             Eigen::Matrix3d* hess_W) const override;
+  /// True: EvaluateWithHessian gives exact curvature of a C² field.
+  [[nodiscard]] bool ProvidesCurvature() const override { return true; }
 
   /// Stored signed distance (m) at the centre of cell idx (local index, 0 ≤ idx < dims()).
   [[nodiscard]] double CellDistance(const Eigen::Vector3i& idx) const;
