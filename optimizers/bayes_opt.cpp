@@ -238,20 +238,24 @@ int BayesOpt::IncumbentIndex(const Gp& gp, double* mean_std) const {
   return static_cast<int>(best);
 }
 
+void BayesOpt::LoadObservations(Model& model) const {
+  const auto n = static_cast<Eigen::Index>(observations_.size());
+  Eigen::MatrixXd x(n, space_.Dim());
+  Eigen::VectorXd y(n), v(n), m(n);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const Observation& o = observations_[static_cast<std::size_t>(j)];
+    x.row(j) = o.u.transpose();
+    y[j] = o.value;
+    v[j] = o.noise_variance;
+    m[j] = NoiseMultiplier(o);
+  }
+  std::visit([&](auto& gp) { gp.SetData(x, y, v, m); }, model);
+}
+
 void BayesOpt::BuildModel(Model& model, bool refit) {
+  LoadObservations(model);
   std::visit(
       [&](auto& gp) {
-        const auto n = static_cast<Eigen::Index>(observations_.size());
-        Eigen::MatrixXd x(n, space_.Dim());
-        Eigen::VectorXd y(n), v(n), m(n);
-        for (Eigen::Index j = 0; j < n; ++j) {
-          const Observation& o = observations_[static_cast<std::size_t>(j)];
-          x.row(j) = o.u.transpose();
-          y[j] = o.value;
-          v[j] = o.noise_variance;
-          m[j] = NoiseMultiplier(o);
-        }
-        gp.SetData(x, y, v, m);
         if (refit) {
           const bool restart = !fitted_ || refit_count_ % options_.restart_period == 0;
           gp.Fit(rng_, restart ? options_.hyper_restarts : 0);
@@ -296,19 +300,9 @@ std::optional<BestPoint> BayesOpt::Best() const {
     std::visit([&](const auto& gp) { y_mean = gp.OutputMean(); y_scale = gp.OutputScale(); }, model_);
   } else {
     Model copy = model_;
+    LoadObservations(copy);
     std::visit(
         [&](auto& gp) {
-          const auto n = static_cast<Eigen::Index>(observations_.size());
-          Eigen::MatrixXd x(n, space_.Dim());
-          Eigen::VectorXd y(n), v(n), m(n);
-          for (Eigen::Index j = 0; j < n; ++j) {
-            const Observation& o = observations_[static_cast<std::size_t>(j)];
-            x.row(j) = o.u.transpose();
-            y[j] = o.value;
-            v[j] = o.noise_variance;
-            m[j] = NoiseMultiplier(o);
-          }
-          gp.SetData(x, y, v, m);
           index = IncumbentIndex(gp, &mean_std);
           y_mean = gp.OutputMean();
           y_scale = gp.OutputScale();

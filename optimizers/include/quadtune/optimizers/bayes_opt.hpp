@@ -155,6 +155,8 @@ class BayesOpt final : public Optimizer {
   };
   void UpdateModel();
   void BuildModel(Model& model, bool refit);
+  // Loads every observation (unit-cube input, value, noise variance and multiplier) into the GP.
+  void LoadObservations(Model& model) const;
   void UpdateBounds();
   template <class Gp>
   void ProposeBatch(Gp& gp, int count, std::vector<Eigen::VectorXd>* out);
