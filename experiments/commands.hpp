@@ -14,6 +14,12 @@ void RegisterFly(CLI::App& app, int& exit_code);
 void RegisterLayout(CLI::App& app, int& exit_code);
 /// `quadtune plot`: figures from outputs (matplotlib through Debian's python3).
 void RegisterPlot(CLI::App& app, int& exit_code);
+/// `quadtune run`: a tuning experiment (engine), results in SQLite (run_command.cpp).
+void RegisterRun(CLI::App& app, int& exit_code);
+/// `quadtune export`: a results store to CSV.
+void RegisterExport(CLI::App& app, int& exit_code);
+/// `quadtune bench`: engine throughput at 1..N threads.
+void RegisterBench(CLI::App& app, int& exit_code);
 
 /// Runs the figure script with `args`; returns its exit status (0 on success).
 int RunPlotScript(const std::string& args);

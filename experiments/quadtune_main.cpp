@@ -21,6 +21,9 @@ int main(int argc, char** argv) {
   quadtune::cli::RegisterFly(app, exit_code);
   quadtune::cli::RegisterLayout(app, exit_code);
   quadtune::cli::RegisterPlot(app, exit_code);
+  quadtune::cli::RegisterRun(app, exit_code);
+  quadtune::cli::RegisterExport(app, exit_code);
+  quadtune::cli::RegisterBench(app, exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,235 @@
+#include "quadtune/engine/experiment.hpp"
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "quadtune/common/random.hpp"
+#include "quadtune/layout/options.hpp"
+#include "quadtune/physics/drone.hpp"
+#include "quadtune/planning/parameters.hpp"
+
+#ifndef QUADTUNE_SOURCE_DIR
+#define QUADTUNE_SOURCE_DIR "."
+#endif
+
+namespace quadtune::engine {
+
+const char* ToString(Method method) {
+  switch (method) {
+    case Method::kDefault: return "default";
+    case Method::kRandom: return "random";
+    case Method::kPso: return "pso";
+    case Method::kBo: return "bo";
+    case Method::kBoPso: return "bo_pso";
+  }
+  return "?";
+}
+
+std::optional<Method> MethodFromString(const std::string& name) {
+  for (Method m : {Method::kDefault, Method::kRandom, Method::kPso, Method::kBo, Method::kBoPso}) {
+    if (name == ToString(m)) return m;
+  }
+  return std::nullopt;
+}
+
+std::string ResolvePath(const std::string& relative, const std::string& base_dir) {
+  namespace fs = std::filesystem;
+  if (relative.empty() || fs::path(relative).is_absolute()) return relative;
+  std::vector<fs::path> candidates{fs::path(base_dir) / relative, fs::path(relative)};
+  if (const char* env = std::getenv("QUADTUNE_ASSETS")) candidates.push_back(fs::path(env) / relative);
+  candidates.push_back(fs::path(QUADTUNE_SOURCE_DIR) / "assets" / relative);
+  for (const auto& c : candidates) {
+    if (fs::exists(c)) return c.string();
+  }
+  return relative;
+}
+
+std::uint64_t Experiment::MapSeed(int repeat) const {
+  return DeriveSeed(seed, {0x3a9, static_cast<std::uint64_t>(repeat)});
+}
+
+namespace {
+
+std::vector<std::string> StringList(const YamlMap& map, const std::string& key) {
+  const YAML::Node node = map.node()[key];
+  if (!node || !node.IsSequence() || node.size() == 0) {
+    map.Fail(key, "expected a non-empty list of names");
+  }
+  std::vector<std::string> out;
+  for (const auto& item : node) {
+    if (!item.IsScalar()) map.Fail(key, "expected a list of names");
+    out.push_back(item.as<std::string>());
+  }
+  return out;
+}
+
+Planner BuildPlanner(const YamlMap& p, const std::string& base_dir, std::string* type) {
+  *type = p.String("type", std::string("ipopt"), {"ipopt", "toy"});
+  if (*type == "toy") {
+    p.RejectUnknownKeys({"type", "toy"});
+    const YamlMap t = p.Map("toy", true);
+    t.RejectUnknownKeys({"length", "gates", "gate_speed_min", "gate_speed_max", "plan_interval",
+                         "flight_delay_s", "throw_speed_above"});
+    ToyPlannerOptions o;
+    o.length = t.Number("length", o.length, Range::Positive());
+    o.gates = static_cast<int>(t.Integer("gates", o.gates, Range::Closed(0, 1000)));
+    o.gate_speed_min = t.Number("gate_speed_min", o.gate_speed_min, Range::Positive());
+    o.gate_speed_max = t.Number("gate_speed_max", o.gate_speed_max, Range::Positive());
+    if (o.gate_speed_max < o.gate_speed_min) {
+      t.Fail("gate_speed_max", "must be >= gate_speed_min");
+    }
+    o.plan_interval = t.Number("plan_interval", o.plan_interval, Range::Positive());
+    o.flight_delay_s = t.Number("flight_delay_s", o.flight_delay_s, Range::Closed(0.0, 10.0));
+    o.throw_speed_above = t.Number("throw_speed_above", o.throw_speed_above, Range::Any());
+    return Planner{ToyPlanner{o}};
+  }
+  p.RejectUnknownKeys({"type", "drone", "layout", "layout_file", "world", "mission", "max_time",
+                       "fixed"});
+  IpoptPlannerOptions o;
+  const std::string drone = ResolvePath(p.String("drone", std::string("drones/research_1kg.yaml")), base_dir);
+  if (!std::filesystem::exists(drone)) {
+    p.Fail("drone", "file '" + drone + "' not found (searched next to the experiment and in assets/)");
+  }
+  o.drone = physics::LoadDroneDescription(drone);
+  if (p.Has("layout") && p.Has("layout_file")) p.Fail("layout_file", "give either layout or layout_file");
+  if (p.Has("layout_file")) {
+    const std::string lf = ResolvePath(p.String("layout_file"), base_dir);
+    if (!std::filesystem::exists(lf)) p.Fail("layout_file", "file '" + lf + "' not found");
+    o.layout = layout::LayoutOptions::LoadFile(lf);
+  } else if (p.Has("layout")) {
+    o.layout = layout::LayoutOptions::FromYaml(p.Map("layout"));
+  } else {
+    p.Fail("layout", "missing: give layout (generator options) or layout_file");
+  }
+  if (p.Has("world")) o.world = physics::WorldOptions::FromYaml(p.Map("world"));
+  o.world.collision_response = physics::CollisionResponse::kPassThrough;
+  o.go_and_return = p.String("mission", std::string("go_and_return"), {"go_and_return", "go_to"}) ==
+                    "go_and_return";
+  o.flight.max_time = p.Number("max_time", 60.0, Range::Positive());
+  if (p.Has("fixed")) o.base = planning::PlannerParams::FromYaml(p.Map("fixed"));
+  o.base.Validate(p.file());
+  return Planner{IpoptPlanner{std::move(o)}};
+}
+
+}  // namespace
+
+Experiment Experiment::LoadFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path, "", "cannot read the experiment file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string dir = std::filesystem::path(path).parent_path().string();
+  return FromString(ss.str(), path, dir.empty() ? "." : dir);
+}
+
+Experiment Experiment::FromString(const std::string& text, const std::string& origin,
+                                  const std::string& base_dir) {
+  const YamlMap map = YamlMap::FromString(text, origin);
+  map.RejectUnknownKeys({"name", "seed", "threads", "mode", "repeats", "methods", "planner",
+                         "parameters", "short_term", "long_term", "initial_short_term",
+                         "objective", "budget", "pso", "bo"});
+  Experiment e;
+  e.file = origin;
+  e.text = text;
+  e.name = map.String("name", std::string("experiment"));
+  e.seed = static_cast<std::uint64_t>(map.Integer("seed", 1, Range::Closed(0, 9.0e15)));
+  e.threads = static_cast<int>(map.Integer("threads", 2, Range::Closed(1, 1024)));
+  e.mode = map.String("mode", std::string("reproducible"), {"reproducible", "realtime"}) == "realtime"
+               ? TimingMode::kRealtime
+               : TimingMode::kReproducible;
+  e.repeats = static_cast<int>(map.Integer("repeats", 1, Range::Closed(1, 100000)));
+  {
+    std::set<Method> seen;
+    for (const auto& name : StringList(map, "methods")) {
+      const auto m = MethodFromString(name);
+      if (!m) {
+        map.Fail("methods", "unknown method '" + name + "', allowed: default, random, pso, bo, bo_pso");
+      }
+      if (!seen.insert(*m).second) map.Fail("methods", "method '" + name + "' listed twice");
+      e.methods.push_back(*m);
+    }
+  }
+  e.planner = BuildPlanner(map.Map("planner"), base_dir, &e.planner_type);
+  e.space = optimizers::ParameterSpace::FromYaml(map);
+
+  // Which parameters are short- and long-term: each must be the planner's and in the space.
+  std::set<std::string> planner_short, planner_long;
+  for (const auto& p : e.planner.ShortTermParameters()) planner_short.insert(p.name);
+  for (const auto& p : e.planner.LongTermParameters()) planner_long.insert(p.name);
+  const auto space_names = e.space.Names();
+  for (const auto& n : space_names) {
+    if (!planner_short.count(n) && !planner_long.count(n)) {
+      map.Fail("parameters", "'" + n + "' is not a tunable parameter of planner '" +
+                                 e.planner.Name() + "'");
+    }
+  }
+  auto read_side = [&](const char* key, const std::set<std::string>& allowed) {
+    std::vector<std::string> names = StringList(map, key);
+    std::set<std::string> unique;
+    for (const auto& n : names) {
+      if (!allowed.count(n)) {
+        std::string list;
+        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        map.Fail(key, "'" + n + "' is not allowed here; allowed: " + list);
+      }
+      if (std::find(space_names.begin(), space_names.end(), n) == space_names.end()) {
+        map.Fail(key, "'" + n + "' has no bounds in parameters");
+      }
+      if (!unique.insert(n).second) map.Fail(key, "'" + n + "' listed twice");
+    }
+    // Keep space order.
+    std::vector<std::string> ordered;
+    for (const auto& n : space_names) {
+      if (unique.count(n)) ordered.push_back(n);
+    }
+    return ordered;
+  };
+  e.short_names = read_side("short_term", planner_short);
+  e.long_names = read_side("long_term", planner_long);
+  if (e.short_names.size() + e.long_names.size() != space_names.size()) {
+    map.Fail("parameters", "every parameter must be listed in short_term or long_term");
+  }
+  if (map.Has("initial_short_term")) {
+    const YamlMap init = map.Map("initial_short_term");
+    init.RejectUnknownKeys(e.short_names);
+    ParamValues values;
+    for (const auto& n : e.short_names) {
+      const auto& prm = e.space.At(e.space.IndexOf(n));
+      values[n] = init.Number(n, std::nullopt, Range::Closed(prm.lower, prm.upper));
+    }
+    e.initial_short = values;
+  }
+  e.objective = ObjectiveOptions::FromYaml(map.Map("objective", true));
+  e.objective.Validate(origin);
+
+  const YamlMap b = map.Map("budget", true);
+  b.RejectUnknownKeys({"flights", "flight_batch", "short_evals_per_flight", "queries_per_eval",
+                       "query_window", "short_term_while_flying"});
+  e.budget.flights = static_cast<int>(b.Integer("flights", e.budget.flights, Range::Closed(1, 1e7)));
+  e.budget.flight_batch =
+      static_cast<int>(b.Integer("flight_batch", e.budget.flight_batch, Range::Closed(0, 1024)));
+  if (e.budget.flight_batch == 0 && e.mode != TimingMode::kRealtime) {
+    b.Fail("flight_batch", "0 (one per thread) needs mode: realtime; reproducible runs need a "
+                           "fixed batch, an integer in [1, 1024]");
+  }
+  e.budget.short_evals_per_flight = static_cast<int>(
+      b.Integer("short_evals_per_flight", e.budget.short_evals_per_flight, Range::Closed(0, 1e7)));
+  e.budget.queries_per_eval =
+      static_cast<int>(b.Integer("queries_per_eval", e.budget.queries_per_eval, Range::Closed(1, 1e5)));
+  e.budget.query_window =
+      static_cast<int>(b.Integer("query_window", e.budget.query_window, Range::Closed(1, 1e7)));
+  e.budget.short_term_while_flying = b.Bool("short_term_while_flying", false);
+  if (e.budget.short_term_while_flying && e.mode != TimingMode::kRealtime) {
+    b.Fail("short_term_while_flying", "true needs mode: realtime (it depends on wall-clock time)");
+  }
+
+  if (map.Has("pso")) e.pso = optimizers::PsoOptions::FromYaml(map.Map("pso"));
+  if (map.Has("bo")) e.bo = optimizers::BayesOptOptions::FromYaml(map.Map("bo"));
+  return e;
+}
+
+}  // namespace quadtune::engine

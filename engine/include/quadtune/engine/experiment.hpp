@@ -1,0 +1,118 @@
+#pragma once
+/// \file
+/// An experiment: one YAML file that says which planner flies where, which parameters are
+/// short- or long-term and their bounds, the objective weights, the methods compared, budgets,
+/// repeats, seed, threads and timing mode. Loading checks everything before any work starts;
+/// every error is a ConfigError naming the file, the key and what is allowed.
+///
+///     name: tiny
+///     seed: 1                  # master seed; every stream derives from it
+///     threads: 2               # worker threads (the CLI's --threads overrides)
+///     mode: reproducible       # reproducible | realtime
+///     repeats: 1               # trials per method; repeat r flies map seed DeriveSeed(seed, {r})
+///     methods: [default, random, pso, bo, bo_pso]
+///     planner:
+///       type: ipopt            # ipopt | toy
+///       drone: drones/research_1kg.yaml        # ipopt: relative to the file, then assets/
+///       layout: {spacing: 3.0, ...}            # ipopt: LayoutOptions, or layout_file: PATH
+///       world: {...}                           # ipopt: WorldOptions (seed set per flight)
+///       mission: go_and_return                 # ipopt: go_and_return | go_to
+///       max_time: 60                           # ipopt: flight time limit (s)
+///       fixed: {a_max: 3.0}                    # ipopt: fixed PlannerParams
+///       toy: {length: 20, gates: 6, ...}       # toy: ToyPlannerOptions
+///     parameters:              # ParameterSpace (bounds, log, integer, default)
+///       - {name: w_col, lower: 0.05, upper: 5.0, log: true, default: 0.5}
+///     short_term: [w_col, w_dyn, n_pol]        # θ_s (PSO in bo_pso)
+///     long_term: [v_des, h_pl, t_pl]           # θ_l (BO in bo_pso)
+///     initial_short_term: {w_col: 0.5, ...}    # optional: skip the first θ_s phase
+///     objective: {short_term: {...}, long_term: {w_e: 5}, failure_value: 1000}
+///     budget:
+///       flights: 6             # f_l evaluations per trial, >= 1
+///       flight_batch: 2        # flights asked and flown together, >= 1 (fixed: not the threads);
+///                              # 0 in realtime mode: one per thread
+///       short_evals_per_flight: 40   # θ_s evaluations (PSO candidates) per flight (paper ≈ 3500 re-solves)
+///       queries_per_eval: 4    # recorded queries re-solved per θ_s evaluation, >= 1
+///       query_window: 200      # most recent recorded queries kept, >= 1
+///       short_term_while_flying: false  # realtime only: PSO uses the whole flight time
+///     pso: {num_particles: 8, ...}             # PsoOptions (seed derived per trial)
+///     bo: {initial_design_size: 3, ...}        # BayesOptOptions (seed derived per trial)
+///
+/// Thread safety: an Experiment is an immutable value after loading.
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "quadtune/engine/objectives.hpp"
+#include "quadtune/engine/planner.hpp"
+#include "quadtune/engine/planners.hpp"
+#include "quadtune/optimizers/bayes_opt.hpp"
+#include "quadtune/optimizers/parameter_space.hpp"
+#include "quadtune/optimizers/pso.hpp"
+
+namespace quadtune::engine {
+
+/// A tuning method compared by the experiment (paper Sec. IV-A).
+enum class Method {
+  kDefault,  ///< the planner's defaults, flown `flights` times
+  kRandom,   ///< random search over all parameters, scored by f_l
+  kPso,      ///< PSO over all parameters, scored by f_l
+  kBo,       ///< Bayesian optimisation over all parameters, scored by f_l
+  kBoPso,    ///< BO on θ_l by f_l + PSO on θ_s by f_s on recorded queries (the paper's method)
+};
+const char* ToString(Method method);
+/// Parses "default" | "random" | "pso" | "bo" | "bo_pso"; nullopt otherwise.
+std::optional<Method> MethodFromString(const std::string& name);
+
+/// Budgets of one trial (YAML `budget:`).
+struct Budget {
+  int flights = 6;                 ///< long-term evaluations per trial, >= 1
+  /// Flights asked and flown together, >= 1; 0 (realtime mode only): one per worker thread
+  /// ("ask for as many candidates as there are free worlds").
+  int flight_batch = 2;
+  int short_evals_per_flight = 40; ///< θ_s evaluations per flight (bo_pso), >= 0
+  int queries_per_eval = 4;        ///< queries re-solved per θ_s evaluation, >= 1
+  int query_window = 200;          ///< recorded queries kept (most recent), >= 1
+  /// Realtime mode only: after its short_evals_per_flight × flights evaluations, PSO keeps
+  /// running generations until the round's flights have landed (a wall-time share, as in the
+  /// paper's background optimisation). Not reproducible, so rejected in reproducible mode.
+  bool short_term_while_flying = false;
+};
+
+/// A loaded, checked experiment.
+struct Experiment {
+  std::string file;        ///< where it came from ("<string>" for text)
+  std::string text;        ///< the full configuration text (stored with the results)
+  std::string name = "experiment";
+  std::uint64_t seed = 1;
+  int threads = 2;         ///< >= 1
+  TimingMode mode = TimingMode::kReproducible;
+  int repeats = 1;         ///< >= 1
+  std::vector<Method> methods;
+  std::string planner_type;  ///< "ipopt" | "toy"
+  Planner planner{ToyPlanner{}};  ///< the plug-in
+  optimizers::ParameterSpace space;  ///< all tuned parameters
+  std::vector<std::string> short_names;  ///< θ_s, in space order
+  std::vector<std::string> long_names;   ///< θ_l, in space order
+  std::optional<ParamValues> initial_short;  ///< given θ_s (bo_pso skips its first phase)
+  ObjectiveOptions objective;
+  Budget budget;
+  optimizers::PsoOptions pso;
+  optimizers::BayesOptOptions bo;
+
+  /// Reads and checks a file (relative paths inside resolve against its folder, then assets/).
+  static Experiment LoadFile(const std::string& path);
+  /// Reads and checks text; `origin` names it in errors, `base_dir` resolves relative paths.
+  static Experiment FromString(const std::string& text, const std::string& origin = "<string>",
+                               const std::string& base_dir = ".");
+
+  /// Map seed of repeat r (random maps of identical density: one layout per repeat).
+  [[nodiscard]] std::uint64_t MapSeed(int repeat) const;
+};
+
+/// Finds `relative`: as given, under `base_dir`, under $QUADTUNE_ASSETS, under the source
+/// tree's assets/. Returns the first that exists (else `relative`).
+std::string ResolvePath(const std::string& relative, const std::string& base_dir);
+
+}  // namespace quadtune::engine

@@ -1,0 +1,202 @@
+#pragma once
+/// \file
+/// The planner plug-in: what the engine needs from an online planner, behind a type-erased value
+/// (pagmo2 style, `Planner planner{MyPlanner{...}}`).
+///
+/// A user-defined planner is a plain copyable struct with these const members:
+///
+///     std::string Name() const;
+///     std::vector<ParameterInfo> ShortTermParameters() const;  // θ_s names + defaults
+///     std::vector<ParameterInfo> LongTermParameters() const;   // θ_l names + defaults
+///     Opaque PrepareMap(std::uint64_t map_seed) const;         // one environment (a map)
+///     FlightRecord Fly(const FlightRequest& request, WorkerSlot& slot) const;  // long-term
+///     ResolveRecord Resolve(const Opaque& query, const ParamValues& theta_s) const;  // short-term
+///
+/// Fly() runs one closed-loop mission in the map of `request.map`, reports every planning problem
+/// it met through `request.on_query` (an Opaque the same planner can later Resolve()), and asks
+/// `request.short_params_provider` for the current θ_s at every plan. `slot` is a world-pool
+/// slot: mutable per-task state (e.g. a Bullet world) that the engine hands to one task at a time
+/// and reuses across flights.
+///
+/// Thread safety: every member of a plug-in must be callable concurrently from many threads
+/// (distinct slots); the engine never calls a plug-in's members on the same slot concurrently.
+
+#include <any>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+#include <type_traits>
+#include <typeinfo>
+#include <utility>
+#include <vector>
+
+#include "quadtune/common/error.hpp"
+
+namespace quadtune::engine {
+
+/// Parameter values by name (original units).
+using ParamValues = std::map<std::string, double>;
+
+/// One tunable parameter of a planner and its default.
+struct ParameterInfo {
+  std::string name;
+  double default_value = 0.0;
+};
+
+/// An immutable, shareable, type-erased value owned by a planner (a map, a recorded query).
+/// Copying shares the payload. Thread safety: const access from any thread.
+class Opaque {
+ public:
+  Opaque() = default;
+  /// Wraps a value of type T.
+  template <class T>
+  static Opaque Make(T value) {
+    Opaque o;
+    o.data_ = std::make_shared<const T>(std::move(value));
+    o.type_ = &typeid(T);
+    return o;
+  }
+  /// The payload as T; throws InvariantError when it holds another type or nothing.
+  template <class T>
+  [[nodiscard]] const T& As() const {
+    QT_DEMAND(data_ && *type_ == typeid(T), "Opaque: wrong payload type");
+    return *static_cast<const T*>(data_.get());
+  }
+  [[nodiscard]] bool Empty() const { return data_ == nullptr; }
+
+ private:
+  std::shared_ptr<const void> data_;
+  const std::type_info* type_ = nullptr;
+};
+
+/// Per-task mutable state of the world pool (e.g. a Bullet world). Owned by one task at a time.
+struct WorkerSlot {
+  int index = 0;   ///< slot number in the pool
+  std::any state;  ///< whatever the planner keeps between flights (empty at first)
+  int uses = 0;    ///< flights flown in this slot
+};
+
+/// What a flight is asked to do.
+struct FlightRequest {
+  Opaque map;               ///< from PrepareMap
+  ParamValues params;       ///< θ_l and θ_s (missing names keep the planner's defaults)
+  std::uint64_t seed = 0;   ///< seed of the flight's random streams
+  /// Called at every plan with the flight time (s) and θ_s in force; may change θ_s (the engine
+  /// injects the current best θ_s here). May be empty.
+  std::function<void(double time, ParamValues& theta_s)> short_params_provider;
+  /// Receives every planning problem met, as an Opaque for Resolve(). May be empty.
+  std::function<void(const Opaque& query)> on_query;
+  /// Polled by the flight; true stops it. May be empty.
+  std::function<bool()> cancelled;
+};
+
+/// Outcome status of one evaluation (flight, re-solve or objective).
+enum class EvalStatus { kOk, kFailed, kCancelled };
+const char* ToString(EvalStatus status);
+
+/// What a flight produced (SI units) — the long-term objective's inputs.
+struct FlightRecord {
+  EvalStatus status = EvalStatus::kOk;
+  std::string message;           ///< why it failed / how it ended
+  bool completed = false;        ///< every waypoint reached
+  double flight_time = 0.0;      ///< t_f (s)
+  int collisions = 0;            ///< n_c
+  int emergency_stops = 0;       ///< n_e
+  int plans = 0;
+  int failed_plans = 0;
+  int failed_attempts = 0;       ///< Σ n_s
+  double compute_units = 0.0;    ///< Σ deterministic compute units
+  double jerk_integral = 0.0;    ///< ∫|jerk|² dt (m²/s⁵)
+  double min_clearance = 0.0;    ///< (m)
+  double wall_time = 0.0;        ///< wall-clock duration (s); not deterministic
+  int queries = 0;               ///< planning queries reported through on_query
+};
+
+/// What one re-solve of a recorded query produced — the short-term objective's inputs.
+struct ResolveRecord {
+  EvalStatus status = EvalStatus::kOk;  ///< kFailed only for errors, not for failed plans
+  std::string message;
+  bool success = false;          ///< a trajectory was found
+  int attempts = 0;
+  int failed_attempts = 0;       ///< n_s
+  double solve_time_s = 0.0;     ///< wall-clock t_c (s)
+  double compute_units = 0.0;    ///< deterministic cost (1 unit ≙ 0.1 ms nominal)
+  double duration = 0.0;         ///< t_exe of the trajectory (s)
+  double jerk_integral = 0.0;    ///< ∫|jerk|² dt of the trajectory (m²/s⁵)
+  double min_clearance = 0.0;    ///< (m)
+};
+
+/// The type-erased planner. A value: copies are independent (the payloads share immutable data).
+class Planner {
+ public:
+  /// Wraps a user-defined planner (see the file comment).
+  template <class T>
+    requires(!std::is_same_v<std::decay_t<T>, Planner>)
+  Planner(T udp) : impl_(std::make_unique<Model<T>>(std::move(udp))) {}  // NOLINT implicit
+  Planner(const Planner& other) : impl_(other.impl_->Clone()) {}
+  Planner& operator=(const Planner& other) {
+    if (this != &other) impl_ = other.impl_->Clone();
+    return *this;
+  }
+  Planner(Planner&&) noexcept = default;
+  Planner& operator=(Planner&&) noexcept = default;
+  ~Planner() = default;
+
+  [[nodiscard]] std::string Name() const { return impl_->Name(); }
+  [[nodiscard]] std::vector<ParameterInfo> ShortTermParameters() const {
+    return impl_->ShortTermParameters();
+  }
+  [[nodiscard]] std::vector<ParameterInfo> LongTermParameters() const {
+    return impl_->LongTermParameters();
+  }
+  /// All defaults, θ_s then θ_l.
+  [[nodiscard]] ParamValues Defaults() const;
+  [[nodiscard]] Opaque PrepareMap(std::uint64_t map_seed) const { return impl_->PrepareMap(map_seed); }
+  [[nodiscard]] FlightRecord Fly(const FlightRequest& request, WorkerSlot& slot) const {
+    return impl_->Fly(request, slot);
+  }
+  [[nodiscard]] ResolveRecord Resolve(const Opaque& query, const ParamValues& theta_s) const {
+    return impl_->Resolve(query, theta_s);
+  }
+  /// The wrapped plug-in, or nullptr when it is not a T.
+  template <class T>
+  [[nodiscard]] const T* Extract() const {
+    auto* m = dynamic_cast<const Model<T>*>(impl_.get());
+    return m ? &m->udp : nullptr;
+  }
+
+ private:
+  struct Concept {
+    virtual ~Concept() = default;
+    [[nodiscard]] virtual std::unique_ptr<Concept> Clone() const = 0;
+    [[nodiscard]] virtual std::string Name() const = 0;
+    [[nodiscard]] virtual std::vector<ParameterInfo> ShortTermParameters() const = 0;
+    [[nodiscard]] virtual std::vector<ParameterInfo> LongTermParameters() const = 0;
+    [[nodiscard]] virtual Opaque PrepareMap(std::uint64_t) const = 0;
+    [[nodiscard]] virtual FlightRecord Fly(const FlightRequest&, WorkerSlot&) const = 0;
+    [[nodiscard]] virtual ResolveRecord Resolve(const Opaque&, const ParamValues&) const = 0;
+  };
+  template <class T>
+  struct Model final : Concept {
+    explicit Model(T u) : udp(std::move(u)) {}
+    std::unique_ptr<Concept> Clone() const override { return std::make_unique<Model>(udp); }
+    std::string Name() const override { return udp.Name(); }
+    std::vector<ParameterInfo> ShortTermParameters() const override {
+      return udp.ShortTermParameters();
+    }
+    std::vector<ParameterInfo> LongTermParameters() const override {
+      return udp.LongTermParameters();
+    }
+    Opaque PrepareMap(std::uint64_t s) const override { return udp.PrepareMap(s); }
+    FlightRecord Fly(const FlightRequest& r, WorkerSlot& w) const override { return udp.Fly(r, w); }
+    ResolveRecord Resolve(const Opaque& q, const ParamValues& p) const override {
+      return udp.Resolve(q, p);
+    }
+    T udp;
+  };
+  std::unique_ptr<Concept> impl_;
+};
+
+}  // namespace quadtune::engine

@@ -1,0 +1,91 @@
+#pragma once
+/// \file
+/// The two planner plug-ins shipped with the engine:
+///
+/// - IpoptPlanner: the project's online planner (physics::World + planning::Fly, Ipopt back end,
+///   planning::SolveQuery for re-solves). θ_s = {w_col, w_dyn, n_pol}, θ_l = {v_des, h_pl, t_pl}.
+/// - ToyPlanner: a deliberately simple 1-D planner (a point moving along a line through gates)
+///   with its own parameter names, to show that the engine tunes any plug-in. θ_s = {gain,
+///   max_iter}, θ_l = {speed, margin}.
+///
+/// Thread safety: both are immutable after construction; all members are safe to call
+/// concurrently on distinct WorkerSlots.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "quadtune/engine/planner.hpp"
+#include "quadtune/layout/options.hpp"
+#include "quadtune/physics/drone.hpp"
+#include "quadtune/physics/world.hpp"
+#include "quadtune/planning/flight.hpp"
+#include "quadtune/planning/parameters.hpp"
+#include "quadtune/planning/trajectory_optimizer.hpp"
+
+namespace quadtune::engine {
+
+/// Settings of IpoptPlanner.
+struct IpoptPlannerOptions {
+  physics::DroneDescription drone;       ///< the drone flown
+  physics::WorldOptions world;           ///< world options (seed replaced per flight)
+  layout::LayoutOptions layout;          ///< layout generator options; one map per map seed
+  bool go_and_return = true;             ///< mission: go to the layout's goal and back, or go only
+  planning::FlightOptions flight;        ///< flight settings (max_time, …)
+  planning::PlannerParams base;          ///< fixed parameters and defaults of the tunables
+};
+
+/// The project's Ipopt planner as a plug-in. Each WorkerSlot holds one physics::World that is
+/// Reset() onto the (shared, immutable) ObstacleGeometry of the requested map.
+class IpoptPlanner {
+ public:
+  explicit IpoptPlanner(IpoptPlannerOptions options);
+
+  std::string Name() const { return "ipopt"; }
+  std::vector<ParameterInfo> ShortTermParameters() const;
+  std::vector<ParameterInfo> LongTermParameters() const;
+  /// Generates the layout with `map_seed` and builds its shared obstacle geometry.
+  Opaque PrepareMap(std::uint64_t map_seed) const;
+  FlightRecord Fly(const FlightRequest& request, WorkerSlot& slot) const;
+  ResolveRecord Resolve(const Opaque& query, const ParamValues& theta_s) const;
+
+  [[nodiscard]] const IpoptPlannerOptions& options() const { return *options_; }
+
+ private:
+  std::shared_ptr<const IpoptPlannerOptions> options_;
+  std::shared_ptr<const planning::TrajectoryOptimizer> optimizer_;
+};
+
+/// Settings of ToyPlanner.
+struct ToyPlannerOptions {
+  double length = 20.0;        ///< track length (m), > 0
+  int gates = 6;               ///< gates along the track, >= 0; each has a random speed limit
+  double gate_speed_min = 2.0; ///< gate speed limits are uniform in [min, max] (m/s)
+  double gate_speed_max = 4.0;
+  double plan_interval = 1.0;  ///< a planning query every this many metres (m), > 0
+  double flight_delay_s = 0.0; ///< wall-clock sleep per flight (s), to simulate cost in tests
+  /// Fly() throws std::runtime_error when θ_l's speed exceeds this (m/s); <= 0: never.
+  double throw_speed_above = 0.0;
+};
+
+/// A 1-D toy planner. A point flies the track at `speed` (θ_l); before each gate it must be below
+/// the gate's limit, else it collides (n_c += 1) unless `margin` (θ_l, m) lets it brake in time,
+/// which costs an emergency stop. Each plan solves x = cos(x)-like fixed-point problem by the
+/// damped iteration x ← x + gain·(g(x) − x) for at most max_iter iterations (θ_s); it fails
+/// (n_s += 1) when it does not converge; compute units = iterations.
+class ToyPlanner {
+ public:
+  explicit ToyPlanner(ToyPlannerOptions options = {});
+
+  std::string Name() const { return "toy"; }
+  std::vector<ParameterInfo> ShortTermParameters() const;
+  std::vector<ParameterInfo> LongTermParameters() const;
+  Opaque PrepareMap(std::uint64_t map_seed) const;
+  FlightRecord Fly(const FlightRequest& request, WorkerSlot& slot) const;
+  ResolveRecord Resolve(const Opaque& query, const ParamValues& theta_s) const;
+
+ private:
+  ToyPlannerOptions options_;
+};
+
+}  // namespace quadtune::engine

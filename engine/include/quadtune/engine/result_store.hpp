@@ -1,0 +1,98 @@
+#pragma once
+/// \file
+/// The results store: one SQLite file (WAL journal) per run, one transaction per evaluation.
+///
+/// Tables:
+///   experiment(id, name, config TEXT, seed, version, machine, threads, mode, started)
+///   trial(id, experiment_id, method, repeat, map_seed, status, best_params, best_value, finished)
+///   evaluation(id, trial_id, method, kind 'short'|'long', iteration, idx, params JSON,
+///              terms JSON (every objective term), value, status, message, wall_s, started,
+///              finished) — UNIQUE(trial_id, kind, iteration, idx)
+///
+/// Resume: Open(resume = true) checks that the stored configuration text equals the experiment's
+/// and loads the stored evaluations; the tuner replays them (same order, same values) instead of
+/// computing them again, so nothing is lost or duplicated after a kill -9.
+///
+/// Thread safety: one thread at a time (the tuner's driver thread writes).
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <tuple>
+#include <vector>
+
+struct sqlite3;
+
+namespace quadtune::engine {
+
+struct Experiment;
+
+/// One stored evaluation.
+struct EvaluationRow {
+  std::int64_t trial_id = 0;
+  std::string method;
+  std::string kind;            ///< "short" | "long"
+  int iteration = 0;           ///< round (long) or PSO generation (short)
+  int index = 0;               ///< position inside the iteration
+  std::string params;          ///< JSON object name → value
+  std::string terms;           ///< JSON object of objective terms
+  double value = 0.0;          ///< objective value told to the optimiser
+  std::string status;          ///< "ok" | "failed" | "cancelled"
+  std::string message;
+  double wall_s = 0.0;         ///< wall-clock duration (s)
+  double started = 0.0;        ///< unix time (s)
+  double finished = 0.0;       ///< unix time (s)
+};
+
+/// A trial as stored.
+struct TrialRow {
+  std::int64_t id = 0;
+  std::string method;
+  int repeat = 0;
+  std::string status;  ///< "running" | "done" | "cancelled"
+  std::string best_params;
+  double best_value = 0.0;
+};
+
+/// See the file comment. Non-copyable; movable.
+class ResultStore {
+ public:
+  /// Creates (resume = false: the file must not hold a run yet — it is replaced) or reopens
+  /// (resume = true) the store at `path`. Throws ConfigError when resuming a file made by another
+  /// configuration, std::runtime_error on SQLite errors.
+  ResultStore(const std::string& path, const Experiment& experiment, int threads, bool resume);
+  /// Opens an existing file read-only (export, tests).
+  explicit ResultStore(const std::string& path);
+  ~ResultStore();
+  ResultStore(const ResultStore&) = delete;
+  ResultStore& operator=(const ResultStore&) = delete;
+
+  /// The trial's id (created when new).
+  std::int64_t Trial(const std::string& method, int repeat, std::uint64_t map_seed);
+  /// A stored evaluation, if any.
+  [[nodiscard]] const EvaluationRow* Find(std::int64_t trial_id, const std::string& kind,
+                                          int iteration, int index) const;
+  /// Stores one evaluation (one transaction). Ignores a key already stored.
+  void Insert(const EvaluationRow& row);
+  /// Marks a trial finished with its best point.
+  void FinishTrial(std::int64_t trial_id, const std::string& status, const std::string& best_params,
+                   double best_value);
+
+  /// Every evaluation, ordered by trial, kind, iteration, index.
+  [[nodiscard]] std::vector<EvaluationRow> Evaluations() const;
+  [[nodiscard]] std::vector<TrialRow> Trials() const;
+  /// Writes experiment.csv, trials.csv and evaluations.csv into `directory` (created).
+  void ExportCsv(const std::string& directory) const;
+  /// Number of evaluations loaded from the file when it was opened for resume.
+  [[nodiscard]] std::size_t Replayable() const { return stored_.size(); }
+
+ private:
+  void Exec(const std::string& sql) const;
+  sqlite3* db_ = nullptr;
+  std::int64_t experiment_id_ = 0;
+  std::map<std::tuple<std::int64_t, std::string, int, int>, EvaluationRow> stored_;
+};
+
+}  // namespace quadtune::engine

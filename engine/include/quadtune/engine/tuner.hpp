@@ -1,0 +1,95 @@
+#pragma once
+/// \file
+/// The tuner: runs every trial (method × repeat) of an experiment on the scheduler and stores
+/// every evaluation.
+///
+/// Methods (paper Sec. IV-A): default; random, pso, bo (all parameters scored by f_l); bo_pso,
+/// the complementary tuner (paper Sec. III): BayesOpt on θ_l scored by flights; PSO on θ_s scored
+/// by f_s on planning queries recorded from the flights; the best θ_s flows into later flights
+/// (flight hook); BO discounts observations made under an older θ_s (NotifyContextChanged for
+/// every increment of Pso::BestChanges()). With no initial θ_s a first flight with the defaults
+/// records queries and PSO runs on them before BO starts.
+///
+/// Rounds. Each round asks a fixed batch of `budget.flight_batch` candidates and flies them
+/// (priority: flights) while, in bo_pso, PSO generations re-solve queries recorded in earlier
+/// rounds (priority: short). Results are applied to the optimisers in index order at the end of
+/// the round, never in completion order.
+///
+/// Reproducible mode: batch sizes come from the experiment, not the thread count; every flight
+/// seed is DeriveSeed(trial seed, {iteration, index}); the queries a θ_s evaluation re-solves are
+/// drawn with DeriveSeed(trial seed, {generation, index}) from the buffer as it stood at the
+/// start of the round; t_c comes from compute units; a flight's θ_s is fixed when it starts. So
+/// the same seed gives identical results with 1, 2 or 8 threads. Realtime mode measures t_c by
+/// the wall clock and lets running flights pick up a new best θ_s at their next plan.
+///
+/// Resume: evaluations already in the store are replayed (their stored values told in the same
+/// order) instead of being computed; bo_pso flights whose queries are still needed are flown
+/// again (deterministic in reproducible mode) to rebuild the query buffer.
+///
+/// Failures: an exception in a flight or re-solve is caught at the evaluation boundary and
+/// recorded (status failed, message); the optimiser is told objective.failure_value.
+
+#include <atomic>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "quadtune/engine/experiment.hpp"
+
+namespace quadtune::engine {
+
+/// Progress reported after every round.
+struct Progress {
+  std::string method;
+  int repeat = 0;
+  int flights_done = 0;          ///< in this trial
+  int flights_total = 0;         ///< per trial
+  int trials_done = 0;
+  int trials_total = 0;
+  long short_evals = 0;          ///< re-solves run so far (all trials)
+  double best_long = 0.0;        ///< best f_l of this trial so far
+  double elapsed_s = 0.0;
+};
+
+/// How to run.
+struct RunOptions {
+  std::string store_path;           ///< SQLite file ("" → no store; results only in memory)
+  int threads = 0;                  ///< > 0 overrides the experiment's threads
+  bool resume = false;              ///< continue the run stored in store_path
+  std::function<void(const Progress&)> on_progress;  ///< may be empty
+  const std::atomic<bool>* cancel = nullptr;          ///< set → stop after the current round
+};
+
+/// Outcome of a run.
+enum class RunStatus { kCompleted, kCancelled };
+
+/// Best result of one trial.
+struct TrialSummary {
+  std::string method;
+  int repeat = 0;
+  ParamValues best;         ///< best parameters found (all of θ_s ∪ θ_l)
+  double best_value = 0.0;  ///< best f_l observed
+  int flights = 0;
+  int short_evals = 0;      ///< θ_s evaluations
+  int failed = 0;           ///< failed evaluations
+  int replayed = 0;         ///< evaluations taken from the store on resume
+  /// bo_pso: BayesOpt::NotifyContextChanged() calls (= increments of Pso::BestChanges()).
+  int context_changes = 0;
+};
+
+struct RunSummary {
+  RunStatus status = RunStatus::kCompleted;
+  std::string message;
+  std::vector<TrialSummary> trials;
+  long flights = 0;         ///< flights flown in this process
+  long resolves = 0;        ///< query re-solves run in this process
+  double wall_s = 0.0;
+  int threads = 0;
+  int worlds = 0;           ///< world-pool slots created
+};
+
+/// Runs `experiment`. Configuration problems (e.g. resuming another run) throw ConfigError
+/// before any work starts; failures inside evaluations are recorded, never thrown.
+RunSummary RunExperiment(const Experiment& experiment, const RunOptions& options = {});
+
+}  // namespace quadtune::engine

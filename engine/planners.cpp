@@ -1,0 +1,315 @@
+#include "quadtune/engine/planners.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <thread>
+
+#include "quadtune/common/random.hpp"
+#include "quadtune/layout/layout.hpp"
+#include "quadtune/planning/local_planner.hpp"
+
+namespace quadtune::engine {
+
+const char* ToString(EvalStatus status) {
+  switch (status) {
+    case EvalStatus::kOk: return "ok";
+    case EvalStatus::kFailed: return "failed";
+    case EvalStatus::kCancelled: return "cancelled";
+  }
+  return "?";
+}
+
+ParamValues Planner::Defaults() const {
+  ParamValues values;
+  for (const auto& p : ShortTermParameters()) values[p.name] = p.default_value;
+  for (const auto& p : LongTermParameters()) values[p.name] = p.default_value;
+  return values;
+}
+
+// ---------------------------------------------------------------------------------------------
+// IpoptPlanner
+
+namespace {
+
+struct IpoptMap {
+  layout::Layout layout;
+  std::shared_ptr<const physics::ObstacleGeometry> geometry;
+};
+
+std::vector<ParameterInfo> InfoOf(const planning::PlannerParams& p,
+                                  const std::vector<std::string>& names) {
+  std::vector<ParameterInfo> out;
+  for (const auto& n : names) out.push_back({n, p.Get(n)});
+  return out;
+}
+
+}  // namespace
+
+IpoptPlanner::IpoptPlanner(IpoptPlannerOptions options)
+    : options_(std::make_shared<const IpoptPlannerOptions>(std::move(options))),
+      optimizer_(std::make_shared<const planning::TrajectoryOptimizer>(
+          options_->flight.planner.optimizer)) {}
+
+std::vector<ParameterInfo> IpoptPlanner::ShortTermParameters() const {
+  return InfoOf(options_->base, planning::PlannerParams::ShortTermNames());
+}
+std::vector<ParameterInfo> IpoptPlanner::LongTermParameters() const {
+  return InfoOf(options_->base, planning::PlannerParams::LongTermNames());
+}
+
+Opaque IpoptPlanner::PrepareMap(std::uint64_t map_seed) const {
+  IpoptMap map;
+  map.layout = layout::GenerateLayout(options_->layout, map_seed);
+  map.geometry = physics::ObstacleGeometry::Make(map.layout.obstacles, options_->world);
+  return Opaque::Make(std::move(map));
+}
+
+FlightRecord IpoptPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) const {
+  const IpoptMap& map = request.map.As<IpoptMap>();
+  const IpoptPlannerOptions& o = *options_;
+  planning::PlannerParams params = o.base;
+  for (const auto& [name, value] : request.params) params.Set(name, value);
+  params.Validate("flight parameters");
+  const planning::Mission mission =
+      o.go_and_return ? planning::Mission::GoAndReturn(map.layout.start_W(), map.layout.goal_W())
+                      : planning::Mission::GoTo(map.layout.start_W(), map.layout.goal_W());
+  physics::WorldOptions world_options = o.world;
+  world_options.seed = request.seed;
+  const physics::DroneState initial =
+      physics::DroneState::Hover(o.drone, mission.start_W, mission.start_yaw);
+  // World pool: the slot keeps its World; Reset re-uses it (static objects rebuilt only when the
+  // geometry differs).
+  auto* world = std::any_cast<std::shared_ptr<physics::World>>(&slot.state);
+  if (world == nullptr || !*world) {
+    slot.state = std::make_shared<physics::World>(map.geometry, o.drone, world_options, initial);
+    world = std::any_cast<std::shared_ptr<physics::World>>(&slot.state);
+  } else {
+    (*world)->Reset(map.geometry, o.drone, world_options, initial);
+  }
+  ++slot.uses;
+
+  planning::FlightHooks hooks;
+  int queries = 0;
+  if (request.short_params_provider) {
+    hooks.params_provider = [&](double t, planning::PlannerParams& p) {
+      ParamValues theta_s;
+      for (const auto& n : planning::PlannerParams::ShortTermNames()) theta_s[n] = p.Get(n);
+      request.short_params_provider(t, theta_s);
+      for (const auto& [n, v] : theta_s) p.Set(n, v);
+    };
+  }
+  if (request.on_query) {
+    hooks.on_plan = [&](const planning::PlanningQuery& q, const planning::PlanOutcome&) {
+      ++queries;
+      request.on_query(Opaque::Make(q));
+    };
+  }
+  hooks.cancelled = request.cancelled;
+  planning::FlightOptions flight = o.flight;
+  flight.log_rate_hz = 0.0;
+  const planning::FlightResult result =
+      planning::Fly(**world, mission, params, flight, *optimizer_, hooks);
+  const auto& m = result.metrics;
+  FlightRecord r;
+  r.status = m.status == planning::FlightStatus::kError || m.status == planning::FlightStatus::kDiverged
+                 ? EvalStatus::kFailed
+                 : (m.status == planning::FlightStatus::kCancelled ? EvalStatus::kCancelled
+                                                                   : EvalStatus::kOk);
+  r.message = std::string(planning::ToString(m.status)) + (m.message.empty() ? "" : ": " + m.message);
+  r.completed = m.status == planning::FlightStatus::kCompleted;
+  r.flight_time = m.flight_time;
+  r.collisions = m.collisions;
+  r.emergency_stops = m.emergency_stops;
+  r.plans = m.plans;
+  r.failed_plans = m.failed_plans;
+  r.failed_attempts = m.failed_attempts;
+  r.compute_units = m.compute_units;
+  r.jerk_integral = m.jerk_integral;
+  r.min_clearance = m.min_clearance;
+  r.wall_time = m.wall_time;
+  r.queries = queries;
+  return r;
+}
+
+ResolveRecord IpoptPlanner::Resolve(const Opaque& query, const ParamValues& theta_s) const {
+  const auto& q = query.As<planning::PlanningQuery>();
+  planning::PlannerParams params = q.params;
+  for (const auto& [name, value] : theta_s) params.Set(name, value);
+  params.Validate("short-term parameters");
+  const planning::PlanOutcome out = planning::SolveQuery(
+      *optimizer_, q, params, options_->flight.planner.retry_slowdown);
+  ResolveRecord r;
+  r.success = out.Ok();
+  r.message = out.Ok() ? "" : out.result.message;
+  r.attempts = out.attempts;
+  r.failed_attempts = out.failed_attempts;
+  r.solve_time_s = out.solve_time_s;
+  r.compute_units = out.compute_units;
+  r.duration = out.result.duration;
+  r.jerk_integral = out.result.cost.jerk;
+  r.min_clearance = out.result.min_clearance;
+  return r;
+}
+
+// ---------------------------------------------------------------------------------------------
+// ToyPlanner
+
+namespace {
+
+struct ToyMap {
+  std::vector<double> gate_x;      // positions (m)
+  std::vector<double> gate_limit;  // speed limits (m/s)
+};
+
+struct ToyQuery {
+  double a = 1.0;  // problem coefficient in [0.5, 1.5]
+  double x0 = 0.0;
+};
+
+struct ToySolve {
+  bool ok = false;
+  int iterations = 0;
+  int failed = 0;
+};
+
+double Param(const ParamValues& v, const char* name, double fallback) {
+  auto it = v.find(name);
+  return it == v.end() ? fallback : it->second;
+}
+
+/// Damped fixed-point iteration for x = cos(a x); up to two attempts (second with half gain).
+ToySolve ToySolveQuery(const ToyQuery& q, double gain, int max_iter) {
+  ToySolve s;
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    const double g = attempt == 0 ? gain : 0.5 * gain;
+    double x = q.x0;
+    for (int k = 0; k < max_iter; ++k) {
+      ++s.iterations;
+      const double next = x + g * (std::cos(q.a * x) - x);
+      if (!std::isfinite(next)) break;
+      if (std::abs(next - x) < 1e-9) {
+        s.ok = true;
+        return s;
+      }
+      x = next;
+    }
+    ++s.failed;
+  }
+  return s;
+}
+
+}  // namespace
+
+ToyPlanner::ToyPlanner(ToyPlannerOptions options) : options_(options) {}
+
+std::vector<ParameterInfo> ToyPlanner::ShortTermParameters() const {
+  return {{"gain", 0.3}, {"max_iter", 20}};
+}
+std::vector<ParameterInfo> ToyPlanner::LongTermParameters() const {
+  return {{"speed", 2.0}, {"margin", 0.5}};
+}
+
+Opaque ToyPlanner::PrepareMap(std::uint64_t map_seed) const {
+  Rng rng(DeriveSeed(map_seed, {0x70f}));
+  ToyMap map;
+  for (int i = 0; i < options_.gates; ++i) {
+    map.gate_x.push_back(options_.length * (i + 0.5 + 0.3 * (Uniform01(rng) - 0.5)) / options_.gates);
+    map.gate_limit.push_back(Uniform(rng, options_.gate_speed_min, options_.gate_speed_max));
+  }
+  return Opaque::Make(std::move(map));
+}
+
+FlightRecord ToyPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) const {
+  const auto& map = request.map.As<ToyMap>();
+  const auto t0 = std::chrono::steady_clock::now();
+  if (options_.flight_delay_s > 0.0) {
+    std::this_thread::sleep_for(std::chrono::duration<double>(options_.flight_delay_s));
+  }
+  ++slot.uses;
+  const double speed = Param(request.params, "speed", 2.0);
+  const double margin = Param(request.params, "margin", 0.5);
+  if (!(speed > 0.0) || !(margin >= 0.0)) {
+    throw ConfigError("flight parameters", "speed", "speed must be > 0 and margin >= 0");
+  }
+  if (options_.throw_speed_above > 0.0 && speed > options_.throw_speed_above) {
+    throw std::runtime_error("toy planner: speed " + std::to_string(speed) + " above " +
+                             std::to_string(options_.throw_speed_above));
+  }
+  Rng rng(request.seed);
+  const double accel = 3.0;
+  FlightRecord r;
+  double t = 0.0;
+  double x = 0.0;
+  std::size_t next_gate = 0;
+  ParamValues theta_s{{"gain", Param(request.params, "gain", 0.3)},
+                      {"max_iter", Param(request.params, "max_iter", 20)}};
+  while (x < options_.length) {
+    if (request.cancelled && request.cancelled()) {
+      r.status = EvalStatus::kCancelled;
+      r.message = "cancelled";
+      return r;
+    }
+    // One plan per interval.
+    ToyQuery q;
+    q.a = 0.5 + 0.5 * (1.0 + std::sin(0.7 * x + 0.3 * static_cast<double>(next_gate)));
+    q.x0 = Uniform(rng, -1.0, 1.0);
+    if (request.short_params_provider) request.short_params_provider(t, theta_s);
+    const ToySolve s = ToySolveQuery(q, theta_s["gain"], static_cast<int>(std::lround(theta_s["max_iter"])));
+    ++r.plans;
+    r.failed_attempts += s.failed;
+    r.compute_units += s.iterations;
+    if (!s.ok) {
+      ++r.failed_plans;
+      t += 0.3;  // hover while re-planning
+    }
+    ++r.queries;
+    if (request.on_query) request.on_query(Opaque::Make(q));
+    const double step = std::min(options_.plan_interval, options_.length - x);
+    // Gates inside this step.
+    double v = speed * (1.0 + 0.02 * (Uniform01(rng) - 0.5));
+    while (next_gate < map.gate_x.size() && map.gate_x[next_gate] <= x + step) {
+      const double limit = map.gate_limit[next_gate];
+      t += 0.5 * margin / v;  // looking further ahead slows the approach
+      if (v > limit) {
+        const double braking = (v * v - limit * limit) / (2.0 * accel);
+        if (margin >= braking) {
+          ++r.emergency_stops;
+          t += 2.0 * (v - limit) / accel;
+        } else {
+          ++r.collisions;
+        }
+      }
+      ++next_gate;
+    }
+    t += step / v;
+    x += step;
+    r.jerk_integral += v * v * 0.01;
+  }
+  r.completed = true;
+  r.flight_time = t;
+  r.min_clearance = 1.0 / (1.0 + r.collisions);
+  r.message = "completed";
+  r.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+ResolveRecord ToyPlanner::Resolve(const Opaque& query, const ParamValues& theta_s) const {
+  const auto& q = query.As<ToyQuery>();
+  const auto t0 = std::chrono::steady_clock::now();
+  const double gain = Param(theta_s, "gain", 0.3);
+  const int max_iter = static_cast<int>(std::lround(Param(theta_s, "max_iter", 20)));
+  const ToySolve s = ToySolveQuery(q, gain, max_iter);
+  ResolveRecord r;
+  r.success = s.ok;
+  r.attempts = s.failed + (s.ok ? 1 : 0);
+  r.failed_attempts = s.failed;
+  r.compute_units = s.iterations;
+  r.duration = 1.0 + 0.01 * s.iterations;
+  r.jerk_integral = gain * gain;
+  r.min_clearance = 0.5 + 0.1 * gain;
+  r.solve_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+}  // namespace quadtune::engine

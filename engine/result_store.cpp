@@ -1,0 +1,303 @@
+#include "quadtune/engine/result_store.hpp"
+
+#include <sqlite3.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+#include <thread>
+
+#include "quadtune/common/error.hpp"
+#include "quadtune/engine/experiment.hpp"
+
+#ifndef QUADTUNE_VERSION
+#define QUADTUNE_VERSION "0.1.0"
+#endif
+
+namespace quadtune::engine {
+namespace {
+
+class Statement {
+ public:
+  Statement(sqlite3* db, const std::string& sql) {
+    if (sqlite3_prepare_v2(db, sql.c_str(), -1, &stmt_, nullptr) != SQLITE_OK) {
+      throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(db) + " in " + sql);
+    }
+  }
+  ~Statement() { sqlite3_finalize(stmt_); }
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
+  void Bind(int i, const std::string& s) {
+    sqlite3_bind_text(stmt_, i, s.c_str(), static_cast<int>(s.size()), SQLITE_TRANSIENT);
+  }
+  void Bind(int i, double v) { sqlite3_bind_double(stmt_, i, v); }
+  void Bind(int i, std::int64_t v) { sqlite3_bind_int64(stmt_, i, v); }
+  void Bind(int i, int v) { sqlite3_bind_int(stmt_, i, v); }
+  bool Step() {
+    const int rc = sqlite3_step(stmt_);
+    if (rc == SQLITE_ROW) return true;
+    if (rc == SQLITE_DONE) return false;
+    throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(sqlite3_db_handle(stmt_)));
+  }
+  std::string Text(int i) {
+    const auto* t = sqlite3_column_text(stmt_, i);
+    return t ? reinterpret_cast<const char*>(t) : "";
+  }
+  double Double(int i) { return sqlite3_column_double(stmt_, i); }
+  std::int64_t Int(int i) { return sqlite3_column_int64(stmt_, i); }
+
+ private:
+  sqlite3_stmt* stmt_ = nullptr;
+};
+
+double Now() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+std::string Machine() {
+  char host[256] = {0};
+  gethostname(host, sizeof(host) - 1);
+  return std::string(host) + ", " + std::to_string(std::thread::hardware_concurrency()) + " cores";
+}
+
+const char* kSchema = R"(
+CREATE TABLE IF NOT EXISTS experiment(id INTEGER PRIMARY KEY, name TEXT, config TEXT, seed INTEGER,
+  version TEXT, machine TEXT, threads INTEGER, mode TEXT, started REAL);
+CREATE TABLE IF NOT EXISTS trial(id INTEGER PRIMARY KEY, experiment_id INTEGER, method TEXT,
+  repeat INTEGER, map_seed TEXT, status TEXT, best_params TEXT, best_value REAL, finished REAL,
+  UNIQUE(experiment_id, method, repeat));
+CREATE TABLE IF NOT EXISTS evaluation(id INTEGER PRIMARY KEY, trial_id INTEGER, method TEXT,
+  kind TEXT, iteration INTEGER, idx INTEGER, params TEXT, terms TEXT, value REAL, status TEXT,
+  message TEXT, wall_s REAL, started REAL, finished REAL, UNIQUE(trial_id, kind, iteration, idx));
+)";
+
+EvaluationRow ReadRow(Statement& s) {
+  EvaluationRow r;
+  r.trial_id = s.Int(0);
+  r.method = s.Text(1);
+  r.kind = s.Text(2);
+  r.iteration = static_cast<int>(s.Int(3));
+  r.index = static_cast<int>(s.Int(4));
+  r.params = s.Text(5);
+  r.terms = s.Text(6);
+  r.value = s.Double(7);
+  r.status = s.Text(8);
+  r.message = s.Text(9);
+  r.wall_s = s.Double(10);
+  r.started = s.Double(11);
+  r.finished = s.Double(12);
+  return r;
+}
+
+const char* kSelectEval =
+    "SELECT trial_id, method, kind, iteration, idx, params, terms, value, status, message, wall_s, "
+    "started, finished FROM evaluation";
+
+std::string CsvField(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"') out += '"';
+    out += c;
+  }
+  return out + "\"";
+}
+
+std::string Num(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.17g", v);
+  return buf;
+}
+
+}  // namespace
+
+void ResultStore::Exec(const std::string& sql) const {
+  char* err = nullptr;
+  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
+    std::string msg = err ? err : "?";
+    sqlite3_free(err);
+    throw std::runtime_error("sqlite: " + msg);
+  }
+}
+
+ResultStore::ResultStore(const std::string& path, const Experiment& experiment, int threads,
+                         bool resume) {
+  namespace fs = std::filesystem;
+  if (!resume) {
+    for (const char* suffix : {"", "-wal", "-shm", "-journal"}) fs::remove(path + suffix);
+  } else if (!fs::exists(path)) {
+    throw ConfigError(path, "--resume", "no results file to resume from");
+  }
+  if (!fs::path(path).parent_path().empty()) fs::create_directories(fs::path(path).parent_path());
+  if (sqlite3_open(path.c_str(), &db_) != SQLITE_OK) {
+    throw std::runtime_error("sqlite: cannot open " + path);
+  }
+  sqlite3_busy_timeout(db_, 5000);
+  Exec("PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL;");
+  Exec(kSchema);
+  {
+    Statement s(db_, "SELECT id, config FROM experiment ORDER BY id LIMIT 1");
+    if (s.Step()) {
+      if (!resume) throw std::runtime_error("results file " + path + " is not empty");
+      if (s.Text(1) != experiment.text) {
+        throw ConfigError(path, "--resume",
+                          "the stored run used another configuration; resume with the same "
+                          "experiment file");
+      }
+      experiment_id_ = s.Int(0);
+    }
+  }
+  if (experiment_id_ == 0) {
+    Statement s(db_,
+                "INSERT INTO experiment(name, config, seed, version, machine, threads, mode, started) "
+                "VALUES(?,?,?,?,?,?,?,?)");
+    s.Bind(1, experiment.name);
+    s.Bind(2, experiment.text);
+    s.Bind(3, static_cast<std::int64_t>(experiment.seed));
+    s.Bind(4, std::string(QUADTUNE_VERSION));
+    s.Bind(5, Machine());
+    s.Bind(6, threads);
+    s.Bind(7, std::string(experiment.mode == TimingMode::kRealtime ? "realtime" : "reproducible"));
+    s.Bind(8, Now());
+    s.Step();
+    experiment_id_ = sqlite3_last_insert_rowid(db_);
+  }
+  Statement s(db_, kSelectEval);
+  while (s.Step()) {
+    EvaluationRow r = ReadRow(s);
+    stored_.emplace(std::make_tuple(r.trial_id, r.kind, r.iteration, r.index), std::move(r));
+  }
+}
+
+ResultStore::ResultStore(const std::string& path) {
+  if (!std::filesystem::exists(path)) throw ConfigError(path, "", "no such results file");
+  if (sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
+    throw std::runtime_error("sqlite: cannot open " + path);
+  }
+  sqlite3_busy_timeout(db_, 5000);
+}
+
+ResultStore::~ResultStore() { sqlite3_close(db_); }
+
+std::int64_t ResultStore::Trial(const std::string& method, int repeat, std::uint64_t map_seed) {
+  {
+    Statement s(db_, "SELECT id FROM trial WHERE experiment_id=? AND method=? AND repeat=?");
+    s.Bind(1, experiment_id_);
+    s.Bind(2, method);
+    s.Bind(3, repeat);
+    if (s.Step()) return s.Int(0);
+  }
+  Statement s(db_,
+              "INSERT INTO trial(experiment_id, method, repeat, map_seed, status) VALUES(?,?,?,?,?)");
+  s.Bind(1, experiment_id_);
+  s.Bind(2, method);
+  s.Bind(3, repeat);
+  s.Bind(4, std::to_string(map_seed));
+  s.Bind(5, std::string("running"));
+  s.Step();
+  return sqlite3_last_insert_rowid(db_);
+}
+
+const EvaluationRow* ResultStore::Find(std::int64_t trial_id, const std::string& kind,
+                                       int iteration, int index) const {
+  auto it = stored_.find(std::make_tuple(trial_id, kind, iteration, index));
+  return it == stored_.end() ? nullptr : &it->second;
+}
+
+void ResultStore::Insert(const EvaluationRow& r) {
+  Exec("BEGIN");
+  try {
+    Statement s(db_,
+                "INSERT OR IGNORE INTO evaluation(trial_id, method, kind, iteration, idx, params, "
+                "terms, value, status, message, wall_s, started, finished) "
+                "VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?)");
+    s.Bind(1, r.trial_id);
+    s.Bind(2, r.method);
+    s.Bind(3, r.kind);
+    s.Bind(4, r.iteration);
+    s.Bind(5, r.index);
+    s.Bind(6, r.params);
+    s.Bind(7, r.terms);
+    s.Bind(8, r.value);
+    s.Bind(9, r.status);
+    s.Bind(10, r.message);
+    s.Bind(11, r.wall_s);
+    s.Bind(12, r.started);
+    s.Bind(13, r.finished);
+    s.Step();
+    Exec("COMMIT");
+  } catch (...) {
+    Exec("ROLLBACK");
+    throw;
+  }
+}
+
+void ResultStore::FinishTrial(std::int64_t trial_id, const std::string& status,
+                              const std::string& best_params, double best_value) {
+  Statement s(db_, "UPDATE trial SET status=?, best_params=?, best_value=?, finished=? WHERE id=?");
+  s.Bind(1, status);
+  s.Bind(2, best_params);
+  s.Bind(3, best_value);
+  s.Bind(4, Now());
+  s.Bind(5, trial_id);
+  s.Step();
+}
+
+std::vector<EvaluationRow> ResultStore::Evaluations() const {
+  std::vector<EvaluationRow> rows;
+  Statement s(db_, std::string(kSelectEval) + " ORDER BY trial_id, kind, iteration, idx");
+  while (s.Step()) rows.push_back(ReadRow(s));
+  return rows;
+}
+
+std::vector<TrialRow> ResultStore::Trials() const {
+  std::vector<TrialRow> rows;
+  Statement s(db_, "SELECT id, method, repeat, status, best_params, best_value FROM trial ORDER BY id");
+  while (s.Step()) {
+    TrialRow t;
+    t.id = s.Int(0);
+    t.method = s.Text(1);
+    t.repeat = static_cast<int>(s.Int(2));
+    t.status = s.Text(3);
+    t.best_params = s.Text(4);
+    t.best_value = s.Double(5);
+    rows.push_back(t);
+  }
+  return rows;
+}
+
+void ResultStore::ExportCsv(const std::string& directory) const {
+  namespace fs = std::filesystem;
+  fs::create_directories(directory);
+  {
+    std::ofstream out(fs::path(directory) / "experiment.csv");
+    out << "id,name,seed,version,machine,threads,mode,started\n";
+    Statement s(db_, "SELECT id, name, seed, version, machine, threads, mode, started FROM experiment");
+    while (s.Step()) {
+      out << s.Int(0) << ',' << CsvField(s.Text(1)) << ',' << s.Int(2) << ',' << CsvField(s.Text(3))
+          << ',' << CsvField(s.Text(4)) << ',' << s.Int(5) << ',' << s.Text(6) << ','
+          << Num(s.Double(7)) << '\n';
+    }
+  }
+  {
+    std::ofstream out(fs::path(directory) / "trials.csv");
+    out << "id,method,repeat,status,best_params,best_value\n";
+    for (const auto& t : Trials()) {
+      out << t.id << ',' << t.method << ',' << t.repeat << ',' << t.status << ','
+          << CsvField(t.best_params) << ',' << Num(t.best_value) << '\n';
+    }
+  }
+  std::ofstream out(fs::path(directory) / "evaluations.csv");
+  out << "trial_id,method,kind,iteration,index,params,terms,value,status,message,wall_s,started,"
+         "finished\n";
+  for (const auto& r : Evaluations()) {
+    out << r.trial_id << ',' << r.method << ',' << r.kind << ',' << r.iteration << ',' << r.index
+        << ',' << CsvField(r.params) << ',' << CsvField(r.terms) << ',' << Num(r.value) << ','
+        << r.status << ',' << CsvField(r.message) << ',' << Num(r.wall_s) << ','
+        << Num(r.started) << ',' << Num(r.finished) << '\n';
+  }
+}
+
+}  // namespace quadtune::engine

@@ -1,0 +1,619 @@
+#include "quadtune/engine/tuner.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+
+#include "quadtune/common/random.hpp"
+#include "quadtune/engine/result_store.hpp"
+#include "quadtune/engine/scheduler.hpp"
+#include "quadtune/optimizers/random_search.hpp"
+
+namespace quadtune::engine {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Now() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+std::string ToJson(const std::map<std::string, double>& values) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [k, v] : values) j[k] = v;
+  return j.dump();
+}
+
+ParamValues Merge(ParamValues a, const ParamValues& b) {
+  for (const auto& [k, v] : b) a[k] = v;
+  return a;
+}
+
+/// The result of one evaluation, computed or replayed.
+struct Outcome {
+  ParamValues params;
+  ObjectiveValue objective;
+  EvalStatus status = EvalStatus::kOk;
+  std::string message;
+  double wall_s = 0.0;
+  double started = 0.0;
+  double finished = 0.0;
+  std::vector<Opaque> queries;  // flights that record
+  bool replayed = false;
+  int query_count = 0;
+};
+
+/// State shared by every trial of a run.
+struct Context {
+  const Experiment& e;
+  const RunOptions& options;
+  Scheduler& scheduler;
+  WorldPool& pool;
+  ResultStore* store;
+  RunSummary& summary;
+  Clock::time_point start;
+  std::atomic<long> flights{0};
+  std::atomic<long> resolves{0};
+  int trials_done = 0;
+  int trials_total = 0;
+
+  [[nodiscard]] bool CancelRequested() const {
+    return options.cancel != nullptr && options.cancel->load();
+  }
+};
+
+/// Runs one flight into `out` (called inside a scheduler job). Never throws.
+void FlyInto(Context& c, const Opaque& map, const ParamValues& params, std::uint64_t seed,
+             bool record, std::function<void(double, ParamValues&)> provider, Outcome& out) {
+  out.params = params;
+  out.started = Now();
+  const auto t0 = Clock::now();
+  WorkerSlot* slot = c.pool.Acquire();
+  FlightRecord rec;
+  try {
+    FlightRequest req;
+    req.map = map;
+    req.params = params;
+    req.seed = seed;
+    req.short_params_provider = std::move(provider);
+    if (record) req.on_query = [&out](const Opaque& q) { out.queries.push_back(q); };
+    if (c.options.cancel != nullptr) {
+      const std::atomic<bool>* cancel = c.options.cancel;
+      req.cancelled = [cancel] { return cancel->load(); };
+    }
+    rec = c.e.planner.Fly(req, *slot);
+  } catch (const std::exception& ex) {
+    rec = FlightRecord{};
+    rec.status = EvalStatus::kFailed;
+    rec.message = std::string("exception: ") + ex.what();
+    slot->state.reset();  // the world may be in any state: rebuild it next time
+    out.queries.clear();
+  } catch (...) {
+    rec = FlightRecord{};
+    rec.status = EvalStatus::kFailed;
+    rec.message = "exception: unknown";
+    slot->state.reset();
+    out.queries.clear();
+  }
+  c.pool.Release(slot);
+  out.objective = LongTermObjective(rec, c.e.objective);
+  out.status = rec.status;
+  out.message = rec.message;
+  out.query_count = static_cast<int>(out.queries.size());
+  out.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  out.finished = Now();
+  c.flights.fetch_add(1);
+}
+
+/// Replays a stored row into an Outcome; in reproducible mode the stored parameters must be the
+/// ones asked now.
+Outcome Replay(const Context& c, const EvaluationRow& row, const ParamValues& asked) {
+  if (c.e.mode == TimingMode::kReproducible && row.params != ToJson(asked)) {
+    throw ConfigError(c.options.store_path, "--resume",
+                      "stored evaluation (" + row.kind + ", iteration " +
+                          std::to_string(row.iteration) + ", index " + std::to_string(row.index) +
+                          ") has parameters " + row.params + " but the run asks " + ToJson(asked) +
+                          "; the stored run is not a prefix of this one");
+  }
+  Outcome o;
+  o.params = asked;
+  o.objective.value = row.value;
+  const auto terms = nlohmann::json::parse(row.terms);
+  for (auto it = terms.begin(); it != terms.end(); ++it) o.objective.terms[it.key()] = it.value().get<double>();
+  o.status = row.status == "ok" ? EvalStatus::kOk
+                                : (row.status == "failed" ? EvalStatus::kFailed : EvalStatus::kCancelled);
+  o.message = row.message;
+  o.wall_s = row.wall_s;
+  o.started = row.started;
+  o.finished = row.finished;
+  o.replayed = true;
+  auto q = o.objective.terms.find("queries");
+  o.query_count = q == o.objective.terms.end() ? 0 : static_cast<int>(q->second);
+  return o;
+}
+
+void Store(Context& c, std::int64_t trial_id, Method method, const char* kind, int iteration,
+           int index, const Outcome& o) {
+  if (c.store == nullptr || o.replayed) return;
+  EvaluationRow r;
+  r.trial_id = trial_id;
+  r.method = ToString(method);
+  r.kind = kind;
+  r.iteration = iteration;
+  r.index = index;
+  r.params = ToJson(o.params);
+  r.terms = ToJson(o.objective.terms);
+  r.value = o.objective.value;
+  r.status = ToString(o.status);
+  r.message = o.message;
+  r.wall_s = o.wall_s;
+  r.started = o.started;
+  r.finished = o.finished;
+  c.store->Insert(r);
+}
+
+/// Planner defaults, overridden by the space's explicit defaults.
+ParamValues DefaultsOf(const Experiment& e) {
+  ParamValues d = e.planner.Defaults();
+  for (const auto& p : e.space.Parameters()) {
+    if (p.default_value) d[p.name] = *p.default_value;
+  }
+  return d;
+}
+
+ParamValues Pick(const ParamValues& all, const std::vector<std::string>& names) {
+  ParamValues out;
+  for (const auto& n : names) out[n] = all.at(n);
+  return out;
+}
+
+/// One trial: method × repeat.
+class Trial {
+ public:
+  Trial(Context& c, Method method, int repeat, Opaque map)
+      : c_(c), e_(c.e), method_(method), repeat_(repeat), map_(std::move(map)),
+        seed_(DeriveSeed(c.e.seed, {static_cast<std::uint64_t>(method), static_cast<std::uint64_t>(repeat)})) {
+    summary_.method = ToString(method);
+    summary_.repeat = repeat;
+    if (c.store != nullptr) trial_id_ = c.store->Trial(ToString(method), repeat, e_.MapSeed(repeat));
+  }
+
+  /// Returns false when cancelled.
+  bool Run() {
+    const bool done = method_ == Method::kBoPso ? RunBoPso() : RunSingle();
+    if (c_.store != nullptr) {
+      c_.store->FinishTrial(trial_id_, done ? "done" : "cancelled", ToJson(summary_.best),
+                            summary_.best_value);
+    }
+    return done;
+  }
+  [[nodiscard]] const TrialSummary& Summary() const { return summary_; }
+
+ private:
+  int FlightBatch() const {
+    return e_.budget.flight_batch > 0 ? e_.budget.flight_batch : c_.summary.threads;
+  }
+
+  std::uint64_t FlightSeed(int iteration, int index) const {
+    return DeriveSeed(seed_, {0xf1, static_cast<std::uint64_t>(iteration), static_cast<std::uint64_t>(index)});
+  }
+
+  void Observe(const Outcome& o) {
+    ++summary_.flights;
+    if (o.status != EvalStatus::kOk) ++summary_.failed;
+    if (o.replayed) ++summary_.replayed;
+    if (o.status == EvalStatus::kOk && (!have_best_ || o.objective.value < summary_.best_value)) {
+      have_best_ = true;
+      summary_.best_value = o.objective.value;
+      summary_.best = o.params;
+    }
+  }
+
+  void Report() {
+    if (!c_.options.on_progress) return;
+    Progress p;
+    p.method = summary_.method;
+    p.repeat = repeat_;
+    p.flights_done = summary_.flights;
+    p.flights_total = e_.budget.flights;
+    p.trials_done = c_.trials_done;
+    p.trials_total = c_.trials_total;
+    p.short_evals = c_.resolves.load();
+    p.best_long = summary_.best_value;
+    p.elapsed_s = std::chrono::duration<double>(Clock::now() - c_.start).count();
+    c_.options.on_progress(p);
+  }
+
+  /// Flies a batch of parameter sets (replaying stored ones). Returns the outcomes in index order.
+  /// `wait` false: the caller must call scheduler.Wait(group) before reading them.
+  void SubmitFlights(TaskGroup& group, int iteration, const std::vector<ParamValues>& batch,
+                     bool record, std::vector<Outcome>& out) {
+    out.assign(batch.size(), Outcome{});
+    for (std::size_t i = 0; i < batch.size(); ++i) {
+      const EvaluationRow* row =
+          c_.store ? c_.store->Find(trial_id_, "long", iteration, static_cast<int>(i)) : nullptr;
+      if (row != nullptr) {
+        out[i] = Replay(c_, *row, batch[i]);
+        continue;
+      }
+      std::function<void(double, ParamValues&)> provider;
+      if (e_.mode == TimingMode::kRealtime && method_ == Method::kBoPso) {
+        provider = [this](double, ParamValues& theta_s) {
+          std::lock_guard lock(live_mutex_);
+          if (!live_best_.empty()) theta_s = live_best_;
+        };
+      }
+      const std::uint64_t seed = FlightSeed(iteration, static_cast<int>(i));
+      Outcome* slot = &out[i];
+      const ParamValues params = batch[i];
+      c_.scheduler.Submit(group, Priority::kFlight,
+                          [this, slot, params, seed, record, provider] {
+                            FlyInto(c_, map_, params, seed, record, provider, *slot);
+                          });
+    }
+  }
+
+  bool RunSingle() {
+    std::unique_ptr<optimizers::Optimizer> opt;
+    switch (method_) {
+      case Method::kRandom:
+        opt = std::make_unique<optimizers::RandomSearch>(
+            e_.space, optimizers::RandomSearchOptions{DeriveSeed(seed_, {1})});
+        break;
+      case Method::kPso: {
+        auto o = e_.pso;
+        o.seed = DeriveSeed(seed_, {1});
+        opt = std::make_unique<optimizers::Pso>(e_.space, o);
+        break;
+      }
+      case Method::kBo: {
+        auto o = e_.bo;
+        o.seed = DeriveSeed(seed_, {1});
+        opt = std::make_unique<optimizers::BayesOpt>(e_.space, o);
+        break;
+      }
+      default: break;
+    }
+    const ParamValues defaults = DefaultsOf(e_);
+    int iteration = 0;
+    while (summary_.flights < e_.budget.flights) {
+      if (c_.CancelRequested()) return false;
+      const int k = std::min(FlightBatch(), e_.budget.flights - summary_.flights);
+      std::vector<optimizers::Candidate> cands;
+      std::vector<ParamValues> batch;
+      if (opt) {
+        cands = opt->Ask(k);
+        for (const auto& cand : cands) batch.push_back(Merge(defaults, e_.space.ToNamed(cand.x)));
+      } else {
+        batch.assign(static_cast<std::size_t>(k), defaults);
+      }
+      TaskGroup group;
+      std::vector<Outcome> out;
+      SubmitFlights(group, iteration, batch, false, out);
+      c_.scheduler.Wait(group);
+      if (c_.CancelRequested()) return false;
+      for (std::size_t i = 0; i < out.size(); ++i) {
+        Store(c_, trial_id_, method_, "long", iteration, static_cast<int>(i), out[i]);
+        if (opt) opt->Tell(cands[i].id, out[i].objective.value);
+        Observe(out[i]);
+      }
+      ++iteration;
+      Report();
+    }
+    return true;
+  }
+
+  // ---- bo_pso ------------------------------------------------------------------------------
+
+  struct BufferEntry {
+    std::vector<Opaque> queries;
+    int count = 0;
+    bool pending = false;  // replayed flight: queries not materialised yet
+    ParamValues params;
+    std::uint64_t seed = 0;
+  };
+
+  int BufferTotal() const {
+    int n = 0;
+    for (const auto& b : buffer_) n += b.count;
+    return n;
+  }
+
+  void TrimBuffer() {
+    while (!buffer_.empty() && BufferTotal() - buffer_.front().count >= e_.budget.query_window) {
+      buffer_.pop_front();
+    }
+  }
+
+  /// Re-flies replayed flights so that their queries exist (deterministic in reproducible mode).
+  void Materialise(std::size_t entries) {
+    TaskGroup group;
+    std::vector<Outcome> out(entries);
+    bool any = false;
+    for (std::size_t i = 0; i < entries; ++i) {
+      if (!buffer_[i].pending) continue;
+      any = true;
+      Outcome* slot = &out[i];
+      const ParamValues params = buffer_[i].params;
+      const std::uint64_t seed = buffer_[i].seed;
+      c_.scheduler.Submit(group, Priority::kFlight, [this, slot, params, seed] {
+        FlyInto(c_, map_, params, seed, true, {}, *slot);
+      });
+    }
+    if (!any) return;
+    c_.scheduler.Wait(group);
+    for (std::size_t i = 0; i < entries; ++i) {
+      if (!buffer_[i].pending) continue;
+      buffer_[i].queries = std::move(out[i].queries);
+      buffer_[i].count = static_cast<int>(buffer_[i].queries.size());
+      buffer_[i].pending = false;
+    }
+  }
+
+  /// Runs `evaluations` θ_s evaluations (PSO generations) on the first `entries` buffer entries;
+  /// then, when `until` is given, more generations until that group is done.
+  void ShortPhase(int evaluations, std::size_t entries, const TaskGroup* until = nullptr) {
+    if (evaluations <= 0) return;
+    int total = 0;
+    for (std::size_t i = 0; i < entries; ++i) total += buffer_[i].count;
+    if (total == 0) return;
+    int window_begin = std::max(0, total - e_.budget.query_window);
+    bool materialised = false;
+    int left = evaluations;
+    while (left > 0 || (until != nullptr && !until->Done())) {
+      if (c_.CancelRequested()) return;
+      const auto cands = pso_->Ask(left > 0 ? std::min(left, e_.pso.num_particles)
+                                            : e_.pso.num_particles);
+      if (cands.empty()) break;
+      const int gen = generation_++;
+      std::vector<Outcome> out(cands.size());
+      std::vector<std::vector<ObjectiveValue>> per_query(cands.size());
+      std::vector<std::vector<std::string>> errors(cands.size());
+      std::vector<std::vector<double>> walls(cands.size());
+      TaskGroup group;
+      for (std::size_t i = 0; i < cands.size(); ++i) {
+        const ParamValues theta_s = short_space_.ToNamed(cands[i].x);
+        const EvaluationRow* row =
+            c_.store ? c_.store->Find(trial_id_, "short", gen, static_cast<int>(i)) : nullptr;
+        if (row != nullptr) {
+          out[i] = Replay(c_, *row, theta_s);
+          continue;
+        }
+        if (!materialised) {
+          Materialise(entries);
+          materialised = true;
+          // Re-flown flights give the stored query counts in reproducible mode; recount anyway.
+          total = 0;
+          for (std::size_t k = 0; k < entries; ++k) total += buffer_[k].count;
+          window_begin = std::max(0, total - e_.budget.query_window);
+        }
+        if (total == 0) {
+          out[i].params = theta_s;
+          out[i].status = EvalStatus::kFailed;
+          out[i].message = "no recorded planning query to re-solve";
+          out[i].objective.value = e_.objective.failure_value;
+          continue;
+        }
+        out[i].params = theta_s;
+        out[i].started = Now();
+        Rng rng(DeriveSeed(seed_, {0x5e, static_cast<std::uint64_t>(gen), i}));
+        const int q = e_.budget.queries_per_eval;
+        per_query[i].resize(static_cast<std::size_t>(q));
+        errors[i].resize(static_cast<std::size_t>(q));
+        walls[i].resize(static_cast<std::size_t>(q));
+        for (int j = 0; j < q; ++j) {
+          int pick = static_cast<int>(UniformInt(rng, window_begin, total - 1));
+          std::size_t entry = 0;
+          while (pick >= buffer_[entry].count) {
+            pick -= buffer_[entry].count;
+            ++entry;
+          }
+          const Opaque query = buffer_[entry].queries[static_cast<std::size_t>(pick)];
+          ObjectiveValue* value = &per_query[i][static_cast<std::size_t>(j)];
+          std::string* error = &errors[i][static_cast<std::size_t>(j)];
+          double* wall = &walls[i][static_cast<std::size_t>(j)];
+          c_.scheduler.Submit(group, Priority::kShort, [this, query, theta_s, value, error, wall] {
+            const auto t0 = Clock::now();
+            ResolveRecord rec;
+            try {
+              rec = e_.planner.Resolve(query, theta_s);
+            } catch (const std::exception& ex) {
+              rec = ResolveRecord{};
+              rec.status = EvalStatus::kFailed;
+              *error = std::string("exception: ") + ex.what();
+            }
+            *value = ShortTermObjective(rec, e_.objective, e_.mode);
+            *wall = std::chrono::duration<double>(Clock::now() - t0).count();
+            c_.resolves.fetch_add(1);
+          });
+        }
+      }
+      c_.scheduler.Wait(group);
+      if (c_.CancelRequested()) return;
+      for (std::size_t i = 0; i < cands.size(); ++i) {
+        Outcome& o = out[i];
+        if (!o.replayed && !per_query[i].empty()) {
+          // Mean over the re-solved queries, term by term.
+          const double n = static_cast<double>(per_query[i].size());
+          for (std::size_t j = 0; j < per_query[i].size(); ++j) {
+            o.objective.value += per_query[i][j].value / n;
+            for (const auto& [k, v] : per_query[i][j].terms) o.objective.terms[k] += v / n;
+            o.wall_s += walls[i][j];
+            if (!errors[i][j].empty()) {
+              o.status = EvalStatus::kFailed;
+              if (o.message.empty()) o.message = errors[i][j];
+            }
+          }
+          o.objective.terms["queries"] = n;
+          o.finished = Now();
+        }
+        Store(c_, trial_id_, method_, "short", gen, static_cast<int>(i), o);
+        pso_->Tell(cands[i].id, o.objective.value);
+        ++summary_.short_evals;
+        if (o.status != EvalStatus::kOk) ++summary_.failed;
+        if (o.replayed) ++summary_.replayed;
+      }
+      left = std::max(0, left - static_cast<int>(cands.size()));
+      if (e_.mode == TimingMode::kRealtime) {
+        std::lock_guard lock(live_mutex_);
+        live_best_ = BestShort();
+      }
+    }
+  }
+
+  ParamValues BestShort() const {
+    const auto best = pso_->Best();
+    return best ? short_space_.ToNamed(best->x) : theta_s_start_;
+  }
+
+  void AddToBuffer(const Outcome& o, std::uint64_t seed) {
+    BufferEntry b;
+    b.params = o.params;
+    b.seed = seed;
+    if (o.replayed) {
+      b.pending = o.query_count > 0;
+      b.count = o.query_count;
+    } else {
+      b.queries = o.queries;
+      b.count = static_cast<int>(o.queries.size());
+    }
+    if (b.count > 0) buffer_.push_back(std::move(b));
+    TrimBuffer();
+  }
+
+  void ForwardBestChanges() {
+    const std::uint64_t changes = pso_->BestChanges();
+    for (; forwarded_changes_ < changes; ++forwarded_changes_) {
+      bo_->NotifyContextChanged();
+      ++summary_.context_changes;
+    }
+  }
+
+  bool RunBoPso() {
+    short_space_ = e_.space.Subspace(e_.short_names);
+    long_space_ = e_.space.Subspace(e_.long_names);
+    auto po = e_.pso;
+    po.seed = DeriveSeed(seed_, {1});
+    pso_ = std::make_unique<optimizers::Pso>(short_space_, po);
+    auto bo = e_.bo;
+    bo.seed = DeriveSeed(seed_, {2});
+    bo_ = std::make_unique<optimizers::BayesOpt>(long_space_, bo);
+    const ParamValues defaults = DefaultsOf(e_);
+    theta_s_start_ = e_.initial_short ? *e_.initial_short : Pick(defaults, e_.short_names);
+    live_best_ = theta_s_start_;
+    int iteration = 0;
+    if (!e_.initial_short) {
+      // θ_s first: a flight with the defaults records queries; PSO runs on them before BO.
+      TaskGroup group;
+      std::vector<Outcome> out;
+      SubmitFlights(group, 0, {defaults}, true, out);
+      c_.scheduler.Wait(group);
+      if (c_.CancelRequested()) return false;
+      Store(c_, trial_id_, method_, "long", 0, 0, out[0]);
+      Observe(out[0]);
+      AddToBuffer(out[0], FlightSeed(0, 0));
+      ShortPhase(e_.budget.short_evals_per_flight, buffer_.size());
+      if (c_.CancelRequested()) return false;
+      ForwardBestChanges();
+      iteration = 1;
+      Report();
+    }
+    while (summary_.flights < e_.budget.flights) {
+      if (c_.CancelRequested()) return false;
+      const int k = std::min(FlightBatch(), e_.budget.flights - summary_.flights);
+      const ParamValues theta_s_round = BestShort();
+      const auto cands = bo_->Ask(k);
+      std::vector<ParamValues> batch;
+      for (const auto& cand : cands) {
+        batch.push_back(Merge(Merge(defaults, theta_s_round), long_space_.ToNamed(cand.x)));
+      }
+      TaskGroup flights;
+      std::vector<Outcome> out;
+      SubmitFlights(flights, iteration, batch, true, out);  // flights first ...
+      const std::size_t entries = buffer_.size();            // ... PSO on earlier queries meanwhile
+      ShortPhase(e_.budget.short_evals_per_flight * static_cast<int>(cands.size()), entries,
+                 e_.budget.short_term_while_flying ? &flights : nullptr);
+      c_.scheduler.Wait(flights);
+      if (c_.CancelRequested()) return false;
+      for (std::size_t i = 0; i < out.size(); ++i) {
+        Store(c_, trial_id_, method_, "long", iteration, static_cast<int>(i), out[i]);
+        bo_->Tell(cands[i].id, out[i].objective.value);
+        Observe(out[i]);
+      }
+      for (std::size_t i = 0; i < out.size(); ++i) {
+        AddToBuffer(out[i], FlightSeed(iteration, static_cast<int>(i)));
+      }
+      ForwardBestChanges();
+      ++iteration;
+      Report();
+    }
+    return true;
+  }
+
+  Context& c_;
+  const Experiment& e_;
+  Method method_;
+  int repeat_;
+  Opaque map_;
+  std::uint64_t seed_;
+  std::int64_t trial_id_ = 0;
+  TrialSummary summary_;
+  bool have_best_ = false;
+  // bo_pso
+  optimizers::ParameterSpace short_space_, long_space_;
+  std::unique_ptr<optimizers::Pso> pso_;
+  std::unique_ptr<optimizers::BayesOpt> bo_;
+  std::deque<BufferEntry> buffer_;
+  int generation_ = 0;
+  std::uint64_t forwarded_changes_ = 0;
+  ParamValues theta_s_start_;
+  std::mutex live_mutex_;
+  ParamValues live_best_;
+};
+
+}  // namespace
+
+RunSummary RunExperiment(const Experiment& experiment, const RunOptions& options) {
+  RunSummary summary;
+  summary.threads = options.threads > 0 ? options.threads : experiment.threads;
+  std::unique_ptr<ResultStore> store;
+  if (!options.store_path.empty()) {
+    store = std::make_unique<ResultStore>(options.store_path, experiment, summary.threads,
+                                          options.resume);
+  }
+  Scheduler scheduler(summary.threads);
+  WorldPool pool;
+  Context c{experiment, options, scheduler, pool, store.get(), summary, Clock::now()};
+  c.trials_total = static_cast<int>(experiment.methods.size()) * experiment.repeats;
+  // Random maps of identical density: one map per repeat, shared by every method. Made before
+  // any flight, so a layout that cannot be generated stops the run before work starts.
+  std::vector<Opaque> maps;
+  for (int repeat = 0; repeat < experiment.repeats; ++repeat) {
+    maps.push_back(experiment.planner.PrepareMap(experiment.MapSeed(repeat)));
+  }
+  for (int repeat = 0; repeat < experiment.repeats && summary.status == RunStatus::kCompleted;
+       ++repeat) {
+    const Opaque& map = maps[static_cast<std::size_t>(repeat)];
+    for (Method method : experiment.methods) {
+      Trial trial(c, method, repeat, map);
+      const bool done = trial.Run();
+      summary.trials.push_back(trial.Summary());
+      ++c.trials_done;
+      if (!done) {
+        summary.status = RunStatus::kCancelled;
+        summary.message = "cancelled";
+        break;
+      }
+    }
+  }
+  summary.flights = c.flights.load();
+  summary.resolves = c.resolves.load();
+  summary.worlds = pool.Size();
+  summary.wall_s = std::chrono::duration<double>(Clock::now() - c.start).count();
+  return summary;
+}
+
+}  // namespace quadtune::engine

@@ -1,0 +1,225 @@
+// `quadtune run`, `quadtune export` and `quadtune bench`: the engine's command-line front end.
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "commands.hpp"
+#include "quadtune/common/error.hpp"
+#include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/result_store.hpp"
+#include "quadtune/engine/scheduler.hpp"
+#include "quadtune/engine/tuner.hpp"
+
+namespace quadtune::cli {
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+void OnSignal(int) { g_interrupted.store(true); }
+
+struct RunArgs {
+  std::string experiment;
+  int threads = 0;
+  std::string out = "results/run";
+  bool resume = false;
+  bool quiet = false;
+};
+
+int Run(const RunArgs& a) {
+  // Every configuration error is reported here, before any work starts.
+  const engine::Experiment e = engine::Experiment::LoadFile(a.experiment);
+  namespace fs = std::filesystem;
+  fs::create_directories(a.out);
+  const std::string store = (fs::path(a.out) / "results.sqlite").string();
+  engine::RunOptions options;
+  options.store_path = store;
+  options.threads = a.threads;
+  options.resume = a.resume;
+  options.cancel = &g_interrupted;
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
+  const bool tty = isatty(fileno(stderr)) != 0 && !a.quiet;
+  const int threads = a.threads > 0 ? a.threads : e.threads;
+  spdlog::info("experiment '{}' ({}): planner {}, methods {}, repeats {}, {} flights per trial, "
+               "{} threads, {} mode{}",
+               e.name, a.experiment, e.planner.Name(), e.methods.size(), e.repeats,
+               e.budget.flights, threads,
+               e.mode == engine::TimingMode::kRealtime ? "realtime" : "reproducible",
+               a.resume ? ", resuming" : "");
+  options.on_progress = [&](const engine::Progress& p) {
+    const double done = p.trials_done + static_cast<double>(p.flights_done) / p.flights_total;
+    const double eta = done > 0 ? p.elapsed_s * (p.trials_total - done) / done : 0.0;
+    const double rate = p.elapsed_s > 0 ? static_cast<double>(p.short_evals) / p.elapsed_s : 0.0;
+    const std::string line = fmt::format(
+        "trial {}/{} {} r{}: flights {}/{}, best f_l {:.3f}, short-term evals {:.0f}/s, "
+        "elapsed {:.0f} s, ETA {:.0f} s",
+        p.trials_done + 1, p.trials_total, p.method, p.repeat, p.flights_done, p.flights_total,
+        p.best_long, rate, p.elapsed_s, eta);
+    if (tty) {
+      std::fprintf(stderr, "\r\033[K%s", line.c_str());
+      std::fflush(stderr);
+    } else {
+      spdlog::debug("{}", line);
+    }
+  };
+  const engine::RunSummary s = engine::RunExperiment(e, options);
+  if (tty) std::fprintf(stderr, "\n");
+  nlohmann::json j;
+  j["status"] = s.status == engine::RunStatus::kCompleted ? "completed" : "cancelled";
+  j["wall_s"] = s.wall_s;
+  j["threads"] = s.threads;
+  j["flights"] = s.flights;
+  j["resolves"] = s.resolves;
+  j["worlds"] = s.worlds;
+  for (const auto& t : s.trials) {
+    spdlog::info("{} repeat {}: best f_l {:.3f} after {} flights, {} θ_s evaluations, {} failed, "
+                 "{} replayed",
+                 t.method, t.repeat, t.best_value, t.flights, t.short_evals, t.failed, t.replayed);
+    nlohmann::json tj;
+    tj["method"] = t.method;
+    tj["repeat"] = t.repeat;
+    tj["best_value"] = t.best_value;
+    tj["best"] = t.best;
+    tj["flights"] = t.flights;
+    tj["short_evals"] = t.short_evals;
+    tj["failed"] = t.failed;
+    tj["replayed"] = t.replayed;
+    j["trials"].push_back(tj);
+  }
+  std::ofstream(fs::path(a.out) / "summary.json") << j.dump(1) << '\n';
+  spdlog::info("{} flights and {} re-solves in {:.1f} s on {} threads ({} pooled worlds); results "
+               "in {}",
+               s.flights, s.resolves, s.wall_s, s.threads, s.worlds, store);
+  return s.status == engine::RunStatus::kCompleted ? 0 : 130;
+}
+
+struct BenchArgs {
+  std::string experiment;
+  int max_threads = 2;
+  int flights = 4;
+  int resolves = 200;
+};
+
+/// Flights/s and short-term evals/s at 1..N threads, and the scheduler's overhead per task.
+int Bench(const BenchArgs& a) {
+  const engine::Experiment e = engine::Experiment::LoadFile(a.experiment);
+  const engine::Opaque map = e.planner.PrepareMap(e.MapSeed(0));
+  const engine::ParamValues defaults = e.planner.Defaults();
+  // Record queries once.
+  std::vector<engine::Opaque> queries;
+  {
+    engine::WorkerSlot slot;
+    engine::FlightRequest req;
+    req.map = map;
+    req.params = defaults;
+    req.seed = 1;
+    req.on_query = [&](const engine::Opaque& q) { queries.push_back(q); };
+    (void)e.planner.Fly(req, slot);
+  }
+  if (queries.empty()) {
+    spdlog::error("the benchmark flight recorded no planning query");
+    return 1;
+  }
+  engine::ParamValues theta_s;
+  for (const auto& p : e.planner.ShortTermParameters()) theta_s[p.name] = p.default_value;
+  using Clock = std::chrono::steady_clock;
+  std::printf("%8s %12s %16s %20s\n", "threads", "flights/s", "short evals/s", "overhead/task (us)");
+  for (int t = 1; t <= a.max_threads; ++t) {
+    engine::Scheduler sched(t);
+    engine::WorldPool pool;
+    double flights_per_s = 0.0;
+    {
+      engine::TaskGroup g;
+      const auto t0 = Clock::now();
+      for (int i = 0; i < a.flights; ++i) {
+        sched.Submit(g, engine::Priority::kFlight, [&, i] {
+          engine::WorkerSlot* slot = pool.Acquire();
+          engine::FlightRequest req;
+          req.map = map;
+          req.params = defaults;
+          req.seed = static_cast<std::uint64_t>(i);
+          (void)e.planner.Fly(req, *slot);
+          pool.Release(slot);
+        });
+      }
+      sched.Wait(g);
+      flights_per_s = a.flights / std::chrono::duration<double>(Clock::now() - t0).count();
+    }
+    double resolves_per_s = 0.0;
+    {
+      engine::TaskGroup g;
+      const auto t0 = Clock::now();
+      for (int i = 0; i < a.resolves; ++i) {
+        sched.Submit(g, engine::Priority::kShort, [&, i] {
+          (void)e.planner.Resolve(queries[static_cast<std::size_t>(i) % queries.size()], theta_s);
+        });
+      }
+      sched.Wait(g);
+      resolves_per_s = a.resolves / std::chrono::duration<double>(Clock::now() - t0).count();
+    }
+    double overhead_us = 0.0;
+    {
+      const int n = 20000;
+      engine::TaskGroup g;
+      const auto t0 = Clock::now();
+      for (int i = 0; i < n; ++i) sched.Submit(g, engine::Priority::kShort, [] {});
+      sched.Wait(g);
+      overhead_us = 1e6 * std::chrono::duration<double>(Clock::now() - t0).count() / n;
+    }
+    std::printf("%8d %12.2f %16.1f %20.2f\n", t, flights_per_s, resolves_per_s, overhead_us);
+  }
+  return 0;
+}
+
+}  // namespace
+
+void RegisterRun(CLI::App& app, int& exit_code) {
+  static RunArgs args;
+  auto* cmd = app.add_subcommand("run", "run a tuning experiment (YAML) and store every evaluation "
+                                        "in OUT/results.sqlite");
+  cmd->add_option("experiment", args.experiment, "experiment file (YAML)")->required();
+  cmd->add_option("--threads", args.threads, "worker threads (default: the experiment's)")
+      ->check(CLI::Range(1, 1024));
+  cmd->add_option("--out", args.out, "output directory")->capture_default_str();
+  cmd->add_flag("--resume", args.resume, "continue the run stored in OUT/results.sqlite");
+  cmd->add_flag("--quiet", args.quiet, "no progress line");
+  cmd->callback([&exit_code] { exit_code = Run(args); });
+}
+
+void RegisterExport(CLI::App& app, int& exit_code) {
+  static std::string store;
+  static std::string csv = "results/csv";
+  auto* cmd = app.add_subcommand("export", "export a results store to CSV files");
+  cmd->add_option("results", store, "results.sqlite")->required();
+  cmd->add_option("--csv", csv, "output directory")->capture_default_str();
+  cmd->callback([&exit_code] {
+    engine::ResultStore s(store);
+    s.ExportCsv(csv);
+    spdlog::info("wrote {}/experiment.csv, trials.csv, evaluations.csv", csv);
+    exit_code = 0;
+  });
+}
+
+void RegisterBench(CLI::App& app, int& exit_code) {
+  static BenchArgs args;
+  args.experiment = std::string(QUADTUNE_SOURCE_DIR) + "/experiments/tiny.yaml";
+  auto* cmd = app.add_subcommand("bench", "flights/s and short-term evals/s at 1..N threads, and "
+                                          "the scheduler's overhead per task");
+  cmd->add_option("experiment", args.experiment, "experiment file (its planner and map)")
+      ->capture_default_str();
+  cmd->add_option("--max-threads", args.max_threads, "largest thread count")->capture_default_str();
+  cmd->add_option("--flights", args.flights, "flights per thread count")->capture_default_str();
+  cmd->add_option("--resolves", args.resolves, "re-solves per thread count")->capture_default_str();
+  cmd->callback([&exit_code] { exit_code = Bench(args); });
+}
+
+}  // namespace quadtune::cli

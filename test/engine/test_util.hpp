@@ -1,0 +1,52 @@
+#pragma once
+// Helpers shared by the engine tests.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/result_store.hpp"
+
+namespace quadtune::engine::test {
+
+/// The toy experiment used by most tests: small and fast (milliseconds per trial).
+inline std::string ToyYaml(const std::string& methods = "[default, random, pso, bo, bo_pso]",
+                           const std::string& extra_toy = "", int flights = 6) {
+  return "name: toy-test\nseed: 11\nthreads: 2\nmode: reproducible\nrepeats: 1\n"
+         "methods: " + methods + "\n"
+         "planner:\n  type: toy\n  toy: {length: 10, gates: 4, plan_interval: 1.0" + extra_toy + "}\n"
+         "parameters:\n"
+         "  - {name: gain, lower: 0.05, upper: 1.5, default: 0.3}\n"
+         "  - {name: max_iter, lower: 2, upper: 40, type: integer, default: 20}\n"
+         "  - {name: speed, lower: 0.5, upper: 6.0, default: 2.0}\n"
+         "  - {name: margin, lower: 0.0, upper: 3.0, default: 0.5}\n"
+         "short_term: [gain, max_iter]\nlong_term: [speed, margin]\n"
+         "objective:\n  short_term: {tau_t: 0.002}\n"
+         "budget: {flights: " + std::to_string(flights) +
+         ", flight_batch: 2, short_evals_per_flight: 4, queries_per_eval: 2, query_window: 50}\n"
+         "pso: {num_particles: 4}\n"
+         "bo: {initial_design_size: 2, acquisition_pool: 50, acquisition_starts: 1, "
+         "hyper_restarts: 0}\n";
+}
+
+/// A fresh temporary directory for one test.
+inline std::string TempDir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / ("quadtune_engine_" + name);
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir.string();
+}
+
+/// Evaluations without the wall-clock columns, one string per row, for exact comparison.
+inline std::vector<std::string> Deterministic(const std::string& store_path) {
+  ResultStore store(store_path);
+  std::vector<std::string> rows;
+  for (const auto& r : store.Evaluations()) {
+    rows.push_back(r.method + "|" + r.kind + "|" + std::to_string(r.iteration) + "|" +
+                   std::to_string(r.index) + "|" + r.params + "|" + r.terms + "|" +
+                   std::to_string(r.value) + "|" + r.status + "|" + r.message);
+  }
+  return rows;
+}
+
+}  // namespace quadtune::engine::test
