@@ -37,6 +37,11 @@ void RegisterPlot(CLI::App& app, int& exit_code) {
   flight->add_option("DIR", dir, "directory written by `quadtune fly`")->required()->check(
       CLI::ExistingDirectory);
   flight->callback([&exit_code] { exit_code = RunPlotScript("flight '" + dir + "'"); });
+  auto* run = cmd->add_subcommand("run", "figures and table of a tuning run (`quadtune run` output)");
+  static std::string run_dir;
+  run->add_option("DIR", run_dir, "directory holding results.sqlite")->required()->check(
+      CLI::ExistingDirectory);
+  run->callback([&exit_code] { exit_code = RunPlotScript("run '" + run_dir + "'"); });
   auto* flights = cmd->add_subcommand("flights", "summary figures and table of several flights");
   static std::vector<std::string> dirs;
   static std::string out;

@@ -2,11 +2,14 @@
 # The README's main job: installs what is missing, builds quadtune, and runs the default
 # experiment, ending in results and figures under results/main/ (or $QUADTUNE_RESULTS).
 #
-# Current default experiment (until the tuning engine lands): closed-loop go-and-return flights
-# (24 m out and back) through CGAL forests of the paper's four densities, 3.0 / 2.1 / 1.3 / 0.9 m
-# average spacing, with the default planner parameters. Each flight runs the real stack: Bullet
-# physics and controller, depth sensor, local map, A* front end, Ipopt minimum-jerk back end,
-# replanning and emergency stop.
+# 1. The default experiment (experiments/default.yaml): the paper's complementary tuner (BO on the
+#    long-term parameters from flights, PSO on the short-term parameters from recorded planning
+#    queries) against the planner's defaults, on go-and-return flights through a 1.3 m forest.
+#    Results in SQLite, a convergence figure and a table.
+# 2. Closed-loop go-and-return flights at default parameters through CGAL forests of the paper's
+#    four densities, 3.0 / 2.1 / 1.3 / 0.9 m average spacing, with figures and a table.
+# Each flight runs the real stack: Bullet physics and controller, depth sensor, local map, A* front
+# end, Ipopt minimum-jerk back end, replanning and emergency stop.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build_dir="${QUADTUNE_BUILD_DIR:-$root/build}"
@@ -16,6 +19,11 @@ results="${QUADTUNE_RESULTS:-$root/results/main}"
 
 quadtune="$build_dir/experiments/quadtune"
 mkdir -p "$results"
+
+echo "== tuning: BO+PSO against the defaults (experiments/default.yaml) -> $results/tuning"
+rm -rf "$results/tuning"
+"$quadtune" run "$root/experiments/default.yaml" --out "$results/tuning"
+"$quadtune" plot run "$results/tuning"
 dirs=()
 for density in 3p0 2p1 1p3 0p9; do
   out="$results/forest_$density"
@@ -30,8 +38,13 @@ done
 "$quadtune" plot flights "${dirs[@]}" --out "$results"
 echo
 echo "Results in $results:"
+echo "  tuning/tuning.png           best-so-far f_l per method, f_l per flight, short-term evaluations"
+echo "  tuning/tuning.md            final best f_l per method and the tuned parameters"
+echo "  tuning/results.sqlite       every evaluation (export: quadtune export tuning/results.sqlite --csv DIR)"
 echo "  flights.md                  table: flight time, collisions, emergency stops, plans per density"
 echo "  flights_topdown.png         the four flights seen from above"
 echo "  flight_time_vs_spacing.png  flight time and mean speed against obstacle spacing"
 echo "  forest_*/flight_topdown.png one figure per flight; forest_*/flight.csv, plans.csv, summary.json logs"
+cat "$results/tuning/tuning.md"
+echo
 cat "$results/flights.md"

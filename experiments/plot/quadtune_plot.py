@@ -7,12 +7,17 @@ Called by `quadtune plot`, or directly:
     quadtune_plot.py flights DIR... --out D  several flights (e.g. one per obstacle density):
                                              stacked top-down views, flight time against spacing,
                                              and a Markdown table
+    quadtune_plot.py run DIR                 a tuning run (DIR/results.sqlite from `quadtune run`):
+                                             best-so-far f_l per method, f_l per iteration, the
+                                             number of short-term evaluations, a Markdown table
 """
 import argparse
 import csv
 import json
 import math
 import os
+import sqlite3
+import statistics
 import sys
 
 import matplotlib
@@ -175,6 +180,95 @@ def plot_flights(directories, out_dir):
     return [topdown, density, table]
 
 
+def load_run(path):
+    """Per trial: method, repeat, the f_l sequence and the short-term counts before each flight."""
+    con = sqlite3.connect("file:{}?mode=ro".format(path), uri=True)
+    trials = {}
+    for tid, method, repeat, best_value, best_params in con.execute(
+            "SELECT id, method, repeat, best_value, best_params FROM trial ORDER BY id"):
+        trials[tid] = {"method": method, "repeat": repeat, "best_value": best_value,
+                       "best_params": best_params, "long": [], "short_before": [], "shorts": 0}
+    for tid, kind, value, status in con.execute(
+            "SELECT trial_id, kind, value, status FROM evaluation ORDER BY id"):
+        t = trials.get(tid)
+        if t is None:
+            continue
+        if kind == "short":
+            t["shorts"] += 1
+        else:
+            t["long"].append(value)
+            t["short_before"].append(t["shorts"])
+    con.close()
+    return [t for t in trials.values() if t["long"]]
+
+
+def plot_run(directory):
+    """Figures and a table of a tuning run, after the paper's benchmark figure."""
+    trials = load_run(os.path.join(directory, "results.sqlite"))
+    methods = []
+    for t in trials:
+        if t["method"] not in methods:
+            methods.append(t["method"])
+    colors = {"default": "tab:green", "random": "tab:gray", "pso": "tab:purple", "bo": "tab:blue",
+              "bo_pso": "tab:red"}
+    fig, (ax_a, ax_b, ax_c) = plt.subplots(1, 3, figsize=(16, 4.6))
+    rows = []
+    for method in methods:
+        runs = [t for t in trials if t["method"] == method]
+        n = min(len(t["long"]) for t in runs)
+        best = []
+        for t in runs:
+            b, cur = [], float("inf")
+            for v in t["long"][:n]:
+                cur = min(cur, v)
+                b.append(cur)
+            best.append(b)
+        xs = list(range(1, n + 1))
+        mean = [statistics.fmean(col) for col in zip(*best)]
+        lo = [min(col) for col in zip(*best)]
+        hi = [max(col) for col in zip(*best)]
+        c = colors.get(method, None)
+        ax_a.plot(xs, mean, color=c, lw=1.8, label=method)
+        if len(runs) > 1:
+            ax_a.fill_between(xs, lo, hi, color=c, alpha=0.15)
+        for t in runs:
+            ax_b.plot(range(1, len(t["long"]) + 1), t["long"], ".", color=c, alpha=0.6,
+                      label=method if t is runs[0] else None)
+            if t["shorts"] > 0:
+                ax_c.plot(range(1, len(t["short_before"]) + 1), t["short_before"], color=c,
+                          label=method if t is runs[0] else None)
+        finals = [b[-1] for b in best]
+        rows.append((method, len(runs), n, statistics.fmean(finals),
+                     statistics.pstdev(finals) if len(finals) > 1 else 0.0, min(finals),
+                     statistics.fmean(t["shorts"] for t in runs), runs[0]["best_params"]))
+    ax_a.set_title("(A) best f_l so far (mean; band: min–max over repeats)")
+    ax_a.set_xlabel("long-term evaluation (flight)")
+    ax_a.set_ylabel("f_l = t_f + t_f n_c + w_e n_e")
+    ax_b.set_title("(B) f_l of each flight")
+    ax_b.set_xlabel("long-term evaluation (flight)")
+    ax_b.set_yscale("log")
+    ax_c.set_title("(C) short-term evaluations before each flight")
+    ax_c.set_xlabel("long-term evaluation (flight)")
+    ax_c.set_ylabel("f_s evaluations (cumulative)")
+    for ax in (ax_a, ax_b, ax_c):
+        ax.grid(alpha=0.3)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=8)
+    fig.tight_layout()
+    figure = os.path.join(directory, "tuning.png")
+    fig.savefig(figure, dpi=120)
+    plt.close(fig)
+
+    table = os.path.join(directory, "tuning.md")
+    with open(table, "w") as f:
+        f.write("| method | repeats | flights | final best f_l (mean ± std) | best | short-term "
+                "evaluations | best parameters (first repeat) |\n|---|---|---|---|---|---|---|\n")
+        for method, reps, n, mean, std, best, shorts, params in rows:
+            f.write("| {} | {} | {} | {:.2f} ± {:.2f} | {:.2f} | {:.0f} | `{}` |\n".format(
+                method, reps, n, mean, std, best, shorts, params))
+    return [figure, table]
+
+
 def main(argv):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     sub = parser.add_subparsers(dest="what", required=True)
@@ -184,8 +278,13 @@ def main(argv):
     p = sub.add_parser("flights", help="summary of several flight directories")
     p.add_argument("directories", nargs="+")
     p.add_argument("--out", required=True)
+    p = sub.add_parser("run", help="figures and table of a tuning run directory")
+    p.add_argument("directory")
     args = parser.parse_args(argv)
-    if args.what == "flight":
+    if args.what == "run":
+        for path in plot_run(args.directory):
+            print(path)
+    elif args.what == "flight":
         print(plot_flight(args.directory, args.out))
     elif args.what == "flights":
         for path in plot_flights(args.directories, args.out):
