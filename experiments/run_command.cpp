@@ -1,5 +1,6 @@
 // `quadtune run`, `quadtune export` and `quadtune bench`: the engine's command-line front end.
 #include <spdlog/spdlog.h>
+#include <malloc.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -132,7 +133,9 @@ int Bench(const BenchArgs& a) {
   engine::ParamValues theta_s;
   for (const auto& p : e.planner.ShortTermParameters()) theta_s[p.name] = p.default_value;
   using Clock = std::chrono::steady_clock;
-  std::printf("%8s %12s %16s %20s\n", "threads", "flights/s", "short evals/s", "overhead/task (us)");
+  std::printf("%8s %12s %16s %16s %14s %20s\n", "threads", "flights/s", "short evals/s",
+              "mixed wall (s)", "mixed speed-up", "overhead/task (us)");
+  double mixed_one_thread = 0.0;
   for (int t = 1; t <= a.max_threads; ++t) {
     engine::Scheduler sched(t);
     engine::WorldPool pool;
@@ -166,6 +169,31 @@ int Bench(const BenchArgs& a) {
       sched.Wait(g);
       resolves_per_s = a.resolves / std::chrono::duration<double>(Clock::now() - t0).count();
     }
+    // The mixed workload of a tuning run: the flights and the re-solves submitted together.
+    double mixed_s = 0.0;
+    {
+      engine::TaskGroup g;
+      const auto t0 = Clock::now();
+      for (int i = 0; i < a.flights; ++i) {
+        sched.Submit(g, engine::Priority::kFlight, [&, i] {
+          engine::WorkerSlot* slot = pool.Acquire();
+          engine::FlightRequest req;
+          req.map = map;
+          req.params = defaults;
+          req.seed = static_cast<std::uint64_t>(i);
+          (void)e.planner.Fly(req, *slot);
+          pool.Release(slot);
+        });
+      }
+      for (int i = 0; i < a.resolves; ++i) {
+        sched.Submit(g, engine::Priority::kShort, [&, i] {
+          (void)e.planner.Resolve(queries[static_cast<std::size_t>(i) % queries.size()], theta_s);
+        });
+      }
+      sched.Wait(g);
+      mixed_s = std::chrono::duration<double>(Clock::now() - t0).count();
+      if (t == 1) mixed_one_thread = mixed_s;
+    }
     double overhead_us = 0.0;
     {
       const int n = 20000;
@@ -175,7 +203,25 @@ int Bench(const BenchArgs& a) {
       sched.Wait(g);
       overhead_us = 1e6 * std::chrono::duration<double>(Clock::now() - t0).count() / n;
     }
-    std::printf("%8d %12.2f %16.1f %20.2f\n", t, flights_per_s, resolves_per_s, overhead_us);
+    std::printf("%8d %12.2f %16.1f %16.2f %14.2f %20.2f\n", t, flights_per_s, resolves_per_s,
+                mixed_s, mixed_one_thread / mixed_s, overhead_us);
+  }
+  // Memory of a world pool: 64 slots, each holding the world a flight built on this map (the
+  // flights are cancelled at once; the worlds stay in their slots, as in a tuning run).
+  {
+    const std::size_t before = mallinfo2().uordblks;
+    std::vector<engine::WorkerSlot> slots(64);
+    for (std::size_t i = 0; i < slots.size(); ++i) {
+      engine::FlightRequest req;
+      req.map = map;
+      req.params = defaults;
+      req.seed = i;
+      req.cancelled = [] { return true; };
+      (void)e.planner.Fly(req, slots[i]);
+    }
+    const double mib = static_cast<double>(mallinfo2().uordblks - before) / (1024.0 * 1024.0);
+    std::printf("memory of a pool of %zu worlds on this map: %.1f MiB (%.3f MiB per world)\n",
+                slots.size(), mib, mib / static_cast<double>(slots.size()));
   }
   return 0;
 }
