@@ -139,10 +139,7 @@ int Bench(const BenchArgs& a) {
   for (int t = 1; t <= a.max_threads; ++t) {
     engine::Scheduler sched(t);
     engine::WorldPool pool;
-    double flights_per_s = 0.0;
-    {
-      engine::TaskGroup g;
-      const auto t0 = Clock::now();
+    const auto submit_flights = [&](engine::TaskGroup& g) {
       for (int i = 0; i < a.flights; ++i) {
         sched.Submit(g, engine::Priority::kFlight, [&, i] {
           engine::WorkerSlot* slot = pool.Acquire();
@@ -154,46 +151,30 @@ int Bench(const BenchArgs& a) {
           pool.Release(slot);
         });
       }
-      sched.Wait(g);
-      flights_per_s = a.flights / std::chrono::duration<double>(Clock::now() - t0).count();
-    }
-    double resolves_per_s = 0.0;
-    {
-      engine::TaskGroup g;
-      const auto t0 = Clock::now();
+    };
+    const auto submit_resolves = [&](engine::TaskGroup& g) {
       for (int i = 0; i < a.resolves; ++i) {
         sched.Submit(g, engine::Priority::kShort, [&, i] {
           (void)e.planner.Resolve(queries[static_cast<std::size_t>(i) % queries.size()], theta_s);
         });
       }
+    };
+    // Seconds to run what `submit` submits.
+    const auto timed = [&](const auto& submit) {
+      engine::TaskGroup g;
+      const auto t0 = Clock::now();
+      submit(g);
       sched.Wait(g);
-      resolves_per_s = a.resolves / std::chrono::duration<double>(Clock::now() - t0).count();
-    }
+      return std::chrono::duration<double>(Clock::now() - t0).count();
+    };
+    const double flights_per_s = a.flights / timed(submit_flights);
+    const double resolves_per_s = a.resolves / timed(submit_resolves);
     // The mixed workload of a tuning run: the flights and the re-solves submitted together.
-    double mixed_s = 0.0;
-    {
-      engine::TaskGroup g;
-      const auto t0 = Clock::now();
-      for (int i = 0; i < a.flights; ++i) {
-        sched.Submit(g, engine::Priority::kFlight, [&, i] {
-          engine::WorkerSlot* slot = pool.Acquire();
-          engine::FlightRequest req;
-          req.map = map;
-          req.params = defaults;
-          req.seed = static_cast<std::uint64_t>(i);
-          (void)e.planner.Fly(req, *slot);
-          pool.Release(slot);
-        });
-      }
-      for (int i = 0; i < a.resolves; ++i) {
-        sched.Submit(g, engine::Priority::kShort, [&, i] {
-          (void)e.planner.Resolve(queries[static_cast<std::size_t>(i) % queries.size()], theta_s);
-        });
-      }
-      sched.Wait(g);
-      mixed_s = std::chrono::duration<double>(Clock::now() - t0).count();
-      if (t == 1) mixed_one_thread = mixed_s;
-    }
+    const double mixed_s = timed([&](engine::TaskGroup& g) {
+      submit_flights(g);
+      submit_resolves(g);
+    });
+    if (t == 1) mixed_one_thread = mixed_s;
     double overhead_us = 0.0;
     {
       const int n = 20000;
