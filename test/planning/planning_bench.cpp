@@ -44,24 +44,52 @@ double Percentile(std::vector<double> v, double p) {
   return v[std::min(k, v.size() - 1)];
 }
 
+/// What every solve benchmark reports: wall-time and iteration percentiles, mean cost, smallest
+/// clearance, success and stall (Ipopt "acceptable level") rates.
+struct SolveTally {
+  std::vector<double> times_ms;
+  std::vector<double> iterations;
+  double cost = 0.0;
+  double min_clearance = 1e9;
+  int successes = 0;
+  int stalled = 0;
+
+  void Add(const PlanResult& r, std::chrono::steady_clock::time_point t0,
+           std::chrono::steady_clock::time_point t1) {
+    times_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    iterations.push_back(r.iterations);
+    cost += r.cost.total;
+    min_clearance = std::min(min_clearance, r.min_clearance);
+    successes += r.Ok() ? 1 : 0;
+    stalled += r.ipopt_status == 1 ? 1 : 0;
+  }
+  [[nodiscard]] double Count() const { return static_cast<double>(times_ms.size()); }
+  void Report(benchmark::State& state) const {
+    const double n = Count();
+    state.counters["median_ms"] = Percentile(times_ms, 0.5);
+    state.counters["p95_ms"] = Percentile(times_ms, 0.95);
+    state.counters["iters_med"] = Percentile(iterations, 0.5);
+    state.counters["iters_p95"] = Percentile(iterations, 0.95);
+    state.counters["cost"] = cost / n;
+    state.counters["min_clear_m"] = min_clearance;
+    state.counters["success"] = successes / n;
+    state.counters["stalled"] = stalled / n;
+  }
+};
+
 void BM_Solve(benchmark::State& state) {
   const TrajectoryOptimizer optimizer;
   PlannerParams params;
   params.n_pol = static_cast<int>(state.range(0));
   const auto& queries = Queries();
-  std::vector<double> times_ms;
+  SolveTally tally;
   std::vector<double> cpu_ms;
-  std::vector<double> iteration_counts;
   double jerk = 0.0;
   double duration = 0.0;
-  int acceptable = 0;
   double iterations = 0.0;
-  double cost = 0.0;
   double units = 0.0;
-  double min_clearance = 1e9;
   double max_speed = 0.0;
   double max_acc = 0.0;
-  int successes = 0;
   std::size_t k = 0;
   for (auto _ : state) {
     const ForestQuery& q = queries[k++ % queries.size()];
@@ -73,39 +101,27 @@ void BM_Solve(benchmark::State& state) {
     const auto t1 = std::chrono::steady_clock::now();
     clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c1);
     benchmark::DoNotOptimize(r);
-    times_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    tally.Add(r, t0, t1);
     cpu_ms.push_back(1e3 * static_cast<double>(c1.tv_sec - c0.tv_sec) +
                      1e-6 * static_cast<double>(c1.tv_nsec - c0.tv_nsec));
-    iteration_counts.push_back(r.iterations);
     jerk += r.cost.jerk;
     duration += r.duration;
-    acceptable += r.ipopt_status == 1 ? 1 : 0;  // Solved_To_Acceptable_Level: stall safeguard
     iterations += r.iterations;
-    cost += r.cost.total;
     units += r.compute_units;
-    min_clearance = std::min(min_clearance, r.min_clearance);
     max_speed = std::max(max_speed, r.max_speed);
     max_acc = std::max(max_acc, r.max_acceleration);
-    successes += r.Ok() ? 1 : 0;
   }
-  const double n = static_cast<double>(times_ms.size());
-  state.counters["median_ms"] = Percentile(times_ms, 0.5);
-  state.counters["p95_ms"] = Percentile(times_ms, 0.95);
+  const double n = tally.Count();
+  tally.Report(state);
   state.counters["cpu_median_ms"] = Percentile(cpu_ms, 0.5);
   state.counters["cpu_p95_ms"] = Percentile(cpu_ms, 0.95);
   state.counters["iters"] = iterations / n;
-  state.counters["iters_med"] = Percentile(iteration_counts, 0.5);
-  state.counters["iters_p95"] = Percentile(iteration_counts, 0.95);
-  state.counters["iters_max"] = Percentile(iteration_counts, 1.0);
+  state.counters["iters_max"] = Percentile(tally.iterations, 1.0);
   state.counters["jerk"] = jerk / n;
   state.counters["dur_s"] = duration / n;
-  state.counters["stalled"] = acceptable / n;
-  state.counters["cost"] = cost / n;
   state.counters["units"] = units / n;
-  state.counters["min_clear_m"] = min_clearance;
   state.counters["max_v"] = max_speed;
   state.counters["max_a"] = max_acc;
-  state.counters["success"] = successes / n;
 }
 BENCHMARK(BM_Solve)->DenseRange(3, 8)->Iterations(48)->Unit(benchmark::kMillisecond);
 
@@ -137,12 +153,7 @@ void BM_SolveEsdf(benchmark::State& state) {
   }();
   std::vector<TrilinearOnly> trilinear;
   for (const auto& e : esdfs) trilinear.emplace_back(e);
-  std::vector<double> times_ms;
-  std::vector<double> iteration_counts;
-  double cost = 0.0;
-  double min_clearance = 1e9;
-  int successes = 0;
-  int stalled = 0;
+  SolveTally tally;
   std::size_t k = 0;
   for (auto _ : state) {
     const std::size_t i = k++ % queries.size();
@@ -152,22 +163,9 @@ void BM_SolveEsdf(benchmark::State& state) {
     const PlanResult r = optimizer.Solve(queries[i].request, field, params);
     const auto t1 = std::chrono::steady_clock::now();
     benchmark::DoNotOptimize(r);
-    times_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-    iteration_counts.push_back(r.iterations);
-    cost += r.cost.total;
-    min_clearance = std::min(min_clearance, r.min_clearance);
-    successes += r.Ok() ? 1 : 0;
-    stalled += r.ipopt_status == 1 ? 1 : 0;
+    tally.Add(r, t0, t1);
   }
-  const double n = static_cast<double>(times_ms.size());
-  state.counters["median_ms"] = Percentile(times_ms, 0.5);
-  state.counters["p95_ms"] = Percentile(times_ms, 0.95);
-  state.counters["iters_med"] = Percentile(iteration_counts, 0.5);
-  state.counters["iters_p95"] = Percentile(iteration_counts, 0.95);
-  state.counters["cost"] = cost / n;
-  state.counters["min_clear_m"] = min_clearance;
-  state.counters["success"] = successes / n;
-  state.counters["stalled"] = stalled / n;
+  tally.Report(state);
 }
 BENCHMARK(BM_SolveEsdf)
     ->ArgsProduct({{3, 5, 8}, {0, 1}})
@@ -183,11 +181,7 @@ void BM_WarmResolve(benchmark::State& state) {
   const auto& queries = Queries();
   std::vector<PlanResult> cold;
   for (const auto& q : queries) cold.push_back(optimizer.Solve(q.request, *q.field, params));
-  std::vector<double> times_ms;
-  std::vector<double> iteration_counts;
-  int successes = 0;
-  double cost = 0.0;
-  double min_clearance = 1e9;
+  SolveTally tally;
   std::size_t k = 0;
   for (auto _ : state) {
     const std::size_t i = k++ % queries.size();
@@ -207,20 +201,9 @@ void BM_WarmResolve(benchmark::State& state) {
     const PlanResult r = optimizer.Solve(request, *queries[i].field, params);
     const auto t1 = std::chrono::steady_clock::now();
     benchmark::DoNotOptimize(r);
-    times_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-    iteration_counts.push_back(r.iterations);
-    successes += r.Ok() ? 1 : 0;
-    cost += r.cost.total;
-    min_clearance = std::min(min_clearance, r.min_clearance);
+    tally.Add(r, t0, t1);
   }
-  const double n = static_cast<double>(times_ms.size());
-  state.counters["median_ms"] = Percentile(times_ms, 0.5);
-  state.counters["p95_ms"] = Percentile(times_ms, 0.95);
-  state.counters["iters_med"] = Percentile(iteration_counts, 0.5);
-  state.counters["iters_p95"] = Percentile(iteration_counts, 0.95);
-  state.counters["cost"] = cost / n;
-  state.counters["min_clear_m"] = min_clearance;
-  state.counters["success"] = successes / n;
+  tally.Report(state);
 }
 BENCHMARK(BM_WarmResolve)->DenseRange(3, 8)->Iterations(48)->Unit(benchmark::kMillisecond);
 
@@ -236,10 +219,7 @@ void BM_RetuneResolve(benchmark::State& state) {
   params.w_col = 0.8;
   params.w_dyn = 0.2;
   params.n_pol = static_cast<int>(state.range(0));
-  std::vector<double> times_ms;
-  std::vector<double> iteration_counts;
-  int successes = 0;
-  double cost = 0.0;
+  SolveTally tally;
   std::size_t k = 0;
   for (auto _ : state) {
     const std::size_t i = k++ % queries.size();
@@ -250,18 +230,9 @@ void BM_RetuneResolve(benchmark::State& state) {
     const PlanResult r = optimizer.Solve(request, *queries[i].field, params);
     const auto t1 = std::chrono::steady_clock::now();
     benchmark::DoNotOptimize(r);
-    times_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-    iteration_counts.push_back(r.iterations);
-    successes += r.Ok() ? 1 : 0;
-    cost += r.cost.total;
+    tally.Add(r, t0, t1);
   }
-  const double n = static_cast<double>(times_ms.size());
-  state.counters["median_ms"] = Percentile(times_ms, 0.5);
-  state.counters["p95_ms"] = Percentile(times_ms, 0.95);
-  state.counters["iters_med"] = Percentile(iteration_counts, 0.5);
-  state.counters["iters_p95"] = Percentile(iteration_counts, 0.95);
-  state.counters["cost"] = cost / n;
-  state.counters["success"] = successes / n;
+  tally.Report(state);
 }
 BENCHMARK(BM_RetuneResolve)->DenseRange(3, 8)->Iterations(48)->Unit(benchmark::kMillisecond);
 
