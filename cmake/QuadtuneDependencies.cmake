@@ -16,9 +16,14 @@ pkg_check_modules(BULLET REQUIRED IMPORTED_TARGET bullet)
 # Ipopt 3.11 ships no CMake config.
 pkg_check_modules(IPOPT REQUIRED IMPORTED_TARGET ipopt)
 
+# MPI (Debian: libopenmpi-dev, openmpi-bin) for distributed experiments. quadtune uses MPI's C
+# API only. QUADTUNE_HAVE_MPI says whether it is built in; MPIEXEC_EXECUTABLE runs the MPI tests.
+set(QUADTUNE_HAVE_MPI OFF)
 if(QUADTUNE_WITH_MPI)
-  find_package(MPI COMPONENTS CXX)
-  if(NOT MPI_CXX_FOUND)
+  find_package(MPI COMPONENTS C)
+  if(MPI_C_FOUND)
+    set(QUADTUNE_HAVE_MPI ON)
+  else()
     message(STATUS "MPI not found: building without distributed experiments")
   endif()
 endif()

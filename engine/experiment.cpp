@@ -117,6 +117,14 @@ Planner BuildPlanner(const YamlMap& p, const std::string& base_dir, std::string*
 
 }  // namespace
 
+ParamValues Experiment::Defaults() const {
+  ParamValues d = planner.Defaults();
+  for (const auto& p : space.Parameters()) {
+    if (p.default_value) d[p.name] = *p.default_value;
+  }
+  return d;
+}
+
 Experiment Experiment::LoadFile(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw ConfigError(path, "", "cannot read the experiment file");
@@ -131,7 +139,7 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
   const YamlMap map = YamlMap::FromString(text, origin);
   map.RejectUnknownKeys({"name", "seed", "threads", "mode", "repeats", "methods", "planner",
                          "parameters", "short_term", "long_term", "initial_short_term",
-                         "objective", "budget", "pso", "bo"});
+                         "start", "objective", "budget", "pso", "bo"});
   Experiment e;
   e.file = origin;
   e.text = text;
@@ -203,13 +211,26 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
     }
     e.initial_short = values;
   }
+  if (map.Has("start")) {
+    const YamlMap start = map.Map("start");
+    start.RejectUnknownKeys(space_names);
+    ParamValues values;
+    for (const auto& n : space_names) {
+      if (!start.Has(n)) continue;
+      const auto& prm = e.space.At(e.space.IndexOf(n));
+      values[n] = start.Number(n, std::nullopt, Range::Closed(prm.lower, prm.upper));
+    }
+    e.start = values;
+  }
   e.objective = ObjectiveOptions::FromYaml(map.Map("objective", true));
   e.objective.Validate(origin);
 
   const YamlMap b = map.Map("budget", true);
-  b.RejectUnknownKeys({"flights", "flight_batch", "short_evals_per_flight", "queries_per_eval",
+  b.RejectUnknownKeys({"flights", "default_flights", "flight_batch", "short_evals_per_flight", "queries_per_eval",
                        "query_window", "short_term_while_flying"});
   e.budget.flights = static_cast<int>(b.Integer("flights", e.budget.flights, Range::Closed(1, 1e7)));
+  e.budget.default_flights = static_cast<int>(
+      b.Integer("default_flights", e.budget.flights, Range::Closed(1, 1e7)));
   e.budget.flight_batch =
       static_cast<int>(b.Integer("flight_batch", e.budget.flight_batch, Range::Closed(0, 1024)));
   if (e.budget.flight_batch == 0 && e.mode != TimingMode::kRealtime) {

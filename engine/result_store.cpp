@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <climits>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
@@ -204,6 +205,15 @@ const EvaluationRow* ResultStore::Find(std::int64_t trial_id, const std::string&
                                        int iteration, int index) const {
   auto it = stored_.find(std::make_tuple(trial_id, kind, iteration, index));
   return it == stored_.end() ? nullptr : &it->second;
+}
+
+std::vector<EvaluationRow> ResultStore::StoredRows(std::int64_t trial_id) const {
+  std::vector<EvaluationRow> rows;
+  for (auto it = stored_.lower_bound(std::make_tuple(trial_id, std::string(), INT_MIN, INT_MIN));
+       it != stored_.end() && std::get<0>(it->first) == trial_id; ++it) {
+    rows.push_back(it->second);
+  }
+  return rows;
 }
 
 void ResultStore::Insert(const EvaluationRow& r) {

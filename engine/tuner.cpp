@@ -52,13 +52,13 @@ struct Context {
   const RunOptions& options;
   Scheduler& scheduler;
   WorldPool& pool;
-  ResultStore* store;
-  RunSummary& summary;
+  EvaluationStore* store;
+  int threads;
   Clock::time_point start;
   std::atomic<long> flights{0};
   std::atomic<long> resolves{0};
-  int trials_done = 0;
-  int trials_total = 0;
+  std::atomic<int> trials_done{0};
+  std::atomic<int> trials_total{0};
 
   [[nodiscard]] bool CancelRequested() const {
     return options.cancel != nullptr && options.cancel->load();
@@ -156,18 +156,29 @@ void Store(Context& c, std::int64_t trial_id, Method method, const char* kind, i
 }
 
 /// Planner defaults, overridden by the space's explicit defaults.
-ParamValues DefaultsOf(const Experiment& e) {
-  ParamValues d = e.planner.Defaults();
-  for (const auto& p : e.space.Parameters()) {
-    if (p.default_value) d[p.name] = *p.default_value;
-  }
-  return d;
-}
+ParamValues DefaultsOf(const Experiment& e) { return e.Defaults(); }
 
 ParamValues Pick(const ParamValues& all, const std::vector<std::string>& names) {
   ParamValues out;
   for (const auto& n : names) out[n] = all.at(n);
   return out;
+}
+
+/// Refinement (experiment `start:`, paper Sec. III-E): with moving bounds on, BO begins inside
+/// start ± half_width (unit-cube widths, clipped to the space); the bounds then move with the best.
+void BoundAroundStart(const Experiment& e, optimizers::BayesOpt& bo) {
+  if (!e.start || !e.bo.moving_bounds.enabled) return;
+  const auto& space = bo.Space();
+  ParamValues point = DefaultsOf(e);
+  for (const auto& [name, value] : *e.start) point[name] = value;
+  Eigen::VectorXd x(space.Dim());
+  const auto names = space.Names();
+  for (std::size_t i = 0; i < names.size(); ++i) x[static_cast<Eigen::Index>(i)] = point.at(names[i]);
+  const Eigen::VectorXd u = space.ToUnit(x);
+  const double r = e.bo.moving_bounds.half_width;
+  const Eigen::VectorXd lo = (u.array() - r).max(0.0).matrix();
+  const Eigen::VectorXd hi = (u.array() + r).min(1.0).matrix();
+  bo.SetBounds(space.FromUnitContinuous(lo), space.FromUnitContinuous(hi));
 }
 
 /// One trial: method × repeat.
@@ -194,7 +205,7 @@ class Trial {
 
  private:
   int FlightBatch() const {
-    return e_.budget.flight_batch > 0 ? e_.budget.flight_batch : c_.summary.threads;
+    return e_.budget.flight_batch > 0 ? e_.budget.flight_batch : c_.threads;
   }
 
   std::uint64_t FlightSeed(int iteration, int index) const {
@@ -218,9 +229,9 @@ class Trial {
     p.method = summary_.method;
     p.repeat = repeat_;
     p.flights_done = summary_.flights;
-    p.flights_total = e_.budget.flights;
-    p.trials_done = c_.trials_done;
-    p.trials_total = c_.trials_total;
+    p.flights_total = FlightBudget();
+    p.trials_done = c_.trials_done.load();
+    p.trials_total = c_.trials_total.load();
     p.short_evals = c_.resolves.load();
     p.best_long = summary_.best_value;
     p.elapsed_s = std::chrono::duration<double>(Clock::now() - c_.start).count();
@@ -256,6 +267,11 @@ class Trial {
     }
   }
 
+  /// Flights of this trial: budget.default_flights for the defaults, else budget.flights.
+  [[nodiscard]] int FlightBudget() const {
+    return method_ == Method::kDefault ? e_.budget.default_flights : e_.budget.flights;
+  }
+
   bool RunSingle() {
     std::unique_ptr<optimizers::Optimizer> opt;
     switch (method_) {
@@ -272,16 +288,18 @@ class Trial {
       case Method::kBo: {
         auto o = e_.bo;
         o.seed = DeriveSeed(seed_, {1});
-        opt = std::make_unique<optimizers::BayesOpt>(e_.space, o);
+        auto bo = std::make_unique<optimizers::BayesOpt>(e_.space, o);
+        BoundAroundStart(e_, *bo);
+        opt = std::move(bo);
         break;
       }
       default: break;
     }
     const ParamValues defaults = DefaultsOf(e_);
     int iteration = 0;
-    while (summary_.flights < e_.budget.flights) {
+    while (summary_.flights < FlightBudget()) {
       if (c_.CancelRequested()) return false;
-      const int k = std::min(FlightBatch(), e_.budget.flights - summary_.flights);
+      const int k = std::min(FlightBatch(), FlightBudget() - summary_.flights);
       std::vector<optimizers::Candidate> cands;
       std::vector<ParamValues> batch;
       if (opt) {
@@ -501,7 +519,11 @@ class Trial {
     auto bo = e_.bo;
     bo.seed = DeriveSeed(seed_, {2});
     bo_ = std::make_unique<optimizers::BayesOpt>(long_space_, bo);
-    const ParamValues defaults = DefaultsOf(e_);
+    BoundAroundStart(e_, *bo_);
+    ParamValues defaults = DefaultsOf(e_);
+    if (e_.start) {
+      for (const auto& [name, value] : *e_.start) defaults[name] = value;
+    }
     theta_s_start_ = e_.initial_short ? *e_.initial_short : Pick(defaults, e_.short_names);
     live_best_ = theta_s_start_;
     int iteration = 0;
@@ -576,6 +598,53 @@ class Trial {
 
 }  // namespace
 
+struct TrialRunner::Impl {
+  Impl(const Experiment& experiment, const RunOptions& run_options, int threads,
+       EvaluationStore* store)
+      : options(run_options),
+        scheduler(threads),
+        c{experiment, options, scheduler, pool, store, scheduler.Threads(), Clock::now()} {}
+  RunOptions options;
+  Scheduler scheduler;
+  WorldPool pool;
+  Context c;
+  std::vector<Opaque> maps;  // one per repeat
+};
+
+TrialRunner::TrialRunner(const Experiment& experiment, const RunOptions& options, int threads,
+                         EvaluationStore* store)
+    : impl_(std::make_unique<Impl>(experiment, options, threads, store)) {
+  impl_->c.trials_total = static_cast<int>(experiment.methods.size()) * experiment.repeats;
+  // Random maps of identical density: one map per repeat, shared by every method. Made before
+  // any flight, so a layout that cannot be generated stops the run before work starts.
+  for (int repeat = 0; repeat < experiment.repeats; ++repeat) {
+    impl_->maps.push_back(experiment.planner.PrepareMap(experiment.MapSeed(repeat)));
+  }
+}
+
+TrialRunner::~TrialRunner() = default;
+
+bool TrialRunner::Run(Method method, int repeat, TrialSummary& summary) {
+  QT_DEMAND(repeat >= 0 && repeat < static_cast<int>(impl_->maps.size()),
+            "repeat " + std::to_string(repeat) + " out of range");
+  Trial trial(impl_->c, method, repeat, impl_->maps[static_cast<std::size_t>(repeat)]);
+  const bool done = trial.Run();
+  summary = trial.Summary();
+  return done;
+}
+
+void TrialRunner::SetTrialCounts(int done, int total) {
+  impl_->c.trials_done = done;
+  impl_->c.trials_total = total;
+}
+
+long TrialRunner::Flights() const { return impl_->c.flights.load(); }
+long TrialRunner::Resolves() const { return impl_->c.resolves.load(); }
+int TrialRunner::Worlds() const { return impl_->pool.Size(); }
+double TrialRunner::ElapsedSeconds() const {
+  return std::chrono::duration<double>(Clock::now() - impl_->c.start).count();
+}
+
 RunSummary RunExperiment(const Experiment& experiment, const RunOptions& options) {
   RunSummary summary;
   summary.threads = options.threads > 0 ? options.threads : experiment.threads;
@@ -584,24 +653,17 @@ RunSummary RunExperiment(const Experiment& experiment, const RunOptions& options
     store = std::make_unique<ResultStore>(options.store_path, experiment, summary.threads,
                                           options.resume);
   }
-  Scheduler scheduler(summary.threads);
-  WorldPool pool;
-  Context c{experiment, options, scheduler, pool, store.get(), summary, Clock::now()};
-  c.trials_total = static_cast<int>(experiment.methods.size()) * experiment.repeats;
-  // Random maps of identical density: one map per repeat, shared by every method. Made before
-  // any flight, so a layout that cannot be generated stops the run before work starts.
-  std::vector<Opaque> maps;
-  for (int repeat = 0; repeat < experiment.repeats; ++repeat) {
-    maps.push_back(experiment.planner.PrepareMap(experiment.MapSeed(repeat)));
-  }
+  TrialRunner runner(experiment, options, summary.threads, store.get());
+  const int total = static_cast<int>(experiment.methods.size()) * experiment.repeats;
+  int trials_done = 0;
   for (int repeat = 0; repeat < experiment.repeats && summary.status == RunStatus::kCompleted;
        ++repeat) {
-    const Opaque& map = maps[static_cast<std::size_t>(repeat)];
     for (Method method : experiment.methods) {
-      Trial trial(c, method, repeat, map);
-      const bool done = trial.Run();
-      summary.trials.push_back(trial.Summary());
-      ++c.trials_done;
+      runner.SetTrialCounts(trials_done, total);
+      TrialSummary trial;
+      const bool done = runner.Run(method, repeat, trial);
+      summary.trials.push_back(trial);
+      ++trials_done;
       if (!done) {
         summary.status = RunStatus::kCancelled;
         summary.message = "cancelled";
@@ -609,10 +671,10 @@ RunSummary RunExperiment(const Experiment& experiment, const RunOptions& options
       }
     }
   }
-  summary.flights = c.flights.load();
-  summary.resolves = c.resolves.load();
-  summary.worlds = pool.Size();
-  summary.wall_s = std::chrono::duration<double>(Clock::now() - c.start).count();
+  summary.flights = runner.Flights();
+  summary.resolves = runner.Resolves();
+  summary.worlds = runner.Worlds();
+  summary.wall_s = runner.ElapsedSeconds();
   return summary;
 }
 

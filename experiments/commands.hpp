@@ -20,6 +20,9 @@ void RegisterRun(CLI::App& app, int& exit_code);
 void RegisterExport(CLI::App& app, int& exit_code);
 /// `quadtune bench`: engine throughput at 1..N threads.
 void RegisterBench(CLI::App& app, int& exit_code);
+/// `quadtune study`: sweeps and stages of an experiment, then validation flights.
+void RegisterStudy(CLI::App& app, int& exit_code);
+void RegisterAdapt(CLI::App& app, int& exit_code);  ///< `quadtune adapt`: Sec. IV-B experiment
 
 /// Runs the figure script with `args`; returns its exit status (0 on success).
 int RunPlotScript(const std::string& args);

@@ -42,6 +42,21 @@ void RegisterPlot(CLI::App& app, int& exit_code) {
   run->add_option("DIR", run_dir, "directory holding results.sqlite")->required()->check(
       CLI::ExistingDirectory);
   run->callback([&exit_code] { exit_code = RunPlotScript("run '" + run_dir + "'"); });
+  auto* study = cmd->add_subcommand("study", "figures and tables of a study (`quadtune study` output)");
+  static std::string study_dir;
+  study->add_option("DIR", study_dir, "directory holding study.json")->required()->check(
+      CLI::ExistingDirectory);
+  study->callback([&exit_code] { exit_code = RunPlotScript("study '" + study_dir + "'"); });
+  auto* bench = cmd->add_subcommand("bench", "thread-scaling figure of `quadtune bench --csv` output");
+  static std::string bench_csv;
+  static std::string bench_out;
+  bench->add_option("CSV", bench_csv, "CSV written by `quadtune bench --csv`")->required()->check(
+      CLI::ExistingFile);
+  bench->add_option("--out", bench_out, "figure (PNG; default: next to the CSV)");
+  bench->callback([&exit_code] {
+    exit_code = RunPlotScript("bench '" + bench_csv + "'" +
+                              (bench_out.empty() ? std::string() : " --out '" + bench_out + "'"));
+  });
   auto* flights = cmd->add_subcommand("flights", "summary figures and table of several flights");
   static std::vector<std::string> dirs;
   static std::string out;
@@ -53,6 +68,12 @@ void RegisterPlot(CLI::App& app, int& exit_code) {
     for (const auto& d : dirs) args += " '" + d + "'";
     exit_code = RunPlotScript(args);
   });
+  auto* adapt = cmd->add_subcommand("adapt", "velocity along the path and top-down view of a "
+                                             "`quadtune adapt` directory");
+  static std::string adapt_dir;
+  adapt->add_option("DIR", adapt_dir, "directory written by `quadtune adapt`")->required()->check(
+      CLI::ExistingDirectory);
+  adapt->callback([&exit_code] { exit_code = RunPlotScript("adapt '" + adapt_dir + "'"); });
   cmd->require_subcommand(1);
 }
 

@@ -24,6 +24,8 @@ int main(int argc, char** argv) {
   quadtune::cli::RegisterRun(app, exit_code);
   quadtune::cli::RegisterExport(app, exit_code);
   quadtune::cli::RegisterBench(app, exit_code);
+  quadtune::cli::RegisterAdapt(app, exit_code);
+  quadtune::cli::RegisterStudy(app, exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,4 +1,6 @@
 // `quadtune run`, `quadtune export` and `quadtune bench`: the engine's command-line front end.
+// Under an MPI launcher with more than one process, `run` spreads the trials over the ranks
+// (engine/distributed.hpp); only rank 0 prints progress and writes OUT.
 #include <spdlog/spdlog.h>
 #include <malloc.h>
 #include <unistd.h>
@@ -9,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
@@ -16,6 +19,7 @@
 
 #include "commands.hpp"
 #include "quadtune/common/error.hpp"
+#include "quadtune/engine/distributed.hpp"
 #include "quadtune/engine/experiment.hpp"
 #include "quadtune/engine/result_store.hpp"
 #include "quadtune/engine/scheduler.hpp"
@@ -35,7 +39,129 @@ struct RunArgs {
   bool quiet = false;
 };
 
+/// The progress line (a tty: rewritten in place; otherwise a debug log line).
+std::function<void(const engine::Progress&)> ProgressPrinter(bool tty) {
+  return [tty](const engine::Progress& p) {
+    const double done = p.trials_done + static_cast<double>(p.flights_done) / p.flights_total;
+    const double eta = done > 0 ? p.elapsed_s * (p.trials_total - done) / done : 0.0;
+    const double rate = p.elapsed_s > 0 ? static_cast<double>(p.short_evals) / p.elapsed_s : 0.0;
+    const std::string line = fmt::format(
+        "trial {}/{} {} r{}{}: flights {}/{}, best f_l {:.3f}, short-term evals {:.0f}/s, "
+        "elapsed {:.0f} s, ETA {:.0f} s",
+        p.trials_done + 1, p.trials_total, p.method, p.repeat,
+        p.rank > 0 ? fmt::format(" (rank {})", p.rank) : std::string(), p.flights_done,
+        p.flights_total, p.best_long, rate, p.elapsed_s, eta);
+    if (tty) {
+      std::fprintf(stderr, "\r\033[K%s", line.c_str());
+      std::fflush(stderr);
+    } else {
+      spdlog::debug("{}", line);
+    }
+  };
+}
+
+/// Logs the run's outcome and writes OUT/summary.json; returns the exit code.
+int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& store, bool tty) {
+  namespace fs = std::filesystem;
+  if (tty) std::fprintf(stderr, "\n");
+  nlohmann::json j;
+  j["status"] = s.status == engine::RunStatus::kCompleted ? "completed" : "cancelled";
+  j["wall_s"] = s.wall_s;
+  j["threads"] = s.threads;
+  if (s.ranks > 1) j["ranks"] = s.ranks;
+  j["flights"] = s.flights;
+  j["resolves"] = s.resolves;
+  j["worlds"] = s.worlds;
+  for (const auto& t : s.trials) {
+    spdlog::info("{} repeat {}: best f_l {:.3f} after {} flights, {} θ_s evaluations, {} failed, "
+                 "{} replayed",
+                 t.method, t.repeat, t.best_value, t.flights, t.short_evals, t.failed, t.replayed);
+    nlohmann::json tj;
+    tj["method"] = t.method;
+    tj["repeat"] = t.repeat;
+    tj["best_value"] = t.best_value;
+    tj["best"] = t.best;
+    tj["flights"] = t.flights;
+    tj["short_evals"] = t.short_evals;
+    tj["failed"] = t.failed;
+    tj["replayed"] = t.replayed;
+    j["trials"].push_back(tj);
+  }
+  std::ofstream(fs::path(a.out) / "summary.json") << j.dump(1) << '\n';
+  if (s.ranks > 1) {
+    spdlog::info("{} flights and {} re-solves in {:.1f} s on {} ranks × {} threads ({} pooled "
+                 "worlds); results in {}",
+                 s.flights, s.resolves, s.wall_s, s.ranks, s.threads, s.worlds, store);
+  } else {
+    spdlog::info("{} flights and {} re-solves in {:.1f} s on {} threads ({} pooled worlds); "
+                 "results in {}",
+                 s.flights, s.resolves, s.wall_s, s.threads, s.worlds, store);
+  }
+  return s.status == engine::RunStatus::kCompleted ? 0 : 130;
+}
+
+/// `run` under an MPI launcher with more than one process: every rank takes trials; rank 0
+/// stores, reports progress and writes OUT.
+int RunMpi(const RunArgs& a) {
+  engine::MpiSession mpi;
+  const int rank = mpi.Rank();
+  if (rank != 0) spdlog::set_pattern(fmt::format("[%Y-%m-%d %H:%M:%S.%e] [%l] [rank {}] %v", rank));
+  namespace fs = std::filesystem;
+  const std::string store = (fs::path(a.out) / "results.sqlite").string();
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
+  try {
+    const engine::Experiment e = engine::LoadExperimentShared(mpi, a.experiment);
+    const bool tty = rank == 0 && isatty(fileno(stderr)) != 0 && !a.quiet;
+    engine::DistributedOptions options;
+    options.run.threads = a.threads;
+    options.run.resume = a.resume;
+    options.run.cancel = &g_interrupted;
+    if (rank == 0) {
+      fs::create_directories(a.out);
+      options.run.store_path = store;
+      options.run.on_progress = ProgressPrinter(tty);
+      std::error_code ec;
+      const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+      options.resume_command = fmt::format(
+          "mpirun -np {} {} run {} --out {} --resume{}", mpi.Size(),
+          ec ? std::string("quadtune") : self.string(), a.experiment, a.out,
+          a.threads > 0 ? fmt::format(" --threads {}", a.threads) : std::string());
+      spdlog::info("experiment '{}' ({}): planner {}, methods {}, repeats {}, {} flights per "
+                   "trial, {} ranks × {} threads, {} mode{}",
+                   e.name, a.experiment, e.planner.Name(), e.methods.size(), e.repeats,
+                   e.budget.flights, mpi.Size(), a.threads > 0 ? a.threads : e.threads,
+                   e.mode == engine::TimingMode::kRealtime ? "realtime" : "reproducible",
+                   a.resume ? ", resuming" : "");
+    }
+    const engine::RunSummary s = engine::RunDistributed(mpi, e, options);
+    return rank == 0 ? Finish(s, a, store, tty) : 0;
+  } catch (const engine::PeerError& ex) {
+    // Another rank failed before the run started and reported why; rank 0 says which.
+    if (rank == 0) spdlog::error("{}", ex.what());
+    return 2;
+  } catch (const ConfigError& ex) {
+    // Configuration problems are found before the run starts, on every rank at once.
+    spdlog::error("{}", ex.what());
+    return 2;
+  } catch (const std::exception& ex) {
+    // Anything else happened on this rank alone: the others cannot finish without it.
+    spdlog::error("{}", ex.what());
+    mpi.Abort(1);
+  }
+}
+
 int Run(const RunArgs& a) {
+  if (const int processes = engine::MpiLaunchSize(); processes > 1) {
+    if (!engine::MpiBuilt()) {
+      throw ConfigError("", "mpirun",
+                        fmt::format("started as one of {} MPI processes, but this quadtune was "
+                                    "built without MPI (QUADTUNE_WITH_MPI=OFF or MPI not found); "
+                                    "run it without mpirun/srun or rebuild with MPI",
+                                    processes));
+    }
+    return RunMpi(a);
+  }
   // Every configuration error is reported here, before any work starts.
   const engine::Experiment e = engine::Experiment::LoadFile(a.experiment);
   namespace fs = std::filesystem;
@@ -56,51 +182,9 @@ int Run(const RunArgs& a) {
                e.budget.flights, threads,
                e.mode == engine::TimingMode::kRealtime ? "realtime" : "reproducible",
                a.resume ? ", resuming" : "");
-  options.on_progress = [&](const engine::Progress& p) {
-    const double done = p.trials_done + static_cast<double>(p.flights_done) / p.flights_total;
-    const double eta = done > 0 ? p.elapsed_s * (p.trials_total - done) / done : 0.0;
-    const double rate = p.elapsed_s > 0 ? static_cast<double>(p.short_evals) / p.elapsed_s : 0.0;
-    const std::string line = fmt::format(
-        "trial {}/{} {} r{}: flights {}/{}, best f_l {:.3f}, short-term evals {:.0f}/s, "
-        "elapsed {:.0f} s, ETA {:.0f} s",
-        p.trials_done + 1, p.trials_total, p.method, p.repeat, p.flights_done, p.flights_total,
-        p.best_long, rate, p.elapsed_s, eta);
-    if (tty) {
-      std::fprintf(stderr, "\r\033[K%s", line.c_str());
-      std::fflush(stderr);
-    } else {
-      spdlog::debug("{}", line);
-    }
-  };
+  options.on_progress = ProgressPrinter(tty);
   const engine::RunSummary s = engine::RunExperiment(e, options);
-  if (tty) std::fprintf(stderr, "\n");
-  nlohmann::json j;
-  j["status"] = s.status == engine::RunStatus::kCompleted ? "completed" : "cancelled";
-  j["wall_s"] = s.wall_s;
-  j["threads"] = s.threads;
-  j["flights"] = s.flights;
-  j["resolves"] = s.resolves;
-  j["worlds"] = s.worlds;
-  for (const auto& t : s.trials) {
-    spdlog::info("{} repeat {}: best f_l {:.3f} after {} flights, {} θ_s evaluations, {} failed, "
-                 "{} replayed",
-                 t.method, t.repeat, t.best_value, t.flights, t.short_evals, t.failed, t.replayed);
-    nlohmann::json tj;
-    tj["method"] = t.method;
-    tj["repeat"] = t.repeat;
-    tj["best_value"] = t.best_value;
-    tj["best"] = t.best;
-    tj["flights"] = t.flights;
-    tj["short_evals"] = t.short_evals;
-    tj["failed"] = t.failed;
-    tj["replayed"] = t.replayed;
-    j["trials"].push_back(tj);
-  }
-  std::ofstream(fs::path(a.out) / "summary.json") << j.dump(1) << '\n';
-  spdlog::info("{} flights and {} re-solves in {:.1f} s on {} threads ({} pooled worlds); results "
-               "in {}",
-               s.flights, s.resolves, s.wall_s, s.threads, s.worlds, store);
-  return s.status == engine::RunStatus::kCompleted ? 0 : 130;
+  return Finish(s, a, store, tty);
 }
 
 struct BenchArgs {

@@ -90,6 +90,7 @@ FlightResult Fly(physics::World& world, const Mission& mission, const PlannerPar
   Replanner replanner(optimizer, params, options.replanner, options.planner);
   if (hooks.params_provider) replanner.SetParamsProvider(hooks.params_provider);
   if (hooks.on_plan) replanner.SetQueryObserver(hooks.on_plan);
+  if (hooks.adapter != nullptr) replanner.SetAdapter(hooks.adapter);
   replanner.StartMission(mission.waypoints_W, mission.start_W, mission.start_yaw, world.time());
   world.SetReference([&replanner](double t) { return replanner.Reference(t); });
 
@@ -168,6 +169,7 @@ FlightResult Fly(physics::World& world, const Mission& mission, const PlannerPar
         row.yaw = s.Yaw();
         row.state = replanner.state();
         row.collisions = static_cast<int>(world.collisions().Count());
+        row.v_des = replanner.params().v_des;
         result.log.push_back(row);
       }
     }

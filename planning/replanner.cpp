@@ -199,7 +199,33 @@ bool Replanner::PlanFrom(double t, const Eigen::Vector3d& p0, const Eigen::Vecto
   rec.trajectory = traj_;
   records_.push_back(std::move(rec));
   state_ = ReplanState::kExecTraj;
+  if (adapter_ != nullptr) adapter_->OnTrajectory(t, traj_, traj_reaches_waypoint_, params_);
   return true;
+}
+
+void Replanner::Adopt(double t, AdaptedPlan plan) {
+  plan.params.Validate();
+  QT_DEMAND(plan.outcome.Ok() && !plan.outcome.result.trajectory.Empty(),
+            "an adapted plan must hold a trajectory");
+  params_ = plan.params;
+  PlanRecord rec;
+  rec.time = plan.start_time;
+  rec.ok = true;
+  rec.failed_attempts = plan.outcome.failed_attempts;
+  rec.solve_time_s = plan.outcome.solve_time_s;
+  rec.compute_units = plan.outcome.compute_units;
+  rec.status = plan.outcome.result.status;
+  rec.min_clearance = plan.outcome.result.min_clearance;
+  rec.jerk = plan.outcome.result.cost.jerk;
+  rec.duration = plan.outcome.result.duration;
+  traj_ = std::move(plan.outcome.result.trajectory);
+  traj_t0_ = plan.start_time;
+  traj_reaches_waypoint_ = plan.reaches_waypoint;
+  last_plan_time_ = t;
+  rec.trajectory = traj_;
+  records_.push_back(std::move(rec));
+  state_ = ReplanState::kExecTraj;
+  adapter_->OnTrajectory(traj_t0_, traj_, traj_reaches_waypoint_, params_);
 }
 
 void Replanner::EmergencyStop(double t, const Eigen::Vector3d& p, const Eigen::Vector3d& v,
@@ -254,12 +280,19 @@ void Replanner::Tick(double t, const Eigen::Vector3d& p_W, const Eigen::Vector3d
         return;
       }
 
+      if (adapter_ != nullptr) {
+        if (std::optional<AdaptedPlan> plan = adapter_->OnTick(t, map, waypoint)) {
+          Adopt(t, std::move(*plan));
+          return;
+        }
+      }
       std::optional<double> collision_in;
       if (t >= next_check_time_) {
         next_check_time_ = t + options_.check_interval;
         collision_in = TimeToCollision(map, tau);
       }
-      const bool periodic = t - last_plan_time_ >= params_.t_pl &&
+      const bool periodic = (adapter_ == nullptr || !adapter_->HoldsPeriodicReplan()) &&
+                            t - last_plan_time_ >= params_.t_pl &&
                             (p_W - waypoint).norm() > params_.no_replan_near_goal;
       // A finished local trajectory that did not bring the drone to its waypoint: plan again.
       const bool stalled = finished;

@@ -18,7 +18,7 @@ packages=(
   libsqlite3-dev sqlite3 nlohmann-json3-dev
   libopenmpi-dev openmpi-bin
   libgtest-dev libgmock-dev libbenchmark-dev
-  python3 python3-matplotlib python3-numpy python3-pandas python3-scipy
+  python3 python3-matplotlib python3-numpy python3-pandas python3-scipy python3-yaml
 )
 
 missing=()

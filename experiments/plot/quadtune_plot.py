@@ -9,7 +9,11 @@ Called by `quadtune plot`, or directly:
                                              and a Markdown table
     quadtune_plot.py run DIR                 a tuning run (DIR/results.sqlite from `quadtune run`):
                                              best-so-far f_l per method, f_l per iteration, the
-                                             number of short-term evaluations, a Markdown table
+                                             number of f_s evaluations, Markdown/CSV tables with
+                                             Mann–Whitney U tests between methods
+    quadtune_plot.py study DIR               a study (`quadtune study`): validation and 90%-of-
+                                             optimum table, sweep figure, refinement figures
+    quadtune_plot.py bench CSV [--out PNG]   thread scaling from `quadtune bench --csv`
 """
 import argparse
 import csv
@@ -180,93 +184,411 @@ def plot_flights(directories, out_dir):
     return [topdown, density, table]
 
 
+COLORS = {"default": "tab:green", "random": "tab:gray", "pso": "tab:purple", "bo": "tab:blue",
+          "bo_pso": "tab:red"}
+LABELS = {"default": "Default", "random": "Random", "pso": "PSO only", "bo": "BO only",
+          "bo_pso": "BO+PSO"}
+
+
+def mean_std(values):
+    values = list(values)
+    if not values:
+        return float("nan"), float("nan")
+    return statistics.fmean(values), (statistics.stdev(values) if len(values) > 1 else 0.0)
+
+
 def load_run(path):
-    """Per trial: method, repeat, the f_l sequence and the short-term counts before each flight."""
+    """Per trial: method, repeat, the f_l sequence, the parameters of each flight, and the number
+    of f_s evaluations (re-solves: θ_s evaluations × queries_per_eval) before each flight."""
     con = sqlite3.connect("file:{}?mode=ro".format(path), uri=True)
+    config = con.execute("SELECT config FROM experiment ORDER BY id LIMIT 1").fetchone()
+    queries_per_eval = 1
+    if config:
+        try:
+            import yaml
+            queries_per_eval = int((yaml.safe_load(config[0]) or {}).get("budget", {}).get(
+                "queries_per_eval", 4))
+        except Exception:  # the figure still works, counting θ_s evaluations
+            queries_per_eval = 1
     trials = {}
     for tid, method, repeat, best_value, best_params in con.execute(
             "SELECT id, method, repeat, best_value, best_params FROM trial ORDER BY id"):
         trials[tid] = {"method": method, "repeat": repeat, "best_value": best_value,
-                       "best_params": best_params, "long": [], "short_before": [], "shorts": 0}
-    for tid, kind, value, status in con.execute(
-            "SELECT trial_id, kind, value, status FROM evaluation ORDER BY id"):
+                       "best_params": best_params, "long": [], "params": [], "short_before": [],
+                       "shorts": 0, "failed": 0}
+    for tid, kind, value, status, params in con.execute(
+            "SELECT trial_id, kind, value, status, params FROM evaluation "
+            "ORDER BY trial_id, id"):
         t = trials.get(tid)
         if t is None:
             continue
         if kind == "short":
-            t["shorts"] += 1
+            t["shorts"] += queries_per_eval
         else:
             t["long"].append(value)
+            t["params"].append(json.loads(params) if params else {})
             t["short_before"].append(t["shorts"])
+            t["failed"] += status != "ok"
     con.close()
     return [t for t in trials.values() if t["long"]]
 
 
+def best_so_far(values):
+    out, cur = [], float("inf")
+    for v in values:
+        cur = min(cur, v)
+        out.append(cur)
+    return out
+
+
+def iterations_to_fraction(values, fraction=0.9):
+    """First flight (1-based) whose best-so-far f_l is within the fraction of the final optimum:
+    best_k <= f* / fraction (f_l is minimised, e.g. 90%: at most 11% above the final best)."""
+    b = best_so_far(values)
+    target = b[-1] / fraction
+    for k, v in enumerate(b, start=1):
+        if v <= target:
+            return k
+    return len(b)
+
+
+def method_order(trials):
+    order = []
+    for m in ["default", "random", "pso", "bo", "bo_pso"] + [t["method"] for t in trials]:
+        if m not in order and any(t["method"] == m for t in trials):
+            order.append(m)
+    return order
+
+
+def final_value(t):
+    """A trial's final value: best f_l found, or for the defaults the mean f_l of their flights."""
+    return statistics.fmean(t["long"]) if t["method"] == "default" else min(t["long"])
+
+
 def plot_run(directory):
-    """Figures and a table of a tuning run, after the paper's benchmark figure."""
+    """Figures and tables of a tuning run, after the paper's benchmark figure: (A) best f_l so far
+    (mean over repeats; band min–max), (B) f_l of each flight (mean; band min–max), (C) the number
+    of f_s evaluations; a table of final values with Mann–Whitney U tests between methods."""
     trials = load_run(os.path.join(directory, "results.sqlite"))
-    methods = []
-    for t in trials:
-        if t["method"] not in methods:
-            methods.append(t["method"])
-    colors = {"default": "tab:green", "random": "tab:gray", "pso": "tab:purple", "bo": "tab:blue",
-              "bo_pso": "tab:red"}
-    fig, (ax_a, ax_b, ax_c) = plt.subplots(1, 3, figsize=(16, 4.6))
+    methods = method_order(trials)
+    fig, (ax_a, ax_b, ax_c) = plt.subplots(1, 3, figsize=(17, 4.8))
+    inset = ax_a.inset_axes([0.5, 0.45, 0.46, 0.5])
     rows = []
+    finals = {}
     for method in methods:
         runs = [t for t in trials if t["method"] == method]
+        c = COLORS.get(method)
+        label = LABELS.get(method, method)
+        finals[method] = [final_value(t) for t in runs]
+        if method == "default":
+            mean_default = statistics.fmean(v for t in runs for v in t["long"])
+            for ax in (ax_a, ax_b, inset):
+                ax.axhline(mean_default, color=c, lw=1.5, ls="--",
+                           label=("Default (mean of {} flights)".format(
+                               sum(len(t["long"]) for t in runs)) if ax is not inset else None))
+            rows.append(dict(method=method, repeats=len(runs), flights=len(runs[0]["long"]),
+                             finals=finals[method], early10=mean_default, early25=mean_default,
+                             k90=float("nan"), shorts=0.0, failed=sum(t["failed"] for t in runs),
+                             params=runs[0]["best_params"]))
+            continue
         n = min(len(t["long"]) for t in runs)
-        best = []
-        for t in runs:
-            b, cur = [], float("inf")
-            for v in t["long"][:n]:
-                cur = min(cur, v)
-                b.append(cur)
-            best.append(b)
+        best = [best_so_far(t["long"][:n]) for t in runs]
         xs = list(range(1, n + 1))
         mean = [statistics.fmean(col) for col in zip(*best)]
         lo = [min(col) for col in zip(*best)]
         hi = [max(col) for col in zip(*best)]
-        c = colors.get(method, None)
-        ax_a.plot(xs, mean, color=c, lw=1.8, label=method)
+        for ax in (ax_a, inset):
+            ax.plot(xs, mean, color=c, lw=1.8, label=label if ax is ax_a else None)
+            if len(runs) > 1:
+                ax.fill_between(xs, lo, hi, color=c, alpha=0.12)
+        per = [list(col) for col in zip(*(t["long"][:n] for t in runs))]
+        ax_b.plot(xs, [statistics.fmean(col) for col in per], color=c, lw=1.2, label=label)
         if len(runs) > 1:
-            ax_a.fill_between(xs, lo, hi, color=c, alpha=0.15)
-        for t in runs:
-            ax_b.plot(range(1, len(t["long"]) + 1), t["long"], ".", color=c, alpha=0.6,
-                      label=method if t is runs[0] else None)
-            if t["shorts"] > 0:
-                ax_c.plot(range(1, len(t["short_before"]) + 1), t["short_before"], color=c,
-                          label=method if t is runs[0] else None)
-        finals = [b[-1] for b in best]
-        rows.append((method, len(runs), n, statistics.fmean(finals),
-                     statistics.pstdev(finals) if len(finals) > 1 else 0.0, min(finals),
-                     statistics.fmean(t["shorts"] for t in runs), runs[0]["best_params"]))
+            ax_b.fill_between(xs, [min(col) for col in per], [max(col) for col in per], color=c,
+                              alpha=0.1)
+        if any(t["shorts"] for t in runs):
+            ax_c.plot(xs, [statistics.fmean(col) for col in
+                           zip(*(t["short_before"][:n] for t in runs))], color=c, lw=1.8,
+                      label=label)
+        at = lambda k: statistics.fmean(b[min(k, n) - 1] for b in best)  # noqa: E731
+        rows.append(dict(method=method, repeats=len(runs), flights=n, finals=finals[method],
+                         early10=at(max(1, n // 10)), early25=at(max(1, n // 4)),
+                         k90=statistics.fmean(iterations_to_fraction(t["long"][:n]) for t in runs),
+                         shorts=statistics.fmean(t["shorts"] for t in runs),
+                         failed=sum(t["failed"] for t in runs),
+                         params=min(runs, key=lambda t: t["best_value"])["best_params"]))
     ax_a.set_title("(A) best f_l so far (mean; band: min–max over repeats)")
     ax_a.set_xlabel("long-term evaluation (flight)")
     ax_a.set_ylabel("f_l = t_f + t_f n_c + w_e n_e")
-    ax_b.set_title("(B) f_l of each flight")
+    ax_a.set_yscale("log")
+    last = [r for r in rows if r["method"] != "default"]
+    if last:
+        n = max(r["flights"] for r in last)
+        inset.set_xlim(0.6 * n, n)
+        tail = [v for r in rows for v in r["finals"]]
+        lo, hi = min(tail), max(tail)
+        inset.set_ylim(lo - 0.05 * (hi - lo + 1), hi + 0.05 * (hi - lo + 1))
+        inset.set_title("final convergence", fontsize=8)
+        inset.tick_params(labelsize=7)
+        inset.grid(alpha=0.3)
+    ax_b.set_title("(B) f_l of each flight (mean; band: min–max)")
     ax_b.set_xlabel("long-term evaluation (flight)")
     ax_b.set_yscale("log")
-    ax_c.set_title("(C) short-term evaluations before each flight")
+    ax_c.set_title("(C) f_s evaluations (re-solves) before each flight")
     ax_c.set_xlabel("long-term evaluation (flight)")
     ax_c.set_ylabel("f_s evaluations (cumulative)")
     for ax in (ax_a, ax_b, ax_c):
         ax.grid(alpha=0.3)
         if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=8)
+            ax.legend(fontsize=8, loc="upper left" if ax is ax_c else "lower left")
     fig.tight_layout()
     figure = os.path.join(directory, "tuning.png")
     fig.savefig(figure, dpi=120)
     plt.close(fig)
 
+    try:
+        from scipy.stats import mannwhitneyu
+    except ImportError:  # pragma: no cover - python3-scipy is installed by scripts/setup.sh
+        mannwhitneyu = None
+
+    def p_value(a, b):
+        if mannwhitneyu is None or len(a) < 2 or len(b) < 2 or a == b:
+            return float("nan")
+        return float(mannwhitneyu(a, b, alternative="two-sided").pvalue)
+
+    reference = "bo_pso" if "bo_pso" in finals else None
     table = os.path.join(directory, "tuning.md")
-    with open(table, "w") as f:
-        f.write("| method | repeats | flights | final best f_l (mean ± std) | best | short-term "
-                "evaluations | best parameters (first repeat) |\n|---|---|---|---|---|---|---|\n")
-        for method, reps, n, mean, std, best, shorts, params in rows:
-            f.write("| {} | {} | {} | {:.2f} ± {:.2f} | {:.2f} | {:.0f} | `{}` |\n".format(
-                method, reps, n, mean, std, best, shorts, params))
-    return [figure, table]
+    csv_path = os.path.join(directory, "tuning.csv")
+    with open(table, "w") as f, open(csv_path, "w", newline="") as fc:
+        w = csv.writer(fc)
+        w.writerow(["method", "repeats", "flights", "final_mean", "final_std", "final_min",
+                     "best_at_10pct", "best_at_25pct", "flights_to_90pct", "fs_evaluations",
+                     "failed", "p_vs_default", "p_vs_bo_pso", "best_params"])
+        f.write("Final value: best f_l of the trial (Default: mean f_l of its flights). Early "
+                "columns: mean best f_l after 10% and 25% of the flights. p: two-sided "
+                "Mann–Whitney U test of the final values over repeats.\n\n")
+        f.write("| method | repeats | flights | final f_l (mean ± std) | min | after 10% | "
+                "after 25% | flights to 90% of optimum | f_s evaluations | failed | "
+                "p vs Default | p vs BO+PSO | best parameters |\n")
+        f.write("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
+        for r in rows:
+            m, s = mean_std(r["finals"])
+            pd_ = p_value(r["finals"], finals["default"]) if "default" in finals and \
+                r["method"] != "default" else float("nan")
+            pb = p_value(r["finals"], finals[reference]) if reference and \
+                r["method"] != reference else float("nan")
+            fmt_p = lambda p: "–" if p != p else "{:.3f}".format(p)  # noqa: E731
+            f.write("| {} | {} | {} | {:.2f} ± {:.2f} | {:.2f} | {:.2f} | {:.2f} | {} | {:.0f} | "
+                    "{} | {} | {} | `{}` |\n".format(
+                        LABELS.get(r["method"], r["method"]), r["repeats"], r["flights"], m, s,
+                        min(r["finals"]), r["early10"], r["early25"],
+                        "–" if r["k90"] != r["k90"] else "{:.1f}".format(r["k90"]),
+                        r["shorts"], r["failed"], fmt_p(pd_), fmt_p(pb), r["params"]))
+            w.writerow([r["method"], r["repeats"], r["flights"], m, s, min(r["finals"]),
+                        r["early10"], r["early25"], r["k90"], r["shorts"], r["failed"], pd_, pb,
+                        r["params"]])
+    return [figure, table, csv_path]
+
+
+def read_rows(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def plot_study(directory):
+    """Tables and figures of a study (`quadtune study`): per point the validation flights of the
+    tuned parameters against the defaults and the evaluations needed to reach 90% of the optimum
+    (the paper's density table); with stages, the refinement figure (normalised parameters and
+    f_l over the flights of every stage, and the validation of each stage's result)."""
+    with open(os.path.join(directory, "study.json")) as f:
+        study = json.load(f)
+    validation = []
+    vpath = os.path.join(directory, "validation.csv")
+    if os.path.exists(vpath):
+        validation = read_rows(vpath)
+    outputs = []
+    rows = []
+    for p, point in enumerate(study["points"]):
+        last = point["stages"][-1]
+        trials = load_run(os.path.join(directory, last["store"]))
+        tuned = [t for t in trials if t["method"] != "default"]
+        method = "bo_pso" if any(t["method"] == "bo_pso" for t in tuned) else (
+            tuned[0]["method"] if tuned else "default")
+        runs = [t for t in tuned if t["method"] == method]
+        k90 = [iterations_to_fraction(t["long"]) for t in runs]
+        s90 = [t["short_before"][k - 1] for t, k in zip(runs, k90)]
+        v = [r for r in validation if int(r["point"]) == p]
+        tuned_v = [r for r in v if r["method"] == method and r["source_stage"] == last["name"]]
+        default_v = [r for r in v if r["method"] == "default"]
+        ft = [float(r["flight_time"]) for r in tuned_v]
+        fd = [float(r["flight_time"]) for r in default_v]
+        row = dict(label=point["label"], method=method, tuned=mean_std(ft),
+                   tuned_fl=mean_std(float(r["f_l"]) for r in tuned_v),
+                   default=mean_std(fd), default_fl=mean_std(float(r["f_l"]) for r in default_v),
+                   max_e=max([int(r["emergency_stops"]) for r in tuned_v], default=0),
+                   collisions=sum(int(r["collisions"]) for r in tuned_v),
+                   completed="{}/{}".format(sum(int(r["completed"]) for r in tuned_v), len(tuned_v)),
+                   k90=mean_std(k90), s90=mean_std(s90), flights=len(tuned_v))
+        rows.append(row)
+
+    table = os.path.join(directory, "study.md")
+    csv_path = os.path.join(directory, "study.csv")
+    key = study.get("sweep_key") or "point"
+    with open(table, "w") as f, open(csv_path, "w", newline="") as fc:
+        w = csv.writer(fc)
+        w.writerow([key, "method", "validation_flights", "flight_time_mean", "flight_time_std",
+                    "f_l_mean", "max_emergency_stops", "collisions", "completed",
+                    "default_flight_time_mean", "default_flight_time_std", "default_f_l_mean",
+                    "short_evals_to_90pct_mean", "short_evals_to_90pct_std",
+                    "long_evals_to_90pct_mean", "long_evals_to_90pct_std"])
+        f.write("Validation: {} flights per tuned trial on new maps of the same kind, with the "
+                "best parameters of each trial (and with the defaults on the same maps). 90% of "
+                "optimum: first flight whose best f_l so far is within f*/0.9 of the trial's "
+                "final best f*; short-term count = f_s evaluations (re-solves) before it.\n\n"
+                .format(study.get("validation_flights")))
+        f.write("| {} | method | flight time (s) | f_l | max emergency stops | collisions | "
+                "completed | defaults: flight time (s) | defaults: f_l | 90% optimum: "
+                "short-term | 90% optimum: long-term |\n".format(key))
+        f.write("|---|---|---|---|---|---|---|---|---|---|---|\n")
+        for r in rows:
+            f.write("| {} | {} | {:.2f} ± {:.2f} | {:.2f} | {} | {} | {} | {:.2f} ± {:.2f} | "
+                    "{:.2f} | {:.0f} ± {:.0f} | {:.1f} ± {:.1f} |\n".format(
+                        r["label"], LABELS.get(r["method"], r["method"]), r["tuned"][0],
+                        r["tuned"][1], r["tuned_fl"][0], r["max_e"], r["collisions"],
+                        r["completed"], r["default"][0], r["default"][1], r["default_fl"][0],
+                        r["s90"][0], r["s90"][1], r["k90"][0], r["k90"][1]))
+            w.writerow([r["label"], r["method"], r["flights"], r["tuned"][0], r["tuned"][1],
+                        r["tuned_fl"][0], r["max_e"], r["collisions"], r["completed"],
+                        r["default"][0], r["default"][1], r["default_fl"][0], r["s90"][0],
+                        r["s90"][1], r["k90"][0], r["k90"][1]])
+    outputs += [table, csv_path]
+
+    if len(rows) > 1:
+        labels = [r["label"] for r in rows]
+        xs = list(range(len(rows)))
+        fig, (ax_a, ax_b) = plt.subplots(1, 2, figsize=(12, 4.2))
+        ax_a.errorbar(xs, [r["tuned"][0] for r in rows], yerr=[r["tuned"][1] for r in rows],
+                      fmt="o-", color="tab:red", capsize=4, label="tuned")
+        ax_a.errorbar(xs, [r["default"][0] for r in rows], yerr=[r["default"][1] for r in rows],
+                      fmt="s--", color="tab:green", capsize=4, label="defaults")
+        ax_a.set_title("(A) validation flight time (mean ± std)")
+        ax_a.set_ylabel("flight time t_f (s)")
+        ax_b.errorbar(xs, [r["k90"][0] for r in rows], yerr=[r["k90"][1] for r in rows],
+                      fmt="o-", color="tab:blue", capsize=4, label="long-term (flights)")
+        ax_b.set_ylabel("long-term evaluations to 90% of optimum")
+        ax_b2 = ax_b.twinx()
+        ax_b2.errorbar(xs, [r["s90"][0] for r in rows], yerr=[r["s90"][1] for r in rows],
+                       fmt="s--", color="tab:orange", capsize=4, label="short-term (re-solves)")
+        ax_b2.set_ylabel("short-term evaluations to 90% of optimum")
+        ax_b.set_title("(B) evaluations to reach 90% of the optimum")
+        h1, l1 = ax_b.get_legend_handles_labels()
+        h2, l2 = ax_b2.get_legend_handles_labels()
+        ax_b.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper left")
+        for ax in (ax_a, ax_b):
+            ax.set_xticks(xs)
+            ax.set_xticklabels(labels)
+            ax.set_xlabel(key)
+            ax.grid(alpha=0.3)
+        ax_a.legend(fontsize=8)
+        fig.tight_layout()
+        figure = os.path.join(directory, "study_sweep.png")
+        fig.savefig(figure, dpi=120)
+        plt.close(fig)
+        outputs.append(figure)
+
+    for p, point in enumerate(study["points"]):
+        if len(point["stages"]) < 2:
+            continue
+        fig, (ax_a, ax_b, ax_c) = plt.subplots(1, 3, figsize=(17, 4.6))
+        offset = 0
+        space = point["stages"][-1]["space"]
+        names = [s["name"] for s in space]
+        cmap = plt.get_cmap("tab10")
+        for k, stage in enumerate(point["stages"]):
+            trials = [t for t in load_run(os.path.join(directory, stage["store"]))
+                      if t["method"] != "default"]
+            if not trials:
+                continue
+            t = min(trials, key=lambda t: t["best_value"])
+            xs = [offset + i + 1 for i in range(len(t["long"]))]
+            for j, prm in enumerate(space):
+                lo, hi = prm["lower"], prm["upper"]
+                vals = []
+                for params in t["params"]:
+                    x = params.get(prm["name"], float("nan"))
+                    if prm.get("log"):
+                        x, lo_, hi_ = math.log(x), math.log(lo), math.log(hi)
+                    else:
+                        lo_, hi_ = lo, hi
+                    vals.append((x - lo_) / (hi_ - lo_) if hi_ > lo_ else 0.5)
+                ax_a.plot(xs, vals, ".-", color=cmap(j), lw=0.8, ms=3,
+                          label=prm["name"] if k == 0 else None)
+            ax_b.plot(xs, t["long"], ".", color=cmap(k), label="{} f_l".format(stage["name"]))
+            ax_b.plot(xs, best_so_far(t["long"]), "-", color=cmap(k))
+            if k > 0:
+                for ax in (ax_a, ax_b):
+                    ax.axvline(offset + 0.5, color="k", lw=1, ls=":")
+            offset += len(t["long"])
+        ax_a.set_title("(A) normalised parameters per flight (stage boundary dotted)")
+        ax_a.set_xlabel("flight")
+        ax_a.set_ylim(-0.05, 1.05)
+        ax_a.legend(fontsize=7, ncol=3)
+        ax_b.set_title("(B) f_l per flight and best so far")
+        ax_b.set_xlabel("flight")
+        ax_b.set_yscale("log")
+        ax_b.legend(fontsize=8)
+        v = [r for r in validation if int(r["point"]) == p]
+        groups = [("defaults", [r for r in v if r["method"] == "default"])]
+        for stage in point["stages"]:
+            groups.append(("{} best".format(stage["name"]),
+                           [r for r in v if r["source_stage"] == stage["name"]]))
+        groups = [(name, g) for name, g in groups if g]
+        ms = [mean_std(float(r["f_l"]) for r in g) for _, g in groups]
+        ax_c.bar(range(len(groups)), [m for m, _ in ms], yerr=[s for _, s in ms], capsize=4,
+                 color=[cmap(i) for i in range(len(groups))])
+        ax_c.set_xticks(range(len(groups)))
+        ax_c.set_xticklabels([name for name, _ in groups], rotation=15, fontsize=8)
+        ax_c.set_ylabel("f_l in the last stage's world (mean ± std)")
+        ax_c.set_title("(C) validation flights in the {} world".format(point["stages"][-1]["name"]))
+        for ax in (ax_a, ax_b, ax_c):
+            ax.grid(alpha=0.3)
+        fig.suptitle("{} — {}".format(study["name"], point["label"]))
+        fig.tight_layout()
+        figure = os.path.join(directory, "refinement_{}.png".format(
+            "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in point["label"])))
+        fig.savefig(figure, dpi=120)
+        plt.close(fig)
+        outputs.append(figure)
+    return outputs
+
+
+def plot_bench(csv_path, out=None):
+    """Thread scaling (`quadtune bench --csv`): flights/s and short-term evaluations/s against the
+    thread count, with parallel efficiency."""
+    rows = read_rows(csv_path)
+    threads = [int(r["threads"]) for r in rows]
+    fig, (ax_a, ax_b) = plt.subplots(1, 2, figsize=(11, 4))
+    for key, label, color in (("flights_per_s", "flights/s", "tab:blue"),
+                              ("resolves_per_s", "short-term evaluations/s", "tab:orange")):
+        vals = [float(r[key]) for r in rows]
+        ax_a.plot(threads, [v / vals[0] for v in vals], "o-", color=color, label=label)
+        ax_b.plot(threads, [v / vals[0] / t for v, t in zip(vals, threads)], "o-", color=color,
+                  label=label)
+    ax_a.plot(threads, threads, "k:", label="ideal")
+    ax_a.set_title("(A) speed-up over 1 thread")
+    ax_a.set_ylabel("speed-up")
+    ax_b.set_title("(B) parallel efficiency")
+    ax_b.set_ylim(0, 1.1)
+    cores = rows[0].get("cores")
+    for ax in (ax_a, ax_b):
+        ax.set_xlabel("threads" + (" ({} cores)".format(cores) if cores else ""))
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    out = out or os.path.splitext(csv_path)[0] + ".png"
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return [out]
 
 
 def main(argv):
@@ -280,9 +602,25 @@ def main(argv):
     p.add_argument("--out", required=True)
     p = sub.add_parser("run", help="figures and table of a tuning run directory")
     p.add_argument("directory")
+    p = sub.add_parser("study", help="figures and tables of a study directory")
+    p.add_argument("directory")
+    p = sub.add_parser("bench", help="thread-scaling figure of a `quadtune bench --csv` file")
+    p.add_argument("csv")
+    p.add_argument("--out", default=None)
+    sub.add_parser("adapt", help="velocity along the path and top-down view of `quadtune adapt`"
+                   ).add_argument("directory")
     args = parser.parse_args(argv)
+    if args.what == "adapt":
+        print(plot_adapt(args.directory))
+        return 0
     if args.what == "run":
         for path in plot_run(args.directory):
+            print(path)
+    elif args.what == "study":
+        for path in plot_study(args.directory):
+            print(path)
+    elif args.what == "bench":
+        for path in plot_bench(args.csv, args.out):
             print(path)
     elif args.what == "flight":
         print(plot_flight(args.directory, args.out))
@@ -290,6 +628,102 @@ def main(argv):
         for path in plot_flights(args.directories, args.out):
             print(path)
     return 0
+
+
+# ---- `adapt`: the changing-environment experiment (`quadtune adapt` output) ----------------------
+
+def _adapt_zone_shading(ax, zones, label=True):
+    """Shades the density zones (x-ranges) in alternating greys and labels them with the spacing."""
+    for i, z in enumerate(zones):
+        ax.axvspan(z["x_min"], z["x_max"], color="0.88" if i % 2 == 0 else "0.95", lw=0, zorder=0)
+        if label:
+            ax.text(0.5 * (z["x_min"] + z["x_max"]), 0.97, "spacing {:.1f} m".format(z["spacing"]),
+                    transform=ax.get_xaxis_transform(), ha="center", va="top", fontsize=9,
+                    color="0.25")
+
+
+def plot_adapt(directory):
+    """DIR/adapt.png: (A) v_des in force and actual speed along the corridor for the adapted flight
+    and the fixed-v_des baselines, with every BO trial (v_des proposed at P_s) and the chosen ones;
+    (B) top-down view of the layout with the adapted flight coloured by speed."""
+    from matplotlib.collections import LineCollection
+    with open(os.path.join(directory, "summary.json")) as f:
+        summary = json.load(f)
+    zones = summary.get("zones", [])
+    flights = summary["flights"]
+    fig, (ax, ax_top) = plt.subplots(2, 1, figsize=(13, 8.5), gridspec_kw={"height_ratios": [1.3, 1]})
+    _adapt_zone_shading(ax, zones)
+    colors = ["tab:blue", "tab:red", "tab:green", "tab:purple", "tab:brown"]
+    for i, fl in enumerate(flights):
+        path = read_csv(os.path.join(directory, fl["directory"], "path.csv"))
+        if not path:
+            continue
+        c = colors[i % len(colors)]
+        ls = "-" if fl["adapted"] else "--"
+        name = "adapted" if fl["adapted"] else "fixed v_des = {:g}".format(fl["v_des"])
+        ax.plot(path["x"], path["speed"], color=c, ls=ls, lw=1.4 if fl["adapted"] else 1.0,
+                label=name + ": actual speed")
+        ax.step(path["x"], path["v_des"], where="post", color=c, ls=ls, lw=2.2 if fl["adapted"] else 0.8,
+                alpha=0.5, label=name + ": desired v_des")
+        trials_path = os.path.join(directory, fl["directory"], "trials.csv")
+        if fl["adapted"] and os.path.exists(trials_path):
+            with open(trials_path, newline="") as f:
+                trials = list(csv.DictReader(f))
+            ok = [t for t in trials if t["success"] == "1"]
+            bad = [t for t in trials if t["success"] != "1"]
+            chosen = [t for t in trials if t["chosen"] == "1"]
+            ax.scatter([float(t["p_s_x"]) for t in ok], [float(t["v_des"]) for t in ok], s=6,
+                       color="0.45", alpha=0.6, zorder=3, label="BO trial at P_s")
+            if bad:
+                ax.scatter([float(t["p_s_x"]) for t in bad], [float(t["v_des"]) for t in bad], s=10,
+                           marker="x", color="0.3", alpha=0.6, zorder=3, label="failed trial")
+            ax.scatter([float(t["p_s_x"]) for t in chosen], [float(t["v_des"]) for t in chosen],
+                       s=22, marker="D", color=c, edgecolor="k", lw=0.4, zorder=4,
+                       label="chosen v_des (executed from P_s)")
+    lo, hi = summary.get("v_des_bounds", [1.0, 6.0])
+    for v in (lo, hi):
+        ax.axhline(v, color="k", lw=0.5, ls=":")
+    ax.set_xlabel("distance along the path: corridor x (m)")
+    ax.set_ylabel("velocity (m/s)")
+    ax.set_ylim(0.0, hi + 1.2)
+    ax.set_title("Online v_des adaptation (R = {:g} m, {} BO trials per P_s, seed {})".format(
+        summary.get("lookahead", float("nan")), summary.get("trials_per_segment", "?"),
+        summary.get("seed", "?")))
+    ax.legend(loc="upper left", fontsize=7, ncol=3, bbox_to_anchor=(0.0, 0.90))
+    ax.grid(alpha=0.3)
+
+    adapted = next((fl for fl in flights if fl["adapted"]), flights[0])
+    adir = os.path.join(directory, adapted["directory"])
+    with open(os.path.join(adir, "obstacles.json")) as f:
+        obstacles = json.load(f)
+    _adapt_zone_shading(ax_top, zones, label=False)
+    draw_obstacles(ax_top, obstacles)
+    path = read_csv(os.path.join(adir, "path.csv"))
+    if path:
+        pts = list(zip(path["x"], path["y"]))
+        segs = [[pts[k], pts[k + 1]] for k in range(len(pts) - 1)]
+        lc = LineCollection(segs, cmap="viridis", linewidths=2.4, zorder=5)
+        lc.set_array(path["speed"][:-1])
+        ax_top.add_collection(lc)
+        cb = fig.colorbar(lc, ax=ax_top, pad=0.01, fraction=0.03)
+        cb.set_label("speed (m/s)")
+    for z in zones:
+        ax_top.axvline(z["x_min"], color="0.5", lw=0.6, ls="--")
+    ax_top.set_aspect("equal")
+    xs = [z["x_min"] for z in zones] + [z["x_max"] for z in zones]
+    if xs:
+        ax_top.set_xlim(min(xs) - 1, max(xs) + 1)
+        ax.set_xlim(min(xs) - 1, max(xs) + 1)
+    ax_top.set_ylim(-5.5, 5.5)
+    ax_top.set_xlabel("x (m)")
+    ax_top.set_ylabel("y (m)")
+    ax_top.set_title("Adapted flight, top-down: t_f = {:.2f} s, collisions {}, emergency stops {}".format(
+        adapted["flight_time"], adapted["collisions"], adapted["emergency_stops"]))
+    fig.tight_layout()
+    out = os.path.join(directory, "adapt.png")
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out
 
 
 if __name__ == "__main__":

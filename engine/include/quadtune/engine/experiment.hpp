@@ -25,9 +25,13 @@
 ///     short_term: [w_col, w_dyn, n_pol]        # θ_s (PSO in bo_pso)
 ///     long_term: [v_des, h_pl, t_pl]           # θ_l (BO in bo_pso)
 ///     initial_short_term: {w_col: 0.5, ...}    # optional: skip the first θ_s phase
+///     start: {v_des: 2.4, w_col: 0.8, ...}     # optional: a known good point (refinement,
+///                              # paper Sec. III-E): BO searches first inside
+///                              # start ± bo.moving_bounds.half_width, bo_pso's PSO starts from it
 ///     objective: {short_term: {...}, long_term: {w_e: 5}, failure_value: 1000}
 ///     budget:
 ///       flights: 6             # f_l evaluations per trial, >= 1
+///       default_flights: 5     # flights of method `default` (absent: flights)
 ///       flight_batch: 2        # flights asked and flown together, >= 1 (fixed: not the threads);
 ///                              # 0 in realtime mode: one per thread
 ///       short_evals_per_flight: 40   # θ_s evaluations (PSO candidates) per flight (paper ≈ 3500 re-solves)
@@ -68,6 +72,9 @@ std::optional<Method> MethodFromString(const std::string& name);
 /// Budgets of one trial (YAML `budget:`).
 struct Budget {
   int flights = 6;                 ///< long-term evaluations per trial, >= 1
+  /// Flights of the `default` method (paper: the average of five flights with the defaults);
+  /// absent in YAML → `flights`.
+  int default_flights = 6;
   /// Flights asked and flown together, >= 1; 0 (realtime mode only): one per worker thread
   /// ("ask for as many candidates as there are free worlds").
   int flight_batch = 2;
@@ -96,6 +103,11 @@ struct Experiment {
   std::vector<std::string> short_names;  ///< θ_s, in space order
   std::vector<std::string> long_names;   ///< θ_l, in space order
   std::optional<ParamValues> initial_short;  ///< given θ_s (bo_pso skips its first phase)
+  /// A known good point (YAML `start:`, any subset of the tuned parameters; the others keep their
+  /// defaults). With bo.moving_bounds.enabled, methods bo and bo_pso (its BO on θ_l) begin inside
+  /// start ± half_width (unit-cube widths), then the bounds move with the best point; bo_pso's θ_s
+  /// starts from start's short-term part. Used to refine a result in a higher-fidelity world.
+  std::optional<ParamValues> start;
   ObjectiveOptions objective;
   Budget budget;
   optimizers::PsoOptions pso;
@@ -109,6 +121,8 @@ struct Experiment {
 
   /// Map seed of repeat r (random maps of identical density: one layout per repeat).
   [[nodiscard]] std::uint64_t MapSeed(int repeat) const;
+  /// Every parameter the planner takes at its default, overridden by the space's defaults.
+  [[nodiscard]] ParamValues Defaults() const;
 };
 
 /// Finds `relative`: as given, under `base_dir`, under $QUADTUNE_ASSETS, under the source

@@ -13,7 +13,12 @@
 /// and loads the stored evaluations; the tuner replays them (same order, same values) instead of
 /// computing them again, so nothing is lost or duplicated after a kill -9.
 ///
-/// Thread safety: one thread at a time (the tuner's driver thread writes).
+/// EvaluationStore is what the tuner needs from a store (trial ids, stored rows for replay, new
+/// rows, finished trials). ResultStore is the SQLite implementation; a distributed run forwards
+/// these calls from ranks ≠ 0 to the ResultStore of rank 0 over MPI (distributed.hpp).
+///
+/// Thread safety: one thread at a time (the tuner's driver thread writes). Find() only reads the
+/// rows loaded at open time, so it may run beside the other calls.
 
 #include <cstdint>
 #include <map>
@@ -56,8 +61,24 @@ struct TrialRow {
   double best_value = 0.0;
 };
 
-/// See the file comment. Non-copyable; movable.
-class ResultStore {
+/// The store interface the tuner writes through. Implementations say their thread safety.
+class EvaluationStore {
+ public:
+  virtual ~EvaluationStore() = default;
+  /// The trial's id (created when new).
+  virtual std::int64_t Trial(const std::string& method, int repeat, std::uint64_t map_seed) = 0;
+  /// A stored evaluation to replay, if any.
+  [[nodiscard]] virtual const EvaluationRow* Find(std::int64_t trial_id, const std::string& kind,
+                                                  int iteration, int index) const = 0;
+  /// Stores one evaluation. Ignores a key already stored.
+  virtual void Insert(const EvaluationRow& row) = 0;
+  /// Marks a trial finished with its best point.
+  virtual void FinishTrial(std::int64_t trial_id, const std::string& status,
+                           const std::string& best_params, double best_value) = 0;
+};
+
+/// See the file comment. Non-copyable.
+class ResultStore : public EvaluationStore {
  public:
   /// Creates (resume = false: the file must not hold a run yet — it is replaced) or reopens
   /// (resume = true) the store at `path`. Throws ConfigError when resuming a file made by another
@@ -65,20 +86,22 @@ class ResultStore {
   ResultStore(const std::string& path, const Experiment& experiment, int threads, bool resume);
   /// Opens an existing file read-only (export, tests).
   explicit ResultStore(const std::string& path);
-  ~ResultStore();
+  ~ResultStore() override;
   ResultStore(const ResultStore&) = delete;
   ResultStore& operator=(const ResultStore&) = delete;
 
   /// The trial's id (created when new).
-  std::int64_t Trial(const std::string& method, int repeat, std::uint64_t map_seed);
+  std::int64_t Trial(const std::string& method, int repeat, std::uint64_t map_seed) override;
   /// A stored evaluation, if any.
   [[nodiscard]] const EvaluationRow* Find(std::int64_t trial_id, const std::string& kind,
-                                          int iteration, int index) const;
+                                          int iteration, int index) const override;
   /// Stores one evaluation (one transaction). Ignores a key already stored.
-  void Insert(const EvaluationRow& row);
+  void Insert(const EvaluationRow& row) override;
   /// Marks a trial finished with its best point.
   void FinishTrial(std::int64_t trial_id, const std::string& status, const std::string& best_params,
-                   double best_value);
+                   double best_value) override;
+  /// The rows of one trial loaded for resume (what Find() can return for it), in key order.
+  [[nodiscard]] std::vector<EvaluationRow> StoredRows(std::int64_t trial_id) const;
 
   /// Every evaluation, ordered by trial, kind, iteration, index.
   [[nodiscard]] std::vector<EvaluationRow> Evaluations() const;

@@ -28,9 +28,18 @@
 ///
 /// Failures: an exception in a flight or re-solve is caught at the evaluation boundary and
 /// recorded (status failed, message); the optimiser is told objective.failure_value.
+///
+/// RunExperiment runs every trial in order on one TrialRunner. A distributed run (MPI,
+/// distributed.hpp) gives each rank a TrialRunner and hands it whole trials; a trial computes
+/// the same evaluations wherever it runs.
+///
+/// Thread safety: RunExperiment and a TrialRunner are driven by one thread; they run the
+/// evaluations on the scheduler's worker threads.
 
 #include <atomic>
+#include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -49,6 +58,7 @@ struct Progress {
   long short_evals = 0;          ///< re-solves run so far (all trials)
   double best_long = 0.0;        ///< best f_l of this trial so far
   double elapsed_s = 0.0;
+  int rank = 0;                  ///< MPI rank that runs the trial (distributed runs)
 };
 
 /// How to run.
@@ -86,6 +96,36 @@ struct RunSummary {
   double wall_s = 0.0;
   int threads = 0;
   int worlds = 0;           ///< world-pool slots created
+  int ranks = 1;            ///< MPI ranks (distributed runs; threads is per rank)
+};
+
+class EvaluationStore;
+
+/// Runs single trials on its own scheduler and world pool; the maps of every repeat are made
+/// when it is built (so a layout that cannot be generated stops the run before any work).
+class TrialRunner {
+ public:
+  /// `threads` >= 1 workers. `store` (may be null: results only in memory) must outlive the
+  /// runner. options.store_path only names the store in errors; options.threads is ignored.
+  TrialRunner(const Experiment& experiment, const RunOptions& options, int threads,
+              EvaluationStore* store);
+  ~TrialRunner();
+  TrialRunner(const TrialRunner&) = delete;
+  TrialRunner& operator=(const TrialRunner&) = delete;
+
+  /// Runs trial (method, repeat) into `summary`; false when cancelled (options.cancel).
+  /// Throws ConfigError when the stored rows do not fit the run (see RunExperiment).
+  bool Run(Method method, int repeat, TrialSummary& summary);
+  /// What progress reports show as trials done / total (thread-safe).
+  void SetTrialCounts(int done, int total);
+  [[nodiscard]] long Flights() const;   ///< flights flown so far
+  [[nodiscard]] long Resolves() const;  ///< query re-solves run so far
+  [[nodiscard]] int Worlds() const;     ///< world-pool slots created
+  [[nodiscard]] double ElapsedSeconds() const;  ///< since the runner was built
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
 };
 
 /// Runs `experiment`. Configuration problems (e.g. resuming another run) throw ConfigError

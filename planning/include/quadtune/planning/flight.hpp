@@ -100,6 +100,7 @@ struct FlightLogRow {
   double yaw = 0.0;
   ReplanState state = ReplanState::kWaitMission;
   int collisions = 0;
+  double v_des = 0.0;  ///< desired velocity of the parameters in force (m/s)
 };
 
 /// Everything a flight produced.
@@ -117,6 +118,8 @@ struct FlightHooks {
   std::function<void(const PlanningQuery&, const PlanOutcome&)> on_plan;
   /// Polled every tick; true stops the flight (kCancelled).
   std::function<bool()> cancelled;
+  /// See Replanner::SetAdapter (not owned; must outlive Fly). nullptr: plain replanning.
+  PlanAdapter* adapter = nullptr;
 };
 
 /// Flies `mission` in `world` (reset to hover at the mission start; its options, drone and

@@ -22,6 +22,7 @@
 
 #include <Eigen/Core>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,36 @@ namespace quadtune::planning {
 enum class ReplanState { kWaitMission, kGenNewTraj, kExecTraj, kEmergencyStop, kDone };
 /// Short name of a state, e.g. "exec_traj".
 const char* ToString(ReplanState state);
+
+/// A plan that a PlanAdapter hands to the Replanner to execute from `start_time` on.
+struct AdaptedPlan {
+  double start_time = 0.0;       ///< flight time at which `outcome`'s trajectory starts (s)
+  PlanOutcome outcome;           ///< the chosen plan (its result must hold a trajectory)
+  bool reaches_waypoint = false; ///< the trajectory ends at the current mission waypoint
+  PlannerParams params;          ///< parameters to keep in force from now on (validated)
+};
+
+/// Optional hook that replaces the FSM's periodic re-planning by a plan chosen ahead of time
+/// (the paper's online adaptation in changing environments, Sec. IV-B). Without an adapter the
+/// FSM behaves exactly as described in the file comment.
+///
+/// Thread safety: called only from the Replanner's thread.
+class PlanAdapter {
+ public:
+  virtual ~PlanAdapter() = default;
+  /// A planned trajectory started executing at t0 (a plan of the FSM or one the adapter handed
+  /// over); any earlier trajectory is no longer executed.
+  virtual void OnTrajectory(double t0, const Trajectory& trajectory, bool reaches_waypoint,
+                            const PlannerParams& params) = 0;
+  /// Called on every tick while a trajectory executes (after the waypoint check, before the
+  /// collision check) with the latest map and the current mission waypoint. A plan returned here
+  /// is executed at once.
+  virtual std::optional<AdaptedPlan> OnTick(double t, const LocalMap& map,
+                                            const Eigen::Vector3d& waypoint_W) = 0;
+  /// While true, the FSM skips its periodic (every t_pl) re-plans; re-plans triggered by a
+  /// predicted collision or a finished trajectory still happen.
+  [[nodiscard]] virtual bool HoldsPeriodicReplan() const = 0;
+};
 
 /// FSM settings (not tuned by the experiments).
 struct ReplannerOptions {
@@ -88,6 +119,8 @@ class Replanner {
   void SetParamsProvider(std::function<void(double time, PlannerParams& params)> provider);
   /// Called after each plan that reached the back end, with its query and outcome.
   void SetQueryObserver(std::function<void(const PlanningQuery&, const PlanOutcome&)> observer);
+  /// Installs an adapter (not owned; nullptr removes it). It must outlive the flight.
+  void SetAdapter(PlanAdapter* adapter) { adapter_ = adapter; }
 
   /// Advances the FSM at time t (s) given the measured position and velocity; `map` must hold the
   /// latest scans.
@@ -119,6 +152,8 @@ class Replanner {
   std::optional<double> TimeToCollision(const LocalMap& map, double tau) const;
   void EmergencyStop(double t, const Eigen::Vector3d& p, const Eigen::Vector3d& v,
                      const Eigen::Vector3d& a);
+  // Executes a plan handed over by the adapter.
+  void Adopt(double t, AdaptedPlan plan);
 
   const TrajectoryOptimizer& optimizer_;
   PlannerParams params_;
@@ -126,6 +161,7 @@ class Replanner {
   LocalPlanner planner_;
   std::function<void(double, PlannerParams&)> provider_;
   std::function<void(const PlanningQuery&, const PlanOutcome&)> observer_;
+  PlanAdapter* adapter_ = nullptr;
 
   ReplanState state_ = ReplanState::kWaitMission;
   std::vector<Eigen::Vector3d> waypoints_;

@@ -1,0 +1,766 @@
+// Distributed experiments over MPI (see distributed.hpp): rank 0 serves a work queue of trials
+// and owns the SQLite store, the other ranks run the trials they are handed and forward their
+// rows. Messages are JSON texts (doubles travel as their bit patterns, so they arrive exactly).
+// Without MPI (no QUADTUNE_HAVE_MPI) only MpiLaunchSize() works and the rest reports that
+// quadtune was built without MPI.
+//
+// Thread safety: MPI runs on the thread that built the MpiSession only; on rank 0 a second
+// thread runs trials and reaches the store through LockedStore.
+//
+// Debian's sequential MUMPS (linked through Ipopt) exports dummy MPI_Init, MPI_Comm_rank,
+// MPI_Finalize and MPI_Wtime, which can shadow MPI's own (every rank would be rank 0). Those four
+// are called here through their PMPI_ names, which only the MPI library defines.
+#include "quadtune/engine/distributed.hpp"
+
+#include <cstdlib>
+#include <string>
+
+#include "quadtune/common/error.hpp"
+
+#if defined(QUADTUNE_HAVE_MPI)
+#include <mpi.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <bit>
+#include <chrono>
+#include <climits>
+#include <csignal>
+#include <cstdint>
+#include <cstdio>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <thread>
+#include <tuple>
+#include <utility>
+#include <vector>
+
+#include "quadtune/engine/result_store.hpp"
+#endif
+
+namespace quadtune::engine {
+namespace {
+
+/// A positive integer from the environment, 0 when unset or not one.
+int EnvCount(const char* name) {
+  const char* text = std::getenv(name);
+  if (text == nullptr || *text == '\0') return 0;
+  char* end = nullptr;
+  const long n = std::strtol(text, &end, 10);
+  return (*end == '\0' && n > 0 && n < (1L << 24)) ? static_cast<int>(n) : 0;
+}
+
+}  // namespace
+
+int MpiLaunchSize() {
+  if (const int n = EnvCount("OMPI_COMM_WORLD_SIZE")) return n;
+  if (const int n = EnvCount("PMI_SIZE")) return n;
+  if (std::getenv("SLURM_PROCID") != nullptr) {
+    if (const int n = EnvCount("SLURM_STEP_NUM_TASKS")) return n;
+  }
+  return 1;
+}
+
+#if !defined(QUADTUNE_HAVE_MPI)
+
+namespace {
+[[noreturn]] void NotBuilt() {
+  throw std::runtime_error(
+      "quadtune was built without MPI (QUADTUNE_WITH_MPI=OFF or MPI not found): distributed runs "
+      "are not available");
+}
+}  // namespace
+
+bool MpiBuilt() { return false; }
+MpiSession::MpiSession() { NotBuilt(); }
+MpiSession::~MpiSession() = default;
+void MpiSession::Abort(int code) const { std::_Exit(code); }
+Experiment LoadExperimentShared(const MpiSession&, const std::string&) { NotBuilt(); }
+RunSummary RunDistributed(const MpiSession&, const Experiment&, const DistributedOptions&) {
+  NotBuilt();
+}
+
+#else  // QUADTUNE_HAVE_MPI
+
+namespace {
+
+using Json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+// rank → 0: next (asks for work, reporting the finished trial), insert, finish, error, bye.
+constexpr int kTagToRoot = 11;
+// 0 → rank: a trial to run, or stop.
+constexpr int kTagToRank = 12;
+constexpr auto kPoll = std::chrono::milliseconds(1);
+
+// ---- messages -----------------------------------------------------------------------------
+
+/// The run's cancel flag (set by signals), seen by every wait below; null when there is none.
+const std::atomic<bool>* g_cancel = nullptr;
+
+bool CancelSet() { return g_cancel != nullptr && g_cancel->load(); }
+
+/// Waits for `request` without spinning in MPI (a few quick tests, then 1 ms sleeps). Gives up
+/// when the run is cancelled (a peer may be gone): the caller then stops.
+void WaitFor(MPI_Request& request) {
+  for (int i = 0;; ++i) {
+    int done = 0;
+    MPI_Test(&request, &done, MPI_STATUS_IGNORE);
+    if (done != 0 || CancelSet()) return;
+    if (i >= 16) std::this_thread::sleep_for(kPoll);
+  }
+}
+
+void Send(int destination, int tag, const Json& message) {
+  const std::string text = message.dump();
+  QT_DEMAND(text.size() < static_cast<std::size_t>(INT_MAX), "MPI message too large");
+  MPI_Request request;
+  MPI_Isend(text.data(), static_cast<int>(text.size()), MPI_CHAR, destination, tag, MPI_COMM_WORLD,
+            &request);
+  WaitFor(request);
+}
+
+struct Message {
+  int source = 0;
+  Json body;
+};
+
+/// The next message with `tag` from `source` (MPI_ANY_SOURCE allowed), if one has arrived.
+std::optional<Message> TryReceive(int source, int tag) {
+  int flag = 0;
+  MPI_Message handle;
+  MPI_Status status;
+  MPI_Improbe(source, tag, MPI_COMM_WORLD, &flag, &handle, &status);
+  if (flag == 0) return std::nullopt;
+  int count = 0;
+  MPI_Get_count(&status, MPI_CHAR, &count);
+  std::string text(static_cast<std::size_t>(count), '\0');
+  MPI_Mrecv(text.data(), count, MPI_CHAR, &handle, MPI_STATUS_IGNORE);
+  return Message{status.MPI_SOURCE, Json::parse(text)};
+}
+
+std::uint64_t Bits(double v) { return std::bit_cast<std::uint64_t>(v); }
+double FromBits(const Json& j) { return std::bit_cast<double>(j.get<std::uint64_t>()); }
+
+Json ToJson(const EvaluationRow& r) {
+  return Json{{"trial_id", r.trial_id},
+              {"method", r.method},
+              {"kind", r.kind},
+              {"iteration", r.iteration},
+              {"index", r.index},
+              {"params", r.params},
+              {"terms", r.terms},
+              {"value", Bits(r.value)},
+              {"status", r.status},
+              {"message", r.message},
+              {"wall_s", Bits(r.wall_s)},
+              {"started", Bits(r.started)},
+              {"finished", Bits(r.finished)}};
+}
+
+EvaluationRow RowFromJson(const Json& j) {
+  EvaluationRow r;
+  r.trial_id = j.at("trial_id").get<std::int64_t>();
+  r.method = j.at("method").get<std::string>();
+  r.kind = j.at("kind").get<std::string>();
+  r.iteration = j.at("iteration").get<int>();
+  r.index = j.at("index").get<int>();
+  r.params = j.at("params").get<std::string>();
+  r.terms = j.at("terms").get<std::string>();
+  r.value = FromBits(j.at("value"));
+  r.status = j.at("status").get<std::string>();
+  r.message = j.at("message").get<std::string>();
+  r.wall_s = FromBits(j.at("wall_s"));
+  r.started = FromBits(j.at("started"));
+  r.finished = FromBits(j.at("finished"));
+  return r;
+}
+
+Json ToJson(const TrialSummary& s) {
+  Json best = Json::array();
+  for (const auto& [name, value] : s.best) best.push_back(Json::array({name, Bits(value)}));
+  return Json{{"method", s.method},
+              {"repeat", s.repeat},
+              {"best", best},
+              {"best_value", Bits(s.best_value)},
+              {"flights", s.flights},
+              {"short_evals", s.short_evals},
+              {"failed", s.failed},
+              {"replayed", s.replayed},
+              {"context_changes", s.context_changes}};
+}
+
+TrialSummary SummaryFromJson(const Json& j) {
+  TrialSummary s;
+  s.method = j.at("method").get<std::string>();
+  s.repeat = j.at("repeat").get<int>();
+  for (const auto& pair : j.at("best")) {
+    s.best[pair.at(0).get<std::string>()] = FromBits(pair.at(1));
+  }
+  s.best_value = FromBits(j.at("best_value"));
+  s.flights = j.at("flights").get<int>();
+  s.short_evals = j.at("short_evals").get<int>();
+  s.failed = j.at("failed").get<int>();
+  s.replayed = j.at("replayed").get<int>();
+  s.context_changes = j.at("context_changes").get<int>();
+  return s;
+}
+
+// ---- stores -------------------------------------------------------------------------------
+
+/// Rank 0's store, shared by its serving thread and its trial thread. Trial/Insert/FinishTrial
+/// lock a mutex; Find and StoredRows read rows loaded at open time (never changed), unlocked.
+/// A null ResultStore (no store path) keeps nothing.
+class LockedStore final : public EvaluationStore {
+ public:
+  explicit LockedStore(ResultStore* store) : store_(store) {}
+  std::int64_t Trial(const std::string& method, int repeat, std::uint64_t map_seed) override {
+    std::lock_guard lock(mutex_);
+    return store_ != nullptr ? store_->Trial(method, repeat, map_seed) : 0;
+  }
+  [[nodiscard]] const EvaluationRow* Find(std::int64_t trial_id, const std::string& kind,
+                                          int iteration, int index) const override {
+    return store_ != nullptr ? store_->Find(trial_id, kind, iteration, index) : nullptr;
+  }
+  void Insert(const EvaluationRow& row) override {
+    std::lock_guard lock(mutex_);
+    if (store_ != nullptr) store_->Insert(row);
+  }
+  void FinishTrial(std::int64_t trial_id, const std::string& status, const std::string& best_params,
+                   double best_value) override {
+    std::lock_guard lock(mutex_);
+    if (store_ != nullptr) store_->FinishTrial(trial_id, status, best_params, best_value);
+  }
+  [[nodiscard]] std::vector<EvaluationRow> StoredRows(std::int64_t trial_id) const {
+    return store_ != nullptr ? store_->StoredRows(trial_id) : std::vector<EvaluationRow>{};
+  }
+  /// Evaluations committed so far.
+  [[nodiscard]] std::size_t Count() const {
+    std::lock_guard lock(mutex_);
+    return store_ != nullptr ? store_->Evaluations().size() : 0;
+  }
+
+ private:
+  ResultStore* store_;
+  mutable std::mutex mutex_;
+};
+
+/// QUADTUNE_TEST_KILL_RANK=R:N → N when R is `rank`, else 0.
+int KillAfter(int rank) {
+  const char* text = std::getenv("QUADTUNE_TEST_KILL_RANK");
+  if (text == nullptr || *text == '\0') return 0;
+  int r = -1;
+  int n = -1;
+  char extra = 0;
+  if (std::sscanf(text, "%d:%d%c", &r, &n, &extra) != 2 || r < 1 || n < 1) {
+    throw ConfigError("QUADTUNE_TEST_KILL_RANK", "",
+                      std::string("got '") + text +
+                          "', allowed: RANK:N with RANK >= 1 and N >= 1 (that rank raises SIGKILL "
+                          "after sending its Nth evaluation)");
+  }
+  return r == rank ? n : 0;
+}
+
+/// The store of a rank ≠ 0: the current trial's stored rows (sent with its assignment) for
+/// replay; new rows and finished trials go to rank 0. Driver thread only.
+class RemoteStore final : public EvaluationStore {
+ public:
+  explicit RemoteStore(int rank) : kill_after_(KillAfter(rank)) {}
+
+  void Begin(std::int64_t trial_id, std::string method, int repeat,
+             const std::vector<EvaluationRow>& rows) {
+    trial_id_ = trial_id;
+    method_ = std::move(method);
+    repeat_ = repeat;
+    rows_.clear();
+    for (const auto& r : rows) rows_.emplace(std::make_tuple(r.kind, r.iteration, r.index), r);
+  }
+  std::int64_t Trial(const std::string& method, int repeat, std::uint64_t) override {
+    QT_DEMAND(method == method_ && repeat == repeat_,
+              "trial " + method + " r" + std::to_string(repeat) + " was not assigned");
+    return trial_id_;
+  }
+  [[nodiscard]] const EvaluationRow* Find(std::int64_t trial_id, const std::string& kind,
+                                          int iteration, int index) const override {
+    if (trial_id != trial_id_) return nullptr;
+    const auto it = rows_.find(std::make_tuple(kind, iteration, index));
+    return it == rows_.end() ? nullptr : &it->second;
+  }
+  void Insert(const EvaluationRow& row) override {
+    Send(0, kTagToRoot, Json{{"type", "insert"}, {"row", ToJson(row)}});
+    if (++sent_ == kill_after_) std::raise(SIGKILL);  // test hook (see the header)
+  }
+  void FinishTrial(std::int64_t trial_id, const std::string& status, const std::string& best_params,
+                   double best_value) override {
+    Send(0, kTagToRoot,
+         Json{{"type", "finish"},
+              {"trial_id", trial_id},
+              {"status", status},
+              {"best_params", best_params},
+              {"best_value", Bits(best_value)}});
+  }
+
+ private:
+  int kill_after_;
+  int sent_ = 0;
+  std::int64_t trial_id_ = -1;
+  std::string method_;
+  int repeat_ = -1;
+  std::map<std::tuple<std::string, int, int>, EvaluationRow> rows_;
+};
+
+// ---- rank 0 -------------------------------------------------------------------------------
+
+/// A trial to hand out: its position in the single-process order and its stored id.
+struct Task {
+  int index = 0;
+  Method method = Method::kDefault;
+  int repeat = 0;
+  std::int64_t trial_id = 0;
+};
+
+/// What rank 0 knows about another rank.
+struct RankState {
+  long pid = 0;
+  std::string host;
+  int task = -1;  // index of the trial it runs, -1 when none
+  long flights = 0;
+  long resolves = 0;
+  int worlds = 0;
+  bool done = false;  // said bye
+};
+
+/// The state letter of process `pid` in /proc (0 when it does not exist).
+char ProcessState(long pid) {
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string text;
+  if (!std::getline(stat, text)) return 0;
+  const auto close = text.rfind(')');
+  if (close == std::string::npos || close + 2 >= text.size()) return 0;
+  return text[close + 2];
+}
+
+class Root {
+ public:
+  Root(const MpiSession& mpi, const Experiment& e, const DistributedOptions& o)
+      : mpi_(mpi), e_(e), o_(o), ranks_(static_cast<std::size_t>(mpi.Size())) {}
+
+  /// Opens the store, creates every trial row (single-process order) and the local runner.
+  void Start() {
+    threads_ = o_.run.threads > 0 ? o_.run.threads : e_.threads;
+    if (!o_.run.store_path.empty()) {
+      store_ = std::make_unique<ResultStore>(o_.run.store_path, e_, threads_, o_.run.resume);
+    }
+    locked_ = std::make_unique<LockedStore>(store_.get());
+    int index = 0;
+    for (int repeat = 0; repeat < e_.repeats; ++repeat) {
+      for (Method method : e_.methods) {
+        tasks_.push_back(Task{index++, method, repeat,
+                              locked_->Trial(ToString(method), repeat, e_.MapSeed(repeat))});
+      }
+    }
+    results_.resize(tasks_.size());
+    // Hand out the expensive trials (bo_pso re-solves queries besides flying) first.
+    std::vector<Task> order = tasks_;
+    std::stable_partition(order.begin(), order.end(),
+                          [](const Task& t) { return t.method == Method::kBoPso; });
+    queue_.assign(order.begin(), order.end());
+    local_options_ = o_.run;
+    local_options_.cancel = &stop_local_;
+    if (o_.run.on_progress) {
+      local_options_.on_progress = [this](const Progress& p) { Report(p); };
+    }
+    runner_ = std::make_unique<TrialRunner>(e_, local_options_, threads_,
+                                            store_ != nullptr ? locked_.get() : nullptr);
+    runner_->SetTrialCounts(0, static_cast<int>(tasks_.size()));
+  }
+
+  RunSummary Serve() {
+    std::thread local([this] { LocalTrials(); });
+    int active = mpi_.Size() - 1;
+    while (active > 0 || !local_done_.load()) {
+      if (o_.run.cancel != nullptr && o_.run.cancel->load()) ReportStoppedAndExit();
+      {
+        std::lock_guard lock(mutex_);
+        if (!local_error_.empty()) Fail("rank 0: " + local_error_);
+      }
+      auto m = TryReceive(MPI_ANY_SOURCE, kTagToRoot);
+      if (!m) {
+        std::this_thread::sleep_for(kPoll);
+        continue;
+      }
+      RankState& rank = ranks_[static_cast<std::size_t>(m->source)];
+      const std::string type = m->body.at("type").get<std::string>();
+      if (type == "insert") {
+        locked_->Insert(RowFromJson(m->body.at("row")));
+      } else if (type == "finish") {
+        locked_->FinishTrial(
+            m->body.at("trial_id").get<std::int64_t>(), m->body.at("status").get<std::string>(),
+            m->body.at("best_params").get<std::string>(), FromBits(m->body.at("best_value")));
+      } else if (type == "next") {
+        Next(m->source, rank, m->body);
+      } else if (type == "error") {
+        Fail("rank " + std::to_string(m->source) + ": " + m->body.at("message").get<std::string>());
+      } else if (type == "bye") {
+        rank.worlds = m->body.at("worlds").get<int>();
+        rank.done = true;
+        --active;
+      }
+    }
+    local.join();
+    RunSummary summary;
+    summary.threads = threads_;
+    summary.ranks = mpi_.Size();
+    summary.flights = runner_->Flights();
+    summary.resolves = runner_->Resolves();
+    summary.worlds = runner_->Worlds();
+    for (const auto& r : ranks_) {
+      summary.flights += r.flights;
+      summary.resolves += r.resolves;
+      summary.worlds += r.worlds;
+    }
+    for (auto& t : results_) {
+      if (t) summary.trials.push_back(std::move(*t));
+    }
+    summary.wall_s = runner_->ElapsedSeconds();
+    return summary;
+  }
+
+ private:
+  std::optional<Task> NextTask() {
+    std::lock_guard lock(mutex_);
+    if (queue_.empty()) return std::nullopt;
+    Task t = queue_.front();
+    queue_.pop_front();
+    return t;
+  }
+
+  /// Records a finished trial; returns the number of trials done.
+  int Record(int index, TrialSummary summary) {
+    std::lock_guard lock(mutex_);
+    results_[static_cast<std::size_t>(index)] = std::move(summary);
+    ++trials_done_;
+    runner_->SetTrialCounts(trials_done_, static_cast<int>(tasks_.size()));
+    return trials_done_;
+  }
+
+  void Report(const Progress& p) {
+    std::lock_guard lock(progress_mutex_);
+    o_.run.on_progress(p);
+  }
+
+  /// Rank 0's own share: trials from the same queue, on its trial thread.
+  void LocalTrials() {
+    try {
+      while (!stop_local_.load()) {
+        const auto task = NextTask();
+        if (!task) break;
+        TrialSummary summary;
+        if (!runner_->Run(task->method, task->repeat, summary)) break;
+        Record(task->index, std::move(summary));
+      }
+    } catch (const std::exception& ex) {
+      std::lock_guard lock(mutex_);
+      local_error_ = ex.what();
+    }
+    local_done_.store(true);
+  }
+
+  /// A rank asks for work, having finished the trial it reports (if any).
+  void Next(int source, RankState& rank, const Json& body) {
+    if (body.contains("pid")) {
+      rank.pid = body.at("pid").get<long>();
+      rank.host = body.at("host").get<std::string>();
+    }
+    rank.flights = body.value("flights", rank.flights);
+    rank.resolves = body.value("resolves", rank.resolves);
+    if (body.contains("summary")) {
+      TrialSummary s = SummaryFromJson(body.at("summary"));
+      const int index = body.at("index").get<int>();
+      if (o_.run.on_progress) {
+        Progress p;
+        p.method = s.method;
+        p.repeat = s.repeat;
+        p.flights_done = s.flights;
+        p.flights_total = std::max(1, s.flights);  // the trial is finished
+        p.best_long = s.best_value;
+        p.short_evals = runner_->Resolves();
+        p.elapsed_s = runner_->ElapsedSeconds();
+        p.rank = source;
+        p.trials_total = static_cast<int>(tasks_.size());
+        p.trials_done = Record(index, std::move(s)) - 1;
+        Report(p);
+      } else {
+        Record(index, std::move(s));
+      }
+      rank.task = -1;
+    }
+    const auto task = NextTask();
+    if (!task) {
+      Send(source, kTagToRank, Json{{"stop", true}});
+      return;
+    }
+    Json rows = Json::array();
+    for (const auto& r : locked_->StoredRows(task->trial_id)) rows.push_back(ToJson(r));
+    Send(source, kTagToRank,
+         Json{{"stop", false},
+              {"index", task->index},
+              {"method", ToString(task->method)},
+              {"repeat", task->repeat},
+              {"trial_id", task->trial_id},
+              {"rows", std::move(rows)}});
+    rank.task = task->index;
+  }
+
+  [[noreturn]] void Fail(const std::string& message) {
+    stop_local_.store(true);
+    std::fprintf(stderr, "quadtune: error: %s\nquadtune: stopping every rank\n", message.c_str());
+    std::fflush(stderr);
+    mpi_.Abort(2);
+  }
+
+  std::string TrialName(int index) const {
+    if (index < 0) return "no trial";
+    const Task& t = tasks_[static_cast<std::size_t>(index)];
+    return std::string("trial ") + ToString(t.method) + " r" + std::to_string(t.repeat);
+  }
+
+  /// A signal stopped the run (the runtime's SIGTERM after a rank was lost, or the user): says
+  /// which rank was lost, the state of the store and how to resume; then exits (code 143).
+  [[noreturn]] void ReportStoppedAndExit() {
+    stop_local_.store(true);
+    std::string lost;
+    for (std::size_t r = 1; r < ranks_.size(); ++r) {
+      const RankState& s = ranks_[r];
+      if (s.done || s.pid <= 0 || s.host != mpi_.Host()) continue;
+      const char state = ProcessState(s.pid);
+      if (state == 0 || state == 'Z' || state == 'X') {
+        lost += (lost.empty() ? "" : ", ") + std::string("rank ") + std::to_string(r) + " (pid " +
+                std::to_string(s.pid) + " on " + s.host + ", running " + TrialName(s.task) + ")";
+      }
+    }
+    int done = 0;
+    {
+      std::lock_guard lock(mutex_);
+      done = trials_done_;
+    }
+    if (!lost.empty()) {
+      std::fprintf(stderr, "quadtune: %s was lost; the MPI runtime stopped the other ranks.\n",
+                   lost.c_str());
+    } else {
+      std::fprintf(stderr,
+                   "quadtune: the run was stopped by a signal (a rank was lost or the job was "
+                   "cancelled; the MPI runtime's message names the rank).\n");
+    }
+    if (store_ != nullptr) {
+      std::fprintf(stderr,
+                   "quadtune: store %s is consistent: %zu evaluations committed (one transaction "
+                   "each), %d of %zu trials finished; unfinished trials resume from their stored "
+                   "evaluations.\nquadtune: resume with: %s\n",
+                   o_.run.store_path.c_str(), locked_->Count(), done, tasks_.size(),
+                   o_.resume_command.c_str());
+    }
+    std::fflush(stderr);
+    std::_Exit(143);
+  }
+
+  const MpiSession& mpi_;
+  const Experiment& e_;
+  const DistributedOptions& o_;
+  int threads_ = 1;
+  std::unique_ptr<ResultStore> store_;
+  std::unique_ptr<LockedStore> locked_;
+  std::vector<Task> tasks_;       // single-process order
+  std::vector<RankState> ranks_;  // serving thread only
+  RunOptions local_options_;
+  std::atomic<bool> stop_local_{false};
+  std::atomic<bool> local_done_{false};
+  std::unique_ptr<TrialRunner> runner_;  // rank 0's own trials (trial thread)
+  std::mutex mutex_;                     // guards queue_, results_, trials_done_, local_error_
+  std::deque<Task> queue_;
+  std::vector<std::optional<TrialSummary> > results_;
+  int trials_done_ = 0;
+  std::string local_error_;
+  std::mutex progress_mutex_;
+};
+
+// ---- ranks ≠ 0 ----------------------------------------------------------------------------
+
+/// A stopped rank waits to be killed by the runtime (so that rank 0 can tell the lost rank from
+/// the stopped ones), and leaves after 10 s if it is not.
+[[noreturn]] void WaitToBeStopped() {
+  std::this_thread::sleep_for(std::chrono::seconds(10));
+  std::_Exit(143);
+}
+
+RunSummary RunWorker(const MpiSession& mpi, const Experiment& e, const DistributedOptions& o) {
+  const auto cancelled = [&o] { return o.run.cancel != nullptr && o.run.cancel->load(); };
+  RunSummary summary;
+  summary.threads = o.run.threads > 0 ? o.run.threads : e.threads;
+  summary.ranks = mpi.Size();
+  std::unique_ptr<RemoteStore> store;
+  std::unique_ptr<TrialRunner> runner;
+  try {
+    store = std::make_unique<RemoteStore>(mpi.Rank());
+    RunOptions options = o.run;
+    options.on_progress = {};
+    runner = std::make_unique<TrialRunner>(e, options, summary.threads, store.get());
+    Json next{{"type", "next"}, {"pid", static_cast<long>(getpid())}, {"host", mpi.Host()}};
+    for (;;) {
+      Send(0, kTagToRoot, next);
+      std::optional<Message> m;
+      while (!(m = TryReceive(0, kTagToRank))) {
+        if (cancelled()) WaitToBeStopped();
+        std::this_thread::sleep_for(kPoll);
+      }
+      const Json& a = m->body;
+      if (a.at("stop").get<bool>()) break;
+      std::vector<EvaluationRow> rows;
+      for (const auto& r : a.at("rows")) rows.push_back(RowFromJson(r));
+      const std::string method = a.at("method").get<std::string>();
+      const int repeat = a.at("repeat").get<int>();
+      store->Begin(a.at("trial_id").get<std::int64_t>(), method, repeat, rows);
+      TrialSummary trial;
+      if (!runner->Run(*MethodFromString(method), repeat, trial)) WaitToBeStopped();
+      next = Json{{"type", "next"},
+                  {"index", a.at("index").get<int>()},
+                  {"summary", ToJson(trial)},
+                  {"flights", runner->Flights()},
+                  {"resolves", runner->Resolves()}};
+      summary.trials.push_back(std::move(trial));
+    }
+  } catch (const std::exception& ex) {
+    Send(0, kTagToRoot, Json{{"type", "error"}, {"message", ex.what()}});
+    WaitToBeStopped();  // rank 0 ends the job
+  }
+  summary.flights = runner->Flights();
+  summary.resolves = runner->Resolves();
+  summary.worlds = runner->Worlds();
+  summary.wall_s = runner->ElapsedSeconds();
+  Send(0, kTagToRoot, Json{{"type", "bye"}, {"worlds", summary.worlds}});
+  return summary;
+}
+
+/// MPI_Ibcast of `count` items at `data` from rank 0, waited for without spinning.
+void Broadcast(void* data, int count, MPI_Datatype type) {
+  MPI_Request request;
+  MPI_Ibcast(data, count, type, 0, MPI_COMM_WORLD, &request);
+  WaitFor(request);
+  if (CancelSet()) throw std::runtime_error("stopped by a signal before the run started");
+}
+
+/// The lowest rank whose `failed` is true (Size() when none), agreed by every rank.
+int FirstFailed(const MpiSession& mpi, bool failed) {
+  int mine = failed ? mpi.Rank() : mpi.Size();
+  int first = mpi.Size();
+  MPI_Request request;
+  MPI_Iallreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD, &request);
+  WaitFor(request);
+  return first;
+}
+
+}  // namespace
+
+bool MpiBuilt() { return true; }
+
+MpiSession::MpiSession() {
+  int initialized = 0;
+  MPI_Initialized(&initialized);
+  if (initialized != 0) throw std::runtime_error("MPI is already initialised");
+  int provided = 0;
+  if (MPI_Init_thread(nullptr, nullptr, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
+    throw std::runtime_error("MPI_Init_thread failed");
+  }
+  if (provided < MPI_THREAD_FUNNELED) {
+    PMPI_Finalize();
+    throw std::runtime_error("the MPI library does not support MPI_THREAD_FUNNELED");
+  }
+  PMPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+  MPI_Comm_size(MPI_COMM_WORLD, &size_);
+  char name[MPI_MAX_PROCESSOR_NAME] = {0};
+  int length = 0;
+  MPI_Get_processor_name(name, &length);
+  host_.assign(name, static_cast<std::size_t>(std::max(0, length)));
+}
+
+MpiSession::~MpiSession() {
+  // MPI_Finalize synchronises the ranks by spinning; meet in a barrier polled with sleeps first.
+  MPI_Request request;
+  MPI_Ibarrier(MPI_COMM_WORLD, &request);
+  WaitFor(request);
+  PMPI_Finalize();
+}
+
+void MpiSession::Abort(int code) const {
+  MPI_Abort(MPI_COMM_WORLD, code);
+  std::_Exit(code);
+}
+
+Experiment LoadExperimentShared(const MpiSession& mpi, const std::string& path) {
+  std::optional<Experiment> experiment;
+  std::exception_ptr error;
+  std::string text;
+  if (mpi.Rank() == 0) {
+    try {
+      experiment = Experiment::LoadFile(path);
+      text = experiment->text;
+    } catch (...) {
+      error = std::current_exception();
+    }
+  }
+  long long length = error ? -1 : static_cast<long long>(text.size());
+  Broadcast(&length, 1, MPI_LONG_LONG);
+  if (length < 0) {
+    if (error) std::rethrow_exception(error);
+    throw PeerError("rank 0 could not load " + path);
+  }
+  QT_DEMAND(length < INT_MAX, "experiment file too large");
+  text.resize(static_cast<std::size_t>(length));
+  Broadcast(text.data(), static_cast<int>(length), MPI_CHAR);
+  if (mpi.Rank() != 0) {
+    try {
+      const std::string dir = std::filesystem::path(path).parent_path().string();
+      experiment = Experiment::FromString(text, path, dir.empty() ? "." : dir);
+    } catch (...) {
+      error = std::current_exception();
+    }
+  }
+  const int first = FirstFailed(mpi, static_cast<bool>(error));
+  if (first < mpi.Size()) {
+    if (error) std::rethrow_exception(error);
+    throw PeerError("rank " + std::to_string(first) + " could not load " + path);
+  }
+  return std::move(*experiment);
+}
+
+RunSummary RunDistributed(const MpiSession& mpi, const Experiment& experiment,
+                          const DistributedOptions& options) {
+  g_cancel = options.run.cancel;
+  if (mpi.Rank() != 0) {
+    int ok = 0;
+    Broadcast(&ok, 1, MPI_INT);
+    if (ok == 0) throw PeerError("rank 0 could not start the run");
+    return RunWorker(mpi, experiment, options);
+  }
+  Root root(mpi, experiment, options);
+  std::exception_ptr error;
+  try {
+    root.Start();
+  } catch (...) {
+    error = std::current_exception();
+  }
+  int ok = error ? 0 : 1;
+  Broadcast(&ok, 1, MPI_INT);
+  if (error) std::rethrow_exception(error);
+  return root.Serve();
+}
+
+#endif  // QUADTUNE_HAVE_MPI
+
+}  // namespace quadtune::engine

@@ -1,0 +1,100 @@
+#pragma once
+/// \file
+/// Distributed experiments over MPI: `mpirun -np K quadtune run EXPERIMENT.yaml` spreads the
+/// trials (method × repeat) of one experiment over K ranks; each rank runs whole trials on its
+/// own TrialRunner (its own scheduler threads and world pool).
+///
+/// Rank 0 owns the SQLite store. Its main thread serves the other ranks: a work queue hands out
+/// one trial at a time to a rank that asks (bo_pso trials first, the most expensive, then the
+/// experiment's order), and the rows the ranks send are stored under a mutex. A second thread of
+/// rank 0 runs trials from the same queue. The trial rows are created up front in the
+/// single-process order, so trial ids, and in reproducible mode every stored evaluation, equal
+/// the single-process run's. On resume, a trial's stored rows travel with its assignment and the
+/// rank replays them exactly as a single process does.
+///
+/// Losing a rank: the MPI runtime then stops the others with SIGTERM. Rank 0 says which rank was
+/// lost (when it ran on rank 0's host; otherwise mpirun names it), that the store is consistent
+/// (one transaction per evaluation) and the command that resumes the run. The other ranks wait to
+/// be stopped so that the lost one can be told apart.
+///
+/// Waiting never blocks inside MPI (OpenMPI spins there and would take a core from the
+/// computing threads): it polls (MPI_Iprobe / MPI_Test) with a 1 ms sleep.
+///
+/// Test hook: the environment variable QUADTUNE_TEST_KILL_RANK=R:N makes rank R (>= 1) raise
+/// SIGKILL right after it has sent its Nth evaluation to rank 0.
+///
+/// Without MPI (QUADTUNE_WITH_MPI=OFF or MPI not found) MpiBuilt() is false and MpiSession's
+/// constructor throws.
+///
+/// Thread safety: MPI is called only from the thread that built the MpiSession
+/// (MPI_THREAD_FUNNELED); RunDistributed and LoadExperimentShared must run on it.
+
+#include <stdexcept>
+#include <string>
+
+#include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/tuner.hpp"
+
+namespace quadtune::engine {
+
+/// True when quadtune was built with MPI.
+bool MpiBuilt();
+
+/// The number of processes an MPI launcher started, read from the environment (mpirun/mpiexec:
+/// OMPI_COMM_WORLD_SIZE; MPICH and srun --mpi=pmi2: PMI_SIZE; srun: SLURM_STEP_NUM_TASKS when
+/// SLURM_PROCID is set); 1 when none did.
+int MpiLaunchSize();
+
+/// Thrown on a rank when another rank failed before the run started (that rank reports why).
+class PeerError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// MPI for one `quadtune run`: MPI_Init_thread (FUNNELED) on construction, MPI_Finalize on
+/// destruction after every rank got there (waiting without spinning).
+class MpiSession {
+ public:
+  /// Throws std::runtime_error when built without MPI or when MPI cannot start.
+  MpiSession();
+  ~MpiSession();
+  MpiSession(const MpiSession&) = delete;
+  MpiSession& operator=(const MpiSession&) = delete;
+
+  [[nodiscard]] int Rank() const { return rank_; }
+  [[nodiscard]] int Size() const { return size_; }
+  /// Host name of this rank.
+  [[nodiscard]] const std::string& Host() const { return host_; }
+  /// Ends every rank of the job (MPI_Abort) with exit code `code`.
+  [[noreturn]] void Abort(int code) const;
+
+ private:
+  int rank_ = 0;
+  int size_ = 1;
+  std::string host_;
+};
+
+/// Rank 0 reads and checks `path`; the other ranks build the experiment from rank 0's text
+/// (relative paths inside resolve against the file's folder on every rank). A collective call.
+/// Throws ConfigError on the rank that could not load it and PeerError on the others.
+Experiment LoadExperimentShared(const MpiSession& mpi, const std::string& path);
+
+/// How to run distributed.
+struct DistributedOptions {
+  /// store_path, resume, on_progress and cancel are used on rank 0 (cancel also on the others:
+  /// a rank stops computing when it is set); threads (> 0) is the threads of every rank.
+  RunOptions run;
+  /// Printed by rank 0 as the command that resumes the run when the run is stopped.
+  std::string resume_command;
+};
+
+/// Runs `experiment` over every rank of `mpi` (a collective call). Rank 0 returns the run's
+/// summary (every trial; flights, re-solves and worlds of all ranks); other ranks return their
+/// share. Problems found before the run starts (e.g. resuming another configuration) throw
+/// ConfigError on rank 0 and PeerError on the others. An error during the run ends the job
+/// (MPI_Abort) after rank 0 has reported it; a signal (SIGTERM from the runtime when a rank was
+/// lost) makes rank 0 report the state of the store and exit with code 143.
+RunSummary RunDistributed(const MpiSession& mpi, const Experiment& experiment,
+                          const DistributedOptions& options);
+
+}  // namespace quadtune::engine

@@ -1,0 +1,431 @@
+// Online adaptation of v_des in changing environments (paper Sec. IV-B) and the experiment that
+// flies it. See online_adaptation.hpp for the method.
+//
+// Thread safety: an OnlineAdapter is used by one flight's thread only; the free functions use
+// only their arguments.
+#include "quadtune/engine/online_adaptation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "quadtune/common/error.hpp"
+#include "quadtune/common/random.hpp"
+#include "quadtune/engine/experiment.hpp"
+
+namespace quadtune::engine {
+
+namespace {
+
+constexpr double kArcStep = 0.01;  // time step (s) of the arc-length search for P_s
+
+std::string Key(const std::string& name) { return "adaptation." + name; }
+
+// The time on `trajectory` at which its arc length from the start reaches `length`, and the
+// total length; nullopt when it never does.
+std::optional<double> TimeAtArcLength(const planning::Trajectory& trajectory, double length,
+                                      double* total) {
+  const double duration = trajectory.Duration();
+  double arc = 0.0;
+  std::optional<double> found;
+  Eigen::Vector3d last = trajectory.Position(0.0);
+  for (double t = kArcStep;; t += kArcStep) {
+    const double tc = std::min(t, duration);
+    const Eigen::Vector3d p = trajectory.Position(tc);
+    const double step = (p - last).norm();
+    if (!found && arc + step >= length && step > 0.0) {
+      found = tc - kArcStep + std::min(kArcStep, (length - arc) / step * kArcStep);
+    }
+    arc += step;
+    last = p;
+    if (tc >= duration) break;
+  }
+  *total = arc;
+  return found;
+}
+
+// The braking envelope of the file comment: a plan that starts at speed v_s > v_des may exceed
+// v_des (never v_s) only for the time a braking at braking_fraction · a_max would take.
+// Returns "" when the plan stays inside, else why not ("braking_too_slow", "over_a_max").
+std::string CheckBrakingEnvelope(const planning::Trajectory& trajectory, double v_start,
+                                 double v_des, double a_max, double braking_fraction,
+                                 double tolerance, double check_dt) {
+  if (trajectory.Empty()) return "no_trajectory";
+  // Never faster than at the start; down to v_des within the time a braking at
+  // braking_fraction · a_max would take.
+  const double brake_time = (v_start - v_des) / (braking_fraction * a_max);
+  for (const auto& s : trajectory.Sample(check_dt)) {
+    const double limit = s.t <= brake_time ? v_start : v_des;
+    if (s.v_W.norm() > (1.0 + tolerance) * limit) return "braking_too_slow";
+    if (s.a_W.norm() > (1.0 + tolerance) * a_max) return "over_a_max";
+  }
+  return "";
+}
+
+}  // namespace
+
+const char* ToString(AdaptationSegment::Outcome outcome) {
+  switch (outcome) {
+    case AdaptationSegment::Outcome::kAdopted: return "adopted";
+    case AdaptationSegment::Outcome::kNoSuccess: return "no_success";
+    case AdaptationSegment::Outcome::kSuperseded: return "superseded";
+  }
+  return "?";
+}
+
+// ---------------------------------------------------------------------------------------------
+// AdaptationOptions
+
+ObjectiveOptions AdaptationOptions::DefaultObjective() {
+  ObjectiveOptions o;
+  o.short_kind = ObjectiveOptions::ShortKind::kChangingEnvironment;
+  o.w_t = 1.0;
+  o.w_p = 0.01;
+  o.w_c = 100.0;
+  o.clearance = 0.5;
+  o.failure_value = 50.0;
+  return o;
+}
+
+optimizers::BayesOptOptions AdaptationOptions::DefaultBayesOpt() {
+  optimizers::BayesOptOptions o;
+  o.initial_design_size = 3;
+  o.noise_growth = 1.0;
+  return o;
+}
+
+void AdaptationOptions::Validate(const std::string& file) const {
+  CheckInRange(lookahead, {0.0, 20.0, true, false}, file, Key("lookahead"));
+  CheckInRange(v_min, Range::Positive(), file, Key("v_des_bounds"));
+  CheckInRange(v_max, {v_min, 15.0, true, false}, file, Key("v_des_bounds"));
+  CheckInRange(trials_per_segment, Range::Closed(1, 200), file, Key("trials_per_segment"));
+  CheckInRange(min_remaining, Range::NonNegative(), file, Key("min_remaining"));
+  CheckInRange(braking_fraction, {0.0, 1.0, true, false}, file, Key("braking_fraction"));
+  objective.Validate(file);
+  if (objective.short_kind != ObjectiveOptions::ShortKind::kChangingEnvironment) {
+    throw ConfigError(file, Key("objective.short_term.kind"),
+                      "must be changing_environment for online adaptation");
+  }
+  bo.Validate();
+}
+
+AdaptationOptions AdaptationOptions::FromYaml(const YamlMap& map) {
+  AdaptationOptions o;
+  map.RejectUnknownKeys({"lookahead", "v_des_bounds", "trials_per_segment", "min_remaining",
+                         "braking_fraction", "objective", "bo"});
+  o.lookahead = map.Number("lookahead", o.lookahead, {0.0, 20.0, true, false});
+  if (map.Has("v_des_bounds")) {
+    const std::vector<double> b = map.Numbers("v_des_bounds", 2);
+    if (!(b[0] > 0.0) || !(b[1] > b[0]) || !(b[1] <= 15.0)) {
+      map.Fail("v_des_bounds", "expected [lo, hi] with 0 < lo < hi <= 15 (m/s)");
+    }
+    o.v_min = b[0];
+    o.v_max = b[1];
+  }
+  o.trials_per_segment = static_cast<int>(
+      map.Integer("trials_per_segment", o.trials_per_segment, Range::Closed(1, 200)));
+  o.min_remaining = map.Number("min_remaining", o.min_remaining, Range::NonNegative());
+  o.braking_fraction =
+      map.Number("braking_fraction", o.braking_fraction, {0.0, 1.0, true, false});
+  if (map.Has("objective")) {
+    const YamlMap obj = map.Map("objective");
+    o.objective = ObjectiveOptions::FromYaml(obj);
+    // Keys absent from the file keep this experiment's defaults, not the engine's.
+    const ObjectiveOptions d = DefaultObjective();
+    const YamlMap s = obj.Map("short_term", true);
+    if (!s.Has("kind")) o.objective.short_kind = d.short_kind;
+    if (!obj.Has("failure_value")) o.objective.failure_value = d.failure_value;
+    if (o.objective.short_kind != ObjectiveOptions::ShortKind::kChangingEnvironment) {
+      s.Fail("kind", "must be changing_environment for online adaptation");
+    }
+  }
+  if (map.Has("bo")) {
+    const YamlMap bo = map.Map("bo");
+    o.bo = optimizers::BayesOptOptions::FromYaml(bo);
+    const optimizers::BayesOptOptions d = DefaultBayesOpt();
+    if (!bo.Has("initial_design_size")) o.bo.initial_design_size = d.initial_design_size;
+    if (!bo.Has("noise_growth")) o.bo.noise_growth = d.noise_growth;
+    if (bo.Has("seed")) bo.Fail("seed", "the BO seeds derive from the experiment's seed");
+  }
+  o.Validate(map.file());
+  return o;
+}
+
+// ---------------------------------------------------------------------------------------------
+// OnlineAdapter
+
+struct OnlineAdapter::Pending {
+  AdaptationSegment segment;
+  planning::Trajectory trajectory;  // the executing trajectory P_s lies on
+  Eigen::Vector3d v_s = Eigen::Vector3d::Zero();
+  Eigen::Vector3d a_s = Eigen::Vector3d::Zero();
+  planning::PlannerParams params;   // in force when the segment started
+  std::unique_ptr<optimizers::BayesOpt> bo;
+  double last_trial_time = 0.0;
+  std::size_t first_trial = 0;      // index of the segment's first trial in trials_
+  std::optional<planning::PlanOutcome> best;
+  bool best_reaches_waypoint = false;
+};
+
+OnlineAdapter::OnlineAdapter(const planning::TrajectoryOptimizer& optimizer,
+                             const planning::LocalPlannerOptions& planner_options,
+                             AdaptationOptions options)
+    : optimizer_(optimizer), planner_(planner_options), options_(std::move(options)) {
+  options_.Validate();
+}
+
+OnlineAdapter::~OnlineAdapter() = default;
+
+void OnlineAdapter::Close(AdaptationSegment::Outcome outcome) {
+  if (!pending_) return;
+  AdaptationSegment& s = pending_->segment;
+  s.outcome = outcome;
+  if (outcome != AdaptationSegment::Outcome::kAdopted) s.v_des = s.v_des_before;
+  segments_.push_back(s);
+  pending_.reset();
+  if (observer_) observer_(segments_.back());
+}
+
+void OnlineAdapter::OnTrajectory(double t0, const planning::Trajectory& trajectory,
+                                 bool /*reaches_waypoint*/, const planning::PlannerParams& params) {
+  Close(AdaptationSegment::Outcome::kSuperseded);
+  double total = 0.0;
+  const std::optional<double> split = TimeAtArcLength(trajectory, options_.lookahead, &total);
+  if (!split || total - options_.lookahead < options_.min_remaining) return;
+
+  auto p = std::make_unique<Pending>();
+  AdaptationSegment& s = p->segment;
+  s.index = static_cast<int>(segments_.size());
+  s.t0 = t0;
+  s.split_time = t0 + *split;
+  s.p_s_W = trajectory.Position(*split);
+  p->v_s = trajectory.Velocity(*split);
+  p->a_s = trajectory.Acceleration(*split);
+  s.speed_s = p->v_s.norm();
+  s.v_des_before = params.v_des;
+  s.v_des = params.v_des;
+  p->trajectory = trajectory;
+  p->params = params;
+  p->last_trial_time = t0;
+  p->first_trial = trials_.size();
+
+  optimizers::Parameter v;
+  v.name = "v_des";
+  v.lower = options_.v_min;
+  v.upper = options_.v_max;
+  optimizers::BayesOptOptions bo = options_.bo;
+  bo.seed = DeriveSeed(options_.seed, {0xada97, static_cast<std::uint64_t>(s.index)});
+  p->bo = std::make_unique<optimizers::BayesOpt>(optimizers::ParameterSpace({v}), bo);
+  pending_ = std::move(p);
+}
+
+void OnlineAdapter::RunTrial(double t, const planning::LocalMap& map,
+                             const Eigen::Vector3d& waypoint_W) {
+  Pending& p = *pending_;
+  if (t > p.last_trial_time) p.bo->AdvanceAge(t - p.last_trial_time);
+  p.last_trial_time = t;
+  const optimizers::Candidate c = p.bo->Ask(1).at(0);
+
+  AdaptationTrial trial;
+  trial.segment = p.segment.index;
+  trial.trial = p.segment.trials;
+  trial.time = t;
+  trial.p_s_W = p.segment.p_s_W;
+  trial.v_des = c.x[0];
+
+  planning::PlannerParams params = p.params;
+  params.v_des = trial.v_des;
+  params.max_attempts = std::min(params.max_attempts, 2);  // never the slowed-down retries
+  const double tau = p.segment.split_time - p.segment.t0;
+  std::optional<planning::PlanningQuery> query = planner_.MakeQuery(
+      map, p.segment.p_s_W, p.v_s, p.a_s, waypoint_W, params, &p.trajectory, tau);
+  ResolveRecord record;  // the objective's inputs, as a re-solve reports them
+  std::optional<planning::PlanOutcome> outcome;
+  if (!query) {
+    trial.status = "front_end";
+  } else {
+    outcome = planner_.Plan(optimizer_, *query, params);
+    const planning::PlanResult& r = outcome->result;
+    bool accepted = outcome->Ok();
+    trial.status = planning::ToString(r.status);
+    if (!accepted && r.status == planning::PlanStatus::kDynamicsViolated &&
+        trial.v_des < p.segment.speed_s) {
+      const std::string why = CheckBrakingEnvelope(
+          r.trajectory, p.segment.speed_s, trial.v_des, params.a_max, options_.braking_fraction,
+          optimizer_.Options().limit_tolerance, optimizer_.Options().check_dt);
+      accepted = why.empty();
+      trial.status = accepted ? "braking" : why;
+    }
+    record.success = accepted;
+    record.attempts = outcome->attempts;
+    record.failed_attempts = outcome->failed_attempts;
+    record.solve_time_s = outcome->solve_time_s;
+    record.compute_units = outcome->compute_units;
+    record.duration = r.duration;
+    record.jerk_integral = r.cost.jerk;
+    record.min_clearance = r.min_clearance;
+    trial.compute_units = outcome->compute_units;
+  }
+  const ObjectiveValue f = ShortTermObjective(record, options_.objective, TimingMode::kReproducible);
+  trial.success = record.success;
+  trial.t_exe = record.duration;
+  trial.jerk_integral = record.jerk_integral;
+  trial.min_clearance = record.min_clearance;
+  trial.j_c = f.terms.count("J_c") ? f.terms.at("J_c") : 0.0;
+  trial.f_s = std::isfinite(f.value) ? f.value : options_.objective.failure_value;
+  if (!trial.success) trial.f_s = options_.objective.failure_value;
+  p.bo->Tell(c.id, trial.f_s);
+
+  ++p.segment.trials;
+  if (trial.success) {
+    ++p.segment.successes;
+    if (p.segment.best_trial < 0 || trial.f_s < p.segment.best_f_s) {
+      p.segment.best_trial = trial.trial;
+      p.segment.best_f_s = trial.f_s;
+      p.best = std::move(outcome);
+      p.best_reaches_waypoint = query->goal_is_mission_goal;
+    }
+  }
+  trials_.push_back(std::move(trial));
+}
+
+std::optional<planning::AdaptedPlan> OnlineAdapter::OnTick(double t, const planning::LocalMap& map,
+                                                           const Eigen::Vector3d& waypoint_W) {
+  if (!pending_) return std::nullopt;
+  const int n = options_.trials_per_segment;
+  const double t0 = pending_->segment.t0;
+  const double ts = pending_->segment.split_time;
+  // Trial k is due at t0 + k (t_s − t0) / N; every trial still due runs at t_s.
+  while (pending_->segment.trials < n &&
+         (t >= ts || t >= t0 + (ts - t0) * pending_->segment.trials / n)) {
+    RunTrial(t, map, waypoint_W);
+  }
+  if (t < ts) return std::nullopt;
+
+  Pending& p = *pending_;
+  if (p.segment.best_trial < 0) {
+    Close(AdaptationSegment::Outcome::kNoSuccess);
+    return std::nullopt;
+  }
+  AdaptationTrial& best = trials_[p.first_trial + static_cast<std::size_t>(p.segment.best_trial)];
+  best.chosen = true;
+  planning::AdaptedPlan plan;
+  plan.start_time = ts;
+  plan.outcome = std::move(*p.best);
+  plan.reaches_waypoint = p.best_reaches_waypoint;
+  plan.params = p.params;
+  plan.params.v_des = best.v_des;
+  // An accepted braking plan holds kDynamicsViolated; the Replanner executes successes only.
+  plan.outcome.result.status = planning::PlanStatus::kSuccess;
+  p.segment.v_des = best.v_des;
+  Close(AdaptationSegment::Outcome::kAdopted);
+  return plan;
+}
+
+// ---------------------------------------------------------------------------------------------
+// AdaptExperiment
+
+AdaptExperiment AdaptExperiment::LoadFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path, "", "cannot read the experiment file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string dir = std::filesystem::path(path).parent_path().string();
+  return FromString(ss.str(), path, dir.empty() ? "." : dir);
+}
+
+AdaptExperiment AdaptExperiment::FromString(const std::string& text, const std::string& origin,
+                                            const std::string& base_dir) {
+  const YamlMap map = YamlMap::FromString(text, origin);
+  map.RejectUnknownKeys({"name", "seed", "drone", "layout_file", "layout", "world", "max_time",
+                         "planner", "baselines", "adaptation"});
+  AdaptExperiment e;
+  e.file = origin;
+  e.name = map.String("name", e.name);
+  e.seed = static_cast<std::uint64_t>(map.Integer("seed", 1, Range::Closed(0, 9.0e15)));
+  e.drone_file = ResolvePath(map.String("drone", std::string("drones/research_1kg.yaml")), base_dir);
+  if (!std::filesystem::exists(e.drone_file)) {
+    map.Fail("drone", "file '" + e.drone_file + "' not found (searched next to the experiment "
+                      "and in assets/)");
+  }
+  e.drone = physics::LoadDroneDescription(e.drone_file);
+  if (map.Has("layout") == map.Has("layout_file")) {
+    map.Fail("layout_file", "give exactly one of layout (generator options) or layout_file");
+  }
+  if (map.Has("layout_file")) {
+    e.layout_file = ResolvePath(map.String("layout_file"), base_dir);
+    if (!std::filesystem::exists(e.layout_file)) {
+      map.Fail("layout_file", "file '" + e.layout_file + "' not found");
+    }
+    e.layout = layout::LayoutOptions::LoadFile(e.layout_file);
+  } else {
+    e.layout_file = origin;
+    e.layout = layout::LayoutOptions::FromYaml(map.Map("layout"));
+  }
+  if (map.Has("world")) e.world = physics::WorldOptions::FromYaml(map.Map("world"));
+  e.world.collision_response = physics::CollisionResponse::kPassThrough;
+  e.max_time = map.Number("max_time", e.max_time, Range::Positive());
+  if (map.Has("planner")) e.params = planning::PlannerParams::FromYaml(map.Map("planner"));
+  e.params.Validate(origin);
+  if (map.Has("baselines")) {
+    e.baselines = map.Numbers("baselines");
+    for (double v : e.baselines) {
+      if (!(v > 0.0 && v <= 15.0)) map.Fail("baselines", "each v_des must lie in (0, 15] (m/s)");
+    }
+  }
+  e.adaptation = AdaptationOptions::FromYaml(map.Map("adaptation", true));
+  if (e.params.v_des < e.adaptation.v_min || e.params.v_des > e.adaptation.v_max) {
+    map.Fail("planner", "v_des (the adapted flight's start value) must lie in adaptation."
+                        "v_des_bounds");
+  }
+  e.SetSeed(e.seed);
+  return e;
+}
+
+void AdaptExperiment::SetSeed(std::uint64_t new_seed) {
+  seed = new_seed;
+  world.seed = DeriveSeed(seed, {0x3071d});
+  adaptation.seed = DeriveSeed(seed, {0xada});
+}
+
+AdaptFlight RunAdaptFlight(const AdaptExperiment& e, const layout::Layout& layout,
+                           std::optional<double> fixed_v_des,
+                           const std::function<void(const AdaptationSegment&)>& on_segment) {
+  AdaptFlight out;
+  out.adapted = !fixed_v_des.has_value();
+  planning::PlannerParams params = e.params;
+  if (fixed_v_des) params.v_des = *fixed_v_des;
+  params.Validate(e.file);
+  out.v_des = params.v_des;
+  if (out.adapted) {
+    out.label = "adapted";
+  } else {
+    std::ostringstream label;
+    label << "fixed_" << params.v_des;
+    out.label = label.str();
+  }
+
+  const planning::Mission mission = planning::Mission::GoTo(layout.start_W(), layout.goal_W());
+  planning::FlightOptions options;
+  options.max_time = e.max_time;
+  const planning::TrajectoryOptimizer optimizer(options.planner.optimizer);
+  physics::World world(layout.obstacles, e.drone, e.world,
+                       physics::DroneState::Hover(e.drone, mission.start_W, mission.start_yaw));
+  planning::FlightHooks hooks;
+  std::unique_ptr<OnlineAdapter> adapter;
+  if (out.adapted) {
+    adapter = std::make_unique<OnlineAdapter>(optimizer, options.planner, e.adaptation);
+    if (on_segment) adapter->SetSegmentObserver(on_segment);
+    hooks.adapter = adapter.get();
+  }
+  out.result = planning::Fly(world, mission, params, options, optimizer, hooks);
+  if (adapter) {
+    out.trials = adapter->trials();
+    out.segments = adapter->segments();
+  }
+  return out;
+}
+
+}  // namespace quadtune::engine

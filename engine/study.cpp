@@ -1,0 +1,368 @@
+#include "quadtune/engine/study.hpp"
+
+#include <oneapi/tbb/enumerable_thread_specific.h>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/task_arena.h>
+#include <yaml-cpp/yaml.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "quadtune/common/error.hpp"
+#include "quadtune/common/random.hpp"
+#include "quadtune/common/yaml.hpp"
+
+namespace quadtune::engine {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// `over` merged onto a copy of `base`: maps merge key by key, anything else replaces.
+YAML::Node DeepMerge(const YAML::Node& base, const YAML::Node& over) {
+  if (!over.IsDefined() || over.IsNull()) return YAML::Clone(base);
+  if (!base.IsMap() || !over.IsMap()) return YAML::Clone(over);
+  YAML::Node out = YAML::Clone(base);
+  for (const auto& kv : over) {
+    const std::string key = kv.first.as<std::string>();
+    out[key] = out[key].IsDefined() ? DeepMerge(out[key], kv.second) : YAML::Clone(kv.second);
+  }
+  return out;
+}
+
+std::string Emit(const YAML::Node& node) {
+  YAML::Emitter emitter;
+  emitter << node;
+  return emitter.c_str();
+}
+
+/// Sets the dotted `path` of `root` (a map) to `value`; every parent must be a map or absent.
+void SetPath(YAML::Node root, const std::string& path, const YAML::Node& value,
+             const std::string& file) {
+  std::vector<std::string> parts;
+  std::stringstream ss(path);
+  for (std::string part; std::getline(ss, part, '.');) {
+    if (part.empty()) throw ConfigError(file, "sweep.key", "'" + path + "' has an empty part");
+    parts.push_back(part);
+  }
+  if (parts.empty()) throw ConfigError(file, "sweep.key", "must name a key, e.g. planner.layout_file");
+  // yaml-cpp nodes are handles: walk down by reassignment-free references.
+  std::vector<YAML::Node> chain{root};
+  for (std::size_t i = 0; i + 1 < parts.size(); ++i) {
+    YAML::Node next = chain.back()[parts[i]];
+    if (next.IsDefined() && !next.IsNull() && !next.IsMap()) {
+      throw ConfigError(file, "sweep.key",
+                        "'" + path + "': '" + parts[i] + "' is not a map in the experiment");
+    }
+    if (!next.IsDefined() || next.IsNull()) chain.back()[parts[i]] = YAML::Node(YAML::NodeType::Map);
+    chain.push_back(chain.back()[parts[i]]);
+  }
+  chain.back()[parts.back()] = value;
+}
+
+std::string Slug(const std::string& label) {
+  std::string out;
+  for (char ch : label) {
+    const bool ok = std::isalnum(static_cast<unsigned char>(ch)) || ch == '-' || ch == '_' || ch == '.';
+    out += ok ? ch : '_';
+  }
+  return out.empty() ? std::string("point") : out;
+}
+
+std::string StagePath(const std::string& out, const std::string& label, const std::string& stage) {
+  return (fs::path(out) / Slug(label) / stage).string();
+}
+
+nlohmann::json ToJson(const ParamValues& values) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [k, v] : values) j[k] = v;
+  return j;
+}
+
+std::string CsvField(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char ch : s) out += ch == '"' ? std::string("\"\"") : std::string(1, ch);
+  return out + "\"";
+}
+
+/// A parameter set flown in validation, and where it came from.
+struct Candidate {
+  std::string stage, method;
+  int repeat = 0;
+  ParamValues params;
+};
+
+}  // namespace
+
+Study Study::LoadFile(const std::string& path) {
+  const YamlMap map = YamlMap::LoadFile(path);
+  map.RejectUnknownKeys({"name", "seed", "experiment", "override", "sweep", "stages", "validation"});
+  Study s;
+  s.file = path;
+  s.name = map.String("name", std::string("study"));
+  s.seed = static_cast<std::uint64_t>(map.Integer("seed", 1, Range::Closed(0, 9.0e15)));
+  const std::string dir = fs::path(path).parent_path().string();
+  const std::string base_file = ResolvePath(map.String("experiment"), dir.empty() ? "." : dir);
+  if (!fs::exists(base_file)) {
+    map.Fail("experiment", "file '" + base_file + "' not found (relative to the study file)");
+  }
+  const YamlMap base = YamlMap::LoadFile(base_file);
+  s.base_dir = fs::path(base_file).parent_path().string();
+  if (s.base_dir.empty()) s.base_dir = ".";
+  YAML::Node merged = base.node();
+  if (map.Has("override")) merged = DeepMerge(merged, map.Map("override").node());
+  s.base_text = Emit(merged);
+
+  if (map.Has("sweep")) {
+    const YamlMap sweep = map.Map("sweep");
+    sweep.RejectUnknownKeys({"key", "values", "labels"});
+    s.sweep_key = sweep.String("key");
+    const YAML::Node values = sweep.node()["values"];
+    if (!values || !values.IsSequence() || values.size() == 0) {
+      sweep.Fail("values", "must be a non-empty list of values for '" + s.sweep_key + "'");
+    }
+    for (const auto& v : values) s.sweep_values.push_back(Emit(v));
+    const YAML::Node labels = sweep.node()["labels"];
+    if (labels) {
+      if (!labels.IsSequence() || labels.size() != values.size()) {
+        sweep.Fail("labels", "must list one label per value (" + std::to_string(values.size()) + ")");
+      }
+      for (const auto& l : labels) s.labels.push_back(l.as<std::string>());
+    } else {
+      for (const auto& v : values) s.labels.push_back(v.IsScalar() ? v.as<std::string>() : Emit(v));
+    }
+    for (std::size_t i = 0; i < s.labels.size(); ++i) {
+      for (std::size_t j = 0; j < i; ++j) {
+        if (Slug(s.labels[i]) == Slug(s.labels[j])) {
+          sweep.Fail("labels", "two points are both named '" + Slug(s.labels[i]) + "'");
+        }
+      }
+    }
+  } else {
+    s.labels = {"all"};
+  }
+
+  const auto stage_maps = map.Maps("stages");
+  for (std::size_t i = 0; i < stage_maps.size(); ++i) {
+    const YamlMap& st = stage_maps[i];
+    st.RejectUnknownKeys({"name", "override", "start_from"});
+    StudyStage stage;
+    stage.name = st.String("name");
+    if (stage.name.empty() || Slug(stage.name) != stage.name) {
+      st.Fail("name", "must be a non-empty name of letters, digits, '-', '_' or '.'");
+    }
+    for (const auto& earlier : s.stages) {
+      if (earlier.name == stage.name) st.Fail("name", "stage '" + stage.name + "' is defined twice");
+    }
+    stage.start_from = st.String("start_from", std::string());
+    if (!stage.start_from.empty()) {
+      bool found = false;
+      for (const auto& earlier : s.stages) found = found || earlier.name == stage.start_from;
+      if (!found) st.Fail("start_from", "must name an earlier stage, got '" + stage.start_from + "'");
+    }
+    if (st.Has("override")) stage.override_yaml = Emit(st.Map("override").node());
+    s.stages.push_back(stage);
+  }
+  if (s.stages.empty()) s.stages.push_back({"tuning", "", ""});
+
+  const YamlMap validation = map.Map("validation", true);
+  validation.RejectUnknownKeys({"flights"});
+  s.validation_flights =
+      static_cast<int>(validation.Integer("flights", 5, Range::Closed(0, 100000)));
+
+  // Every point and stage must load: all configuration errors before any work.
+  for (std::size_t p = 0; p < s.labels.size(); ++p) {
+    for (std::size_t k = 0; k < s.stages.size(); ++k) (void)s.Build(p, k);
+  }
+  return s;
+}
+
+Experiment Study::Build(std::size_t point, std::size_t stage, const ParamValues& start) const {
+  QT_DEMAND(point < labels.size() && stage < stages.size(), "Study::Build: index out of range");
+  YAML::Node node = YAML::Load(base_text);
+  if (!sweep_key.empty()) SetPath(node, sweep_key, YAML::Load(sweep_values[point]), file);
+  if (!stages[stage].override_yaml.empty()) {
+    node = DeepMerge(node, YAML::Load(stages[stage].override_yaml));
+  }
+  if (!start.empty()) {
+    YAML::Node s(YAML::NodeType::Map);
+    for (const auto& [k, v] : start) s[k] = v;
+    node["start"] = s;
+  }
+  const std::string origin =
+      file + " (point " + labels[point] + ", stage " + stages[stage].name + ")";
+  return Experiment::FromString(Emit(node), origin, base_dir);
+}
+
+StudySummary RunStudy(const Study& study, const StudyOptions& options) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  StudySummary summary;
+  fs::create_directories(options.out_dir);
+  auto cancelled = [&] { return options.cancel != nullptr && options.cancel->load(); };
+
+  nlohmann::json index;
+  index["name"] = study.name;
+  index["file"] = study.file;
+  index["seed"] = study.seed;
+  index["sweep_key"] = study.sweep_key;
+  index["validation_flights"] = study.validation_flights;
+  index["points"] = nlohmann::json::array();
+
+  const std::string csv_path = (fs::path(options.out_dir) / "validation.csv").string();
+  std::ofstream csv(csv_path);
+  csv << "point,label,source_stage,method,repeat,flight,map_seed,status,completed,flight_time,"
+         "collisions,emergency_stops,plans,failed_plans,f_l,params\n";
+
+  for (std::size_t p = 0; p < study.labels.size(); ++p) {
+    nlohmann::json point;
+    point["label"] = study.labels[p];
+    point["value"] = study.sweep_key.empty() ? "" : study.sweep_values[p];
+    point["stages"] = nlohmann::json::array();
+    std::map<std::string, ParamValues> stage_best;
+    std::vector<Candidate> candidates;
+    Experiment last = study.Build(p, study.stages.size() - 1);
+    for (std::size_t k = 0; k < study.stages.size(); ++k) {
+      const StudyStage& stage = study.stages[k];
+      const ParamValues start =
+          stage.start_from.empty() ? ParamValues{} : stage_best.at(stage.start_from);
+      const Experiment e = study.Build(p, k, start);
+      if (k + 1 == study.stages.size()) last = e;
+      const std::string dir = StagePath(options.out_dir, study.labels[p], stage.name);
+      fs::create_directories(dir);
+      RunOptions ro;
+      ro.store_path = (fs::path(dir) / "results.sqlite").string();
+      ro.threads = options.threads;
+      ro.resume = options.resume && fs::exists(ro.store_path);
+      ro.cancel = options.cancel;
+      if (options.on_progress) {
+        ro.on_progress = [&](const Progress& run) {
+          StudyProgress sp;
+          sp.label = study.labels[p];
+          sp.stage = stage.name;
+          sp.point = p;
+          sp.points = study.labels.size();
+          sp.run = run;
+          options.on_progress(sp);
+        };
+      }
+      const RunSummary rs = RunExperiment(e, ro);
+      summary.flights += rs.flights;
+      summary.resolves += rs.resolves;
+      if (rs.status == RunStatus::kCancelled) {
+        summary.status = RunStatus::kCancelled;
+        summary.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+        return summary;
+      }
+      double best = std::numeric_limits<double>::infinity();
+      for (const auto& t : rs.trials) {
+        if (t.method == ToString(Method::kDefault)) continue;
+        candidates.push_back({stage.name, t.method, t.repeat, t.best});
+        if (t.best_value < best) {
+          best = t.best_value;
+          stage_best[stage.name] = t.best;
+        }
+      }
+      if (!stage_best.count(stage.name)) stage_best[stage.name] = e.Defaults();
+      nlohmann::json sj;
+      sj["name"] = stage.name;
+      sj["start_from"] = stage.start_from;
+      sj["start"] = ToJson(start);
+      sj["store"] = fs::relative(ro.store_path, options.out_dir).string();
+      sj["best"] = ToJson(stage_best[stage.name]);
+      sj["wall_s"] = rs.wall_s;
+      nlohmann::json space = nlohmann::json::array();
+      for (const auto& prm : e.space.Parameters()) {
+        space.push_back({{"name", prm.name}, {"lower", prm.lower}, {"upper", prm.upper},
+                         {"log", prm.log_scale}});
+      }
+      sj["space"] = space;
+      point["stages"].push_back(sj);
+    }
+    index["points"].push_back(point);
+    {
+      std::ofstream out(fs::path(options.out_dir) / "study.json");
+      out << index.dump(2) << "\n";
+    }
+    if (study.validation_flights == 0) continue;
+
+    // Validation: every candidate and the defaults on the same new maps and flight seeds, in the
+    // last stage's world.
+    candidates.insert(candidates.begin(), Candidate{"", "default", 0, last.Defaults()});
+    const int n = study.validation_flights;
+    std::vector<Opaque> maps(static_cast<std::size_t>(n));
+    std::vector<std::uint64_t> map_seeds(static_cast<std::size_t>(n));
+    for (int f = 0; f < n; ++f) {
+      map_seeds[static_cast<std::size_t>(f)] =
+          DeriveSeed(study.seed, {static_cast<std::uint64_t>(p), 1000u + static_cast<std::uint64_t>(f)});
+      maps[static_cast<std::size_t>(f)] = last.planner.PrepareMap(map_seeds[static_cast<std::size_t>(f)]);
+    }
+    const std::size_t total = candidates.size() * static_cast<std::size_t>(n);
+    std::vector<FlightRecord> records(total);
+    std::atomic<int> done{0};
+    const int threads = options.threads > 0 ? options.threads : last.threads;
+    tbb::task_arena arena(threads);
+    tbb::enumerable_thread_specific<WorkerSlot> slots;
+    arena.execute([&] {
+      tbb::parallel_for(std::size_t{0}, total, [&](std::size_t i) {
+        if (cancelled()) {
+          records[i].status = EvalStatus::kCancelled;
+          return;
+        }
+        const Candidate& c = candidates[i / static_cast<std::size_t>(n)];
+        const std::size_t f = i % static_cast<std::size_t>(n);
+        FlightRequest req;
+        req.map = maps[f];
+        req.params = last.Defaults();
+        for (const auto& [k, v] : c.params) req.params[k] = v;
+        req.seed = DeriveSeed(study.seed, {static_cast<std::uint64_t>(p), 2000u + f});
+        req.cancelled = cancelled;
+        try {
+          records[i] = last.planner.Fly(req, slots.local());
+        } catch (const std::exception& ex) {
+          records[i].status = EvalStatus::kFailed;
+          records[i].message = ex.what();
+        }
+        const int d = ++done;
+        if (options.on_progress) {
+          StudyProgress sp;
+          sp.label = study.labels[p];
+          sp.stage = "validation";
+          sp.point = p;
+          sp.points = study.labels.size();
+          sp.validating = true;
+          sp.validation_done = d;
+          sp.validation_total = static_cast<int>(total);
+          options.on_progress(sp);
+        }
+      });
+    });
+    if (cancelled()) {
+      summary.status = RunStatus::kCancelled;
+      break;
+    }
+    summary.flights += static_cast<long>(total);
+    for (std::size_t i = 0; i < total; ++i) {
+      const Candidate& c = candidates[i / static_cast<std::size_t>(n)];
+      const std::size_t f = i % static_cast<std::size_t>(n);
+      const FlightRecord& r = records[i];
+      const double fl = r.status == EvalStatus::kOk ? LongTermObjective(r, last.objective).value
+                                                     : last.objective.failure_value;
+      csv << p << ',' << CsvField(study.labels[p]) << ',' << c.stage << ',' << c.method << ','
+          << c.repeat << ',' << f << ',' << map_seeds[f] << ',' << ToString(r.status) << ','
+          << (r.completed ? 1 : 0) << ',' << r.flight_time << ',' << r.collisions << ','
+          << r.emergency_stops << ',' << r.plans << ',' << r.failed_plans << ',' << fl << ','
+          << CsvField(ToJson(c.params).dump()) << '\n';
+    }
+    csv.flush();
+  }
+  summary.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  return summary;
+}
+
+}  // namespace quadtune::engine

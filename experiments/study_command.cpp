@@ -1,0 +1,106 @@
+// `quadtune study`: an experiment swept over a setting and/or run in stages, then validation
+// flights of the tuned parameters (engine/study.hpp), with the study's figures and tables.
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "commands.hpp"
+#include "quadtune/engine/study.hpp"
+
+namespace quadtune::cli {
+namespace {
+
+std::atomic<bool> g_study_interrupted{false};
+void OnStudySignal(int) { g_study_interrupted.store(true); }
+
+struct StudyArgs {
+  std::string file;
+  std::string out = "results/study";
+  int threads = 0;
+  bool resume = false;
+  bool quiet = false;
+  bool plot = true;
+};
+
+int RunStudyCommand(const StudyArgs& a) {
+  const engine::Study study = engine::Study::LoadFile(a.file);  // all errors before any work
+  spdlog::info("study '{}' ({}): {} point(s){}, {} stage(s), {} validation flights per tuned trial",
+               study.name, a.file, study.labels.size(),
+               study.sweep_key.empty() ? "" : " over " + study.sweep_key, study.stages.size(),
+               study.validation_flights);
+  engine::StudyOptions options;
+  options.out_dir = a.out;
+  options.threads = a.threads;
+  options.resume = a.resume;
+  options.cancel = &g_study_interrupted;
+  std::signal(SIGINT, OnStudySignal);
+  std::signal(SIGTERM, OnStudySignal);
+  const bool tty = isatty(fileno(stderr)) != 0 && !a.quiet;
+  std::string last_stage;
+  options.on_progress = [&](const engine::StudyProgress& p) {
+    std::string line;
+    if (p.validating) {
+      line = fmt::format("point {}/{} ({}): validation flights {}/{}", p.point + 1, p.points,
+                         p.label, p.validation_done, p.validation_total);
+    } else {
+      line = fmt::format("point {}/{} ({}), stage {}: trial {}/{} {} r{}: flights {}/{}, best f_l "
+                         "{:.3f}, elapsed {:.0f} s",
+                         p.point + 1, p.points, p.label, p.stage, p.run.trials_done + 1,
+                         p.run.trials_total, p.run.method, p.run.repeat, p.run.flights_done,
+                         p.run.flights_total, p.run.best_long, p.run.elapsed_s);
+    }
+    if (tty) {
+      std::fprintf(stderr, "\r\033[K%s", line.c_str());
+      std::fflush(stderr);
+    } else {
+      // A line per stage and per finished trial keeps logs short.
+      const std::string key = p.label + "/" + p.stage + "/" + p.run.method +
+                              std::to_string(p.run.repeat);
+      const bool trial_done = !p.validating && p.run.flights_done == p.run.flights_total;
+      if (key != last_stage || trial_done) spdlog::info("{}", line);
+      last_stage = key;
+    }
+  };
+  const engine::StudySummary s = engine::RunStudy(study, options);
+  if (tty) std::fprintf(stderr, "\n");
+  nlohmann::json j;
+  j["status"] = s.status == engine::RunStatus::kCompleted ? "completed" : "cancelled";
+  j["wall_s"] = s.wall_s;
+  j["flights"] = s.flights;
+  j["resolves"] = s.resolves;
+  std::ofstream(std::filesystem::path(a.out) / "summary.json") << j.dump(1) << '\n';
+  spdlog::info("{} flights and {} re-solves in {:.1f} s; results in {}", s.flights, s.resolves,
+               s.wall_s, a.out);
+  if (s.status != engine::RunStatus::kCompleted) {
+    spdlog::warn("interrupted: continue with `quadtune study {} --out {} --resume`", a.file, a.out);
+    return 130;
+  }
+  if (a.plot) return RunPlotScript("study '" + a.out + "'");
+  return 0;
+}
+
+}  // namespace
+
+void RegisterStudy(CLI::App& app, int& exit_code) {
+  static StudyArgs args;
+  auto* cmd = app.add_subcommand(
+      "study", "an experiment swept over a setting and/or run in stages, then validation flights "
+               "of the tuned parameters; figures and tables in OUT");
+  cmd->add_option("study", args.file, "study file (YAML)")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--out", args.out, "output directory")->capture_default_str();
+  cmd->add_option("--threads", args.threads, "worker threads (default: the experiment's)")
+      ->check(CLI::Range(1, 1024));
+  cmd->add_flag("--resume", args.resume, "continue the stages stored in OUT");
+  cmd->add_flag("--quiet", args.quiet, "no progress line");
+  cmd->add_flag("!--no-plot", args.plot, "skip the figures");
+  cmd->callback([&exit_code] { exit_code = RunStudyCommand(args); });
+}
+
+}  // namespace quadtune::cli

@@ -1,0 +1,172 @@
+// Closed-loop tests of the changing-environment experiment: adapted flights through the small
+// two-zone corridor (experiments/changing_environment_small.yaml), and `quadtune adapt` end to
+// end (CSVs, summary, figure, configuration errors).
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "quadtune/engine/online_adaptation.hpp"
+
+namespace quadtune::engine {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kSmall =
+    std::string(QUADTUNE_SOURCE_DIR) + "/experiments/changing_environment_small.yaml";
+const std::string kBinary = std::string(QUADTUNE_BINARY_DIR) + "/experiments/quadtune";
+
+TEST(AdaptFlight, SameSeedGivesTheSameChosenVdesSequence) {
+  const AdaptExperiment e = AdaptExperiment::LoadFile(kSmall);
+  const layout::Layout layout = layout::GenerateLayout(e.layout, e.seed);
+  const AdaptFlight a = RunAdaptFlight(e, layout, std::nullopt);
+  const AdaptFlight b = RunAdaptFlight(e, layout, std::nullopt);
+  EXPECT_EQ(a.result.metrics.status, planning::FlightStatus::kCompleted)
+      << a.result.metrics.message;
+  ASSERT_FALSE(a.segments.empty());
+  std::vector<double> va, vb;
+  for (const auto& s : a.segments) va.push_back(s.v_des);
+  for (const auto& s : b.segments) vb.push_back(s.v_des);
+  EXPECT_EQ(va, vb);
+  ASSERT_EQ(a.trials.size(), b.trials.size());
+  for (std::size_t i = 0; i < a.trials.size(); ++i) {
+    EXPECT_EQ(a.trials[i].v_des, b.trials[i].v_des);
+    EXPECT_EQ(a.trials[i].f_s, b.trials[i].f_s);
+  }
+  EXPECT_EQ(a.result.metrics.flight_time, b.result.metrics.flight_time);
+  // The v_des in force is always inside the bounds, and the adopted plans are in the flight's
+  // plan records at their P_s times.
+  for (const auto& row : a.result.log) {
+    EXPECT_GE(row.v_des, e.adaptation.v_min);
+    EXPECT_LE(row.v_des, e.adaptation.v_max);
+  }
+  int adopted = 0;
+  for (const auto& s : a.segments) {
+    if (s.outcome != AdaptationSegment::Outcome::kAdopted) continue;
+    ++adopted;
+    bool found = false;
+    for (const auto& r : a.result.plans) found = found || (r.ok && r.time == s.split_time);
+    EXPECT_TRUE(found) << "segment " << s.index;
+  }
+  EXPECT_GE(adopted, 3);
+}
+
+/// Rows of a CSV file as maps column → text.
+std::vector<std::map<std::string, std::string>> ReadCsv(const fs::path& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::vector<std::string> header;
+  std::vector<std::map<std::string, std::string>> rows;
+  auto split = [](const std::string& s) {
+    std::vector<std::string> out;
+    std::stringstream ss(s);
+    std::string item;
+    while (std::getline(ss, item, ',')) out.push_back(item);
+    return out;
+  };
+  if (!std::getline(in, line)) return rows;
+  header = split(line);
+  while (std::getline(in, line)) {
+    const auto cells = split(line);
+    std::map<std::string, std::string> row;
+    for (std::size_t i = 0; i < header.size() && i < cells.size(); ++i) row[header[i]] = cells[i];
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+TEST(AdaptCli, SmallExperimentWritesCsvsSummaryAndFigure) {
+  const fs::path out = fs::temp_directory_path() / "quadtune_adapt_cli";
+  fs::remove_all(out);
+  const std::string cmd = kBinary + " --log-level warn adapt '" + kSmall + "' --out '" +
+                          out.string() + "' --seed 3 > '" + out.string() + ".log' 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+
+  // One directory per flight with the files `quadtune plot flight` reads.
+  for (const char* dir : {"adapted", "fixed_2"}) {
+    for (const char* f : {"flight.csv", "plans.csv", "obstacles.json", "summary.json", "path.csv"}) {
+      EXPECT_TRUE(fs::exists(out / dir / f)) << dir << "/" << f;
+    }
+  }
+  const auto path = ReadCsv(out / "adapted" / "path.csv");
+  ASSERT_GT(path.size(), 50u);
+  for (const auto& r : path) {
+    const double v = std::stod(r.at("v_des"));
+    EXPECT_GE(v, 1.0);
+    EXPECT_LE(v, 6.0);
+    EXPECT_TRUE(std::isfinite(std::stod(r.at("speed"))));
+    const int zone = std::stoi(r.at("zone"));
+    EXPECT_GE(zone, -1);
+    EXPECT_LE(zone, 1);
+  }
+  EXPECT_GT(std::stod(path.back().at("s")), 14.0);  // most of the 16 m corridor
+
+  const auto trials = ReadCsv(out / "adapted" / "trials.csv");
+  ASSERT_FALSE(trials.empty());
+  int chosen = 0;
+  for (const auto& t : trials) {
+    const double v = std::stod(t.at("v_des"));
+    EXPECT_GE(v, 1.0);
+    EXPECT_LE(v, 6.0);
+    for (const char* k : {"t_exe", "jerk_integral", "min_clearance", "J_c", "f_s"}) {
+      EXPECT_TRUE(std::isfinite(std::stod(t.at(k)))) << k;
+    }
+    chosen += std::stoi(t.at("chosen"));
+  }
+  const auto segments = ReadCsv(out / "adapted" / "segments.csv");
+  int adopted = 0;
+  for (const auto& s : segments) adopted += s.at("outcome") == "adopted";
+  EXPECT_EQ(chosen, adopted);
+  EXPECT_GE(adopted, 3);
+
+  nlohmann::json summary = nlohmann::json::parse(std::ifstream(out / "summary.json"));
+  ASSERT_EQ(summary["flights"].size(), 2u);
+  EXPECT_EQ(summary["zones"].size(), 2u);
+  for (const auto& f : summary["flights"]) {
+    ASSERT_EQ(f["zones"].size(), 2u);
+    EXPECT_TRUE(f.contains("flight_time"));
+    EXPECT_TRUE(f.contains("collisions"));
+    EXPECT_TRUE(f.contains("emergency_stops"));
+    for (const auto& z : f["zones"]) {
+      EXPECT_GT(z["time"].get<double>(), 0.0);
+      EXPECT_GE(z["mean_v_des"].get<double>(), 1.0);
+      EXPECT_LE(z["mean_v_des"].get<double>(), 6.0);
+    }
+  }
+  EXPECT_TRUE(summary["flights"][0]["adapted"].get<bool>());
+  EXPECT_GT(fs::file_size(out / "summary.md"), 100u);
+  ASSERT_TRUE(fs::exists(out / "adapt.png"));
+  EXPECT_GT(fs::file_size(out / "adapt.png"), 20000u);
+}
+
+TEST(AdaptCli, BadKeyStopsBeforeAnyWorkNamingFileAndKey) {
+  const fs::path dir = fs::temp_directory_path() / "quadtune_adapt_bad";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path yaml = dir / "bad.yaml";
+  std::ofstream(yaml) << "layout_file: layouts/changing_density.yaml\n"
+                         "adaptation: {lookahed: 2.0}\n";
+  const fs::path log = dir / "log.txt";
+  const std::string cmd = kBinary + " adapt '" + yaml.string() + "' --out '" +
+                          (dir / "out").string() + "' > '" + log.string() + "' 2>&1";
+  const int status = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 2);
+  std::stringstream text;
+  text << std::ifstream(log).rdbuf();
+  EXPECT_NE(text.str().find(yaml.string()), std::string::npos) << text.str();
+  EXPECT_NE(text.str().find("adaptation.lookahed"), std::string::npos) << text.str();
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+}  // namespace
+}  // namespace quadtune::engine

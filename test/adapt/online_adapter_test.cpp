@@ -1,0 +1,241 @@
+// Tests of the online v_des adaptation (engine::OnlineAdapter) in kinematic flights (the drone is
+// where the reference says, the map holds a small forest), and of the experiment file.
+#include "quadtune/engine/online_adaptation.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "../planning/scene_util.hpp"
+
+namespace quadtune::engine {
+namespace {
+
+using planning::PlannerParams;
+
+AdaptationOptions SmallOptions(int trials = 4) {
+  AdaptationOptions o;
+  o.trials_per_segment = trials;
+  o.seed = 7;
+  return o;
+}
+
+/// The Replanner with an OnlineAdapter, flying with perfect tracking through a mapped forest.
+struct AdaptedKinematicFlight {
+  explicit AdaptedKinematicFlight(const AdaptationOptions& options)
+      : replanner(optimizer, PlannerParams{}),
+        adapter(optimizer, planning::LocalPlannerOptions{}, options),
+        map(planning::LocalMapOptions::FromPlannerParams(PlannerParams{}),
+            Eigen::Vector3d(3, 0, 1.2)) {
+    replanner.SetAdapter(&adapter);
+    map.Insert(Eigen::Vector3d(0, 0, 1.2),
+               planning::testing::SurfacePoints(planning::testing::SmallForest()));
+  }
+  void Fly(const Eigen::Vector3d& goal, double max_time) {
+    replanner.StartMission({goal}, p, 0.0, 0.0);
+    while (!replanner.Done() && t < max_time) {
+      replanner.Tick(t, p, v, map);
+      t += 0.01;
+      const physics::TrackingReference ref = replanner.Reference(t);
+      p = ref.p_W;
+      v = ref.v_W;
+    }
+  }
+
+  planning::TrajectoryOptimizer optimizer;
+  planning::Replanner replanner;
+  OnlineAdapter adapter;
+  planning::LocalMap map;
+  double t = 0.0;
+  Eigen::Vector3d p = Eigen::Vector3d(0, 0, 1.2);
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+};
+
+const Eigen::Vector3d kGoal(9.0, 0.0, 1.2);
+
+TEST(OnlineAdapter, AdaptsSegmentsAndReachesTheGoal) {
+  AdaptedKinematicFlight f(SmallOptions());
+  f.Fly(kGoal, 40.0);
+  ASSERT_TRUE(f.replanner.Done()) << planning::ToString(f.replanner.state());
+  EXPECT_FALSE(f.adapter.HoldsPeriodicReplan());
+  int adopted = 0;
+  for (const auto& s : f.adapter.segments()) {
+    adopted += s.outcome == AdaptationSegment::Outcome::kAdopted;
+  }
+  EXPECT_GE(adopted, 2);
+}
+
+TEST(OnlineAdapter, TrialRecordsAreCompleteAndFinite) {
+  const AdaptationOptions o = SmallOptions();
+  AdaptedKinematicFlight f(o);
+  f.Fly(kGoal, 40.0);
+  const auto& trials = f.adapter.trials();
+  const auto& segments = f.adapter.segments();
+  ASSERT_FALSE(segments.empty());
+  std::size_t k = 0;
+  for (const auto& s : segments) {
+    if (s.outcome != AdaptationSegment::Outcome::kSuperseded) {
+      EXPECT_EQ(s.trials, o.trials_per_segment) << "segment " << s.index;
+    }
+    EXPECT_LE(s.t0, s.split_time);
+    int successes = 0;
+    for (int i = 0; i < s.trials; ++i, ++k) {
+      ASSERT_LT(k, trials.size());
+      const AdaptationTrial& t = trials[k];
+      EXPECT_EQ(t.segment, s.index);
+      EXPECT_EQ(t.trial, i);
+      EXPECT_GE(t.time, s.t0 - 1e-9);
+      EXPECT_LE(t.time, s.split_time + 0.011);  // the tick at or just after t_s
+      EXPECT_TRUE(t.p_s_W.isApprox(s.p_s_W));
+      EXPECT_GE(t.v_des, o.v_min);
+      EXPECT_LE(t.v_des, o.v_max);
+      for (double x : {t.time, t.t_exe, t.jerk_integral, t.min_clearance, t.j_c, t.f_s,
+                       t.compute_units}) {
+        EXPECT_TRUE(std::isfinite(x));
+      }
+      EXPECT_FALSE(t.status.empty());
+      if (t.success) {
+        ++successes;
+        const double gap = o.objective.clearance - t.min_clearance;
+        EXPECT_DOUBLE_EQ(t.j_c, t.min_clearance < o.objective.clearance ? gap * gap : 0.0);
+        EXPECT_NEAR(t.f_s, o.objective.w_t * t.t_exe + o.objective.w_p * t.jerk_integral +
+                               o.objective.w_c * t.j_c, 1e-9 * (1.0 + t.f_s));
+        EXPECT_GT(t.t_exe, 0.0);
+      } else {
+        EXPECT_EQ(t.f_s, o.objective.failure_value);
+      }
+    }
+    EXPECT_EQ(s.successes, successes);
+  }
+  EXPECT_EQ(k, trials.size());
+}
+
+TEST(OnlineAdapter, ExecutesTheBestScoredTrialFromPs) {
+  AdaptedKinematicFlight f(SmallOptions());
+  f.Fly(kGoal, 40.0);
+  const auto& trials = f.adapter.trials();
+  const auto& records = f.replanner.records();
+  std::size_t k = 0;
+  int checked = 0;
+  for (const auto& s : f.adapter.segments()) {
+    const std::size_t first = k;
+    k += static_cast<std::size_t>(s.trials);
+    if (s.outcome != AdaptationSegment::Outcome::kAdopted) continue;
+    // The chosen trial has the smallest f_s among the successful ones (first one on ties).
+    int best = -1;
+    for (int i = 0; i < s.trials; ++i) {
+      const AdaptationTrial& t = trials[first + static_cast<std::size_t>(i)];
+      if (t.success && (best < 0 || t.f_s < trials[first + static_cast<std::size_t>(best)].f_s)) {
+        best = i;
+      }
+      EXPECT_EQ(t.chosen, i == s.best_trial);
+    }
+    ASSERT_EQ(best, s.best_trial);
+    const AdaptationTrial& chosen = trials[first + static_cast<std::size_t>(best)];
+    EXPECT_EQ(s.v_des, chosen.v_des);
+    // The Replanner executed that plan from P_s at t_s.
+    const auto it = std::find_if(records.begin(), records.end(), [&](const auto& r) {
+      return r.ok && r.time == s.split_time;
+    });
+    ASSERT_NE(it, records.end()) << "segment " << s.index;
+    EXPECT_EQ(it->duration, chosen.t_exe);
+    EXPECT_EQ(it->jerk, chosen.jerk_integral);
+    EXPECT_LT((it->trajectory.Position(0.0) - s.p_s_W).norm(), 1e-9);
+    ++checked;
+  }
+  EXPECT_GE(checked, 2);
+}
+
+TEST(OnlineAdapter, SameSeedGivesTheSameChoices) {
+  AdaptedKinematicFlight a(SmallOptions()), b(SmallOptions());
+  a.Fly(kGoal, 40.0);
+  b.Fly(kGoal, 40.0);
+  ASSERT_EQ(a.adapter.segments().size(), b.adapter.segments().size());
+  for (std::size_t i = 0; i < a.adapter.segments().size(); ++i) {
+    EXPECT_EQ(a.adapter.segments()[i].v_des, b.adapter.segments()[i].v_des);
+    EXPECT_EQ(a.adapter.segments()[i].split_time, b.adapter.segments()[i].split_time);
+  }
+  ASSERT_EQ(a.adapter.trials().size(), b.adapter.trials().size());
+  for (std::size_t i = 0; i < a.adapter.trials().size(); ++i) {
+    EXPECT_EQ(a.adapter.trials()[i].v_des, b.adapter.trials()[i].v_des);
+    EXPECT_EQ(a.adapter.trials()[i].f_s, b.adapter.trials()[i].f_s);
+  }
+  EXPECT_EQ(a.replanner.mission_end_time(), b.replanner.mission_end_time());
+}
+
+// ---- the experiment file ----------------------------------------------------------------------
+
+std::string WriteTemp(const std::string& name, const std::string& text) {
+  const auto path = std::filesystem::temp_directory_path() / ("quadtune_adapt_" + name + ".yaml");
+  std::ofstream(path) << text;
+  return path.string();
+}
+
+const char* kMinimal =
+    "layout_file: layouts/changing_density.yaml\n"
+    "baselines: [2.0]\n";
+
+TEST(AdaptExperiment, UnknownKeyNamesFileAndKey) {
+  const std::string path =
+      WriteTemp("unknown", std::string(kMinimal) + "adaptation: {trials_per_segmnt: 8}\n");
+  try {
+    (void)AdaptExperiment::LoadFile(path);
+    FAIL() << "expected a ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.file(), path);
+    EXPECT_EQ(e.key(), "adaptation.trials_per_segmnt");
+    EXPECT_NE(std::string(e.what()).find("trials_per_segment"), std::string::npos) << e.what();
+  }
+}
+
+TEST(AdaptExperiment, OutOfRangeValuesNameKeyAndRange) {
+  const std::string path =
+      WriteTemp("range", std::string(kMinimal) + "adaptation: {lookahead: -1}\n");
+  try {
+    (void)AdaptExperiment::LoadFile(path);
+    FAIL() << "expected a ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.file(), path);
+    EXPECT_EQ(e.key(), "adaptation.lookahead");
+    EXPECT_NE(std::string(e.what()).find("(0, 20]"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW((void)AdaptExperiment::FromString(
+                   std::string(kMinimal) + "adaptation: {v_des_bounds: [6, 1]}\n", "x.yaml"),
+               ConfigError);
+  EXPECT_THROW((void)AdaptExperiment::FromString(
+                   std::string(kMinimal) + "adaptation: {objective: {short_term: {kind: "
+                                           "solve_time}}}\n",
+                   "x.yaml"),
+               ConfigError);
+  EXPECT_THROW((void)AdaptExperiment::FromString(
+                   "layout_file: layouts/changing_density.yaml\nbaselines: [0]\n", "x.yaml"),
+               ConfigError);
+  EXPECT_THROW((void)AdaptExperiment::FromString("baselines: [2.0]\n", "x.yaml"), ConfigError);
+}
+
+TEST(AdaptExperiment, ShippedFileHoldsThePapersSettings) {
+  const AdaptExperiment e = AdaptExperiment::LoadFile(std::string(QUADTUNE_SOURCE_DIR) +
+                                                      "/experiments/changing_environment.yaml");
+  EXPECT_EQ(e.adaptation.lookahead, 2.0);
+  EXPECT_EQ(e.adaptation.v_min, 1.0);
+  EXPECT_EQ(e.adaptation.v_max, 6.0);
+  EXPECT_EQ(e.adaptation.trials_per_segment, 8);
+  EXPECT_EQ(e.adaptation.objective.w_t, 1.0);
+  EXPECT_EQ(e.adaptation.objective.w_p, 0.01);
+  EXPECT_EQ(e.adaptation.objective.w_c, 100.0);
+  EXPECT_GT(e.adaptation.bo.noise_growth, 0.0);
+  ASSERT_EQ(e.layout.zones.size(), 4u);
+  const double spacing[] = {3.0, 1.3, 2.1, 0.9};
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(e.layout.zones[static_cast<std::size_t>(i)].spacing, spacing[i]);
+  EXPECT_FALSE(e.baselines.empty());
+  // The small test experiment loads too.
+  EXPECT_NO_THROW((void)AdaptExperiment::LoadFile(
+      std::string(QUADTUNE_SOURCE_DIR) + "/experiments/changing_environment_small.yaml"));
+}
+
+}  // namespace
+}  // namespace quadtune::engine

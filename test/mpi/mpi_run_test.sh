@@ -1,0 +1,100 @@
+#!/usr/bin/env bash
+# Distributed runs over MPI, through the `quadtune` program (see engine/distributed.hpp).
+#
+#   mpi_run_test.sh equal QUADTUNE MPIEXEC WORKDIR
+#       the toy experiment (10 trials) with 1 process and with 2 ranks: identical stores
+#       (every evaluation's method, kind, iteration, index, params, terms, value, status and
+#       message; every trial's id, status, best point and value).
+#   mpi_run_test.sh kill QUADTUNE MPIEXEC WORKDIR
+#       rank 1 is killed (SIGKILL) mid-run: rank 0 reports it, the store is partial and
+#       `--resume` on 2 ranks completes it to the uninterrupted run's results.
+#
+# Runs as root too (--allow-run-as-root), and on fewer cores than ranks (--oversubscribe).
+set -euo pipefail
+mode=$1 quadtune=$2 mpiexec=$3 work=$4
+rm -rf "$work"
+mkdir -p "$work"
+cd "$work"
+
+mpi=("$mpiexec" -np 2 --oversubscribe)
+if [[ $(id -u) == 0 ]]; then mpi+=(--allow-run-as-root); fi
+
+# The toy planner (milliseconds per flight; the kill test slows its flights down a little so that
+# rank 1 dies while rank 0 is still working).
+delay=0
+[[ $mode == kill ]] && delay=0.01
+cat > toy.yaml <<YAML
+name: mpi-toy
+seed: 5
+threads: 1
+mode: reproducible
+repeats: 2
+methods: [default, random, pso, bo, bo_pso]
+planner:
+  type: toy
+  toy: {length: 12, gates: 4, plan_interval: 1.0, flight_delay_s: $delay}
+parameters:
+  - {name: gain, lower: 0.05, upper: 1.5, default: 0.3}
+  - {name: max_iter, lower: 2, upper: 40, type: integer, default: 20}
+  - {name: speed, lower: 0.5, upper: 6.0, default: 2.0}
+  - {name: margin, lower: 0.0, upper: 3.0, default: 0.5}
+short_term: [gain, max_iter]
+long_term: [speed, margin]
+objective:
+  short_term: {tau_t: 0.002}
+budget: {flights: 8, flight_batch: 2, short_evals_per_flight: 4, queries_per_eval: 2, query_window: 50}
+pso: {num_particles: 4}
+bo: {initial_design_size: 2, acquisition_pool: 50, acquisition_starts: 1, hyper_restarts: 0}
+YAML
+
+# What must be identical: evaluations.csv without its wall-clock columns (wall_s, started,
+# finished: the last three, plain numbers) and trials.csv.
+export_store() {  # export_store RUN_DIR → RUN_DIR/evaluations.txt, RUN_DIR/trials.txt
+  "$quadtune" --log-level warn export "$1/results.sqlite" --csv "$1/csv"
+  sed -E 's/,[^,]*,[^,]*,[^,]*$//' "$1/csv/evaluations.csv" > "$1/evaluations.txt"
+  cp "$1/csv/trials.csv" "$1/trials.txt"
+}
+
+same_results() {  # same_results DIR_A DIR_B
+  diff -u "$1/evaluations.txt" "$2/evaluations.txt" | head -20
+  diff -u "$1/trials.txt" "$2/trials.txt" | head -20
+  cmp -s "$1/evaluations.txt" "$2/evaluations.txt" && cmp -s "$1/trials.txt" "$2/trials.txt"
+}
+
+# The single-process reference.
+"$quadtune" --log-level warn run toy.yaml --out one --threads 1 --quiet
+export_store one
+rows=$(($(wc -l < one/evaluations.txt) - 1))
+echo "1 process: $rows evaluations"
+(( rows > 100 ))
+
+if [[ $mode == equal ]]; then
+  "${mpi[@]}" "$quadtune" --log-level debug run toy.yaml --out two --threads 1 --quiet \
+    > two.log 2>&1 || { cat two.log; exit 1; }
+  export_store two
+  # Both ranks ran trials (rank 0 logs the trials the other ranks finished).
+  grep -q "(rank 1)" two.log || { cat two.log; echo "rank 1 ran no trial"; exit 1; }
+  same_results one two
+  echo "2 ranks: identical results"
+  exit 0
+fi
+
+# kill: rank 1 raises SIGKILL after sending its 3rd evaluation (mid-trial: a trial has >= 8).
+set +e
+QUADTUNE_TEST_KILL_RANK=1:3 "${mpi[@]}" "$quadtune" --log-level warn run toy.yaml --out cut \
+  --threads 1 --quiet > cut.log 2>&1
+status=$?
+set -e
+cat cut.log
+if (( status == 0 )); then echo "the run survived the kill"; exit 1; fi
+grep -q "rank 1 (pid .*) was lost" cut.log || { echo "rank 0 did not name the lost rank"; exit 1; }
+grep -q "resume with: .*--resume" cut.log || { echo "rank 0 did not say how to resume"; exit 1; }
+export_store cut
+stored=$(($(wc -l < cut/evaluations.txt) - 1))
+echo "killed run: $stored of $rows evaluations stored"
+(( stored > 0 && stored < rows ))
+"${mpi[@]}" "$quadtune" --log-level warn run toy.yaml --out cut --threads 1 --quiet --resume \
+  > resume.log 2>&1 || { cat resume.log; exit 1; }
+export_store cut
+same_results one cut
+echo "resumed on 2 ranks: identical to the uninterrupted run"
