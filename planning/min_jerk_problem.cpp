@@ -266,10 +266,10 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
     }
   }
 
-  // ---- total time: τ Σ T̄ ----
-  terms.time = tau * sum_nominal_;
-  if (want_grad) g(ir) += params_.w_time * terms.time;
-  if (want_hess) (*hess)(ir, ir) += params_.w_time * terms.time;
+  // ---- time stretch: ΣT̄ ρ² (ρ = ln τ; zero at the nominal allocation) ----
+  terms.time = sum_nominal_ * rho * rho;
+  if (want_grad) g(ir) += params_.w_time * 2.0 * sum_nominal_ * rho;
+  if (want_hess) (*hess)(ir, ir) += params_.w_time * 2.0 * sum_nominal_;
 
   // ---- sampled penalties ----
   const double inv_c = 1.0 / params_.clearance;

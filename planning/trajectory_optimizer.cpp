@@ -440,10 +440,11 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     } else if (!converged) {
       result.status = PlanStatus::kSolverFailure;
       result.message = "Ipopt failed with status " + std::to_string(result.ipopt_status);
-    } else if (result.min_clearance < options_.collision_margin) {
+    } else if (result.min_clearance < params.inflation + options_.collision_margin) {
       result.status = PlanStatus::kCollision;
-      result.message =
-          "trajectory passes " + std::to_string(result.min_clearance) + " m from an obstacle";
+      result.message = "trajectory passes " + std::to_string(result.min_clearance) +
+                       " m from an obstacle (needs inflation + collision_margin = " +
+                       std::to_string(params.inflation + options_.collision_margin) + " m)";
     } else if (result.max_speed > params.v_des * (1.0 + options_.limit_tolerance) ||
                result.max_acceleration > params.a_max * (1.0 + options_.limit_tolerance)) {
       result.status = PlanStatus::kDynamicsViolated;

@@ -247,7 +247,7 @@ TEST(CylinderField, DefaultEvaluateWithHessianIsGaussNewton) {
 }
 
 TEST(MinJerkProblem, HessianOfJerkAndTimeTermsIsExact) {
-  // No active penalty: f = w_smooth τ^-5 bᵀH̄b + w_time τ ΣT̄, Hessian exact.
+  // No active penalty: f = w_smooth τ^-5 bᵀH̄b + w_time ΣT̄ (ln τ)², Hessian exact.
   const HalfSpaceField field(Eigen::Vector3d::UnitZ(), -100.0);
   MinJerkCostParams params;
   params.v_max = 100.0;

@@ -20,11 +20,19 @@
 ///    iterations.
 ///  - Cost f = w_smooth·J_jerk + w_col·J_col + w_dyn·J_dyn + w_time·J_time with
 ///      J_jerk = ∫|jerk|² dt (closed form),
-///      J_col  = κ_col Σ_samples max(0, (C − d(p_j))/C)³          (C: clearance),
+///      J_col  = κ_col Σ_samples max(0, (C − d(p_j))/C)³  (C: clearance, d: distance to the
+///               obstacles as sensed, not inflated),
 ///      J_dyn  = κ_dyn Σ_samples [max(0, |v_j|²/v_max² − 1)³ + max(0, |a_j|²/a_max² − 1)³],
-///      J_time = Σ T_i = τ Σ T̄_i,
+///      J_time = Σ T̄_i · ρ²  (ρ = ln τ: how much the trajectory is stretched in time),
 ///    samples at s = (k/K_i) T̄_i, k = 1..K_i, in every piece. κ_col, κ_dyn are fixed
 ///    normalisations (not tuned) that make the paper's default weights meaningful.
+///    J_time makes v_des the planner's speed: the nominal allocation T̄ flies the path at v_des
+///    (trapezoidal profile with a_max), and the optimiser slows the whole trajectory down (τ > 1)
+///    only as far as jerk, clearance and feasibility are worth it (w_time large), as EGO-Planner
+///    keeps its allocation at max_vel and stretches it only when infeasible. (A plain
+///    J_time = Σ T_i against the jerk energy τ^-5 would pick its own speed, ≈ (720 L²/w_time)^{1/6}
+///    for a rest-to-rest path of length L, whatever v_des is.) ρ² is also convex and exactly
+///    quadratic in the variable ρ, and the optimum lies near ρ = 0, where the solve starts.
 ///  - Derivatives: gradient and Hessian are exact for every term, the collision term included:
 ///    it reads d through DistanceField::EvaluateWithHessian (a C² version of the distance with
 ///    its exact Hessian ∇²d), so Ipopt takes true Newton steps and converges quadratically.
@@ -62,12 +70,12 @@ struct MinJerkCostParams {
   double w_smooth = 1.0;           ///< jerk-energy weight, > 0
   double w_col = 0.5;              ///< collision-penalty weight, >= 0
   double w_dyn = 0.1;              ///< feasibility-penalty weight, >= 0
-  double w_time = 1.0;             ///< total-time weight (1/s), >= 0
+  double w_time = 20.0;            ///< time-stretch weight (1/s), >= 0 (see J_time)
   double clearance = 0.5;          ///< C: distance below which the collision penalty acts (m), > 0
   double v_max = 2.0;              ///< speed limit of the feasibility penalty (m/s), > 0
   double a_max = 3.0;              ///< acceleration limit of the feasibility penalty (m/s^2), > 0
   double collision_scale = 100.0;  ///< κ_col, fixed normalisation, > 0
-  double feasibility_scale = 100.0;  ///< κ_dyn, fixed normalisation, > 0
+  double feasibility_scale = 1000.0;  ///< κ_dyn, fixed normalisation, > 0
 
   /// The planner's weights and limits (w_smooth, w_col, w_dyn, w_time, clearance, v_des, a_max).
   static MinJerkCostParams FromPlannerParams(const PlannerParams& params);
@@ -78,7 +86,7 @@ struct MinJerkCostTerms {
   double jerk = 0.0;         ///< J_jerk, ∫|jerk|² dt (m^2/s^5)
   double collision = 0.0;    ///< J_col (dimensionless)
   double feasibility = 0.0;  ///< J_dyn (dimensionless)
-  double time = 0.0;         ///< J_time, total duration (s)
+  double time = 0.0;         ///< J_time = ΣT̄ (ln τ)², time stretch (s); the duration is τ ΣT̄
   double total = 0.0;        ///< weighted sum f
 };
 

@@ -26,14 +26,21 @@ struct PlannerParams {
 
   // ---- fixed (clear safety meaning; not tuned) ----
   double a_max = 3.0;            ///< acceleration limit (m/s^2), > 0
-  double clearance = 0.5;        ///< desired clearance to obstacles in the collision cost (m), > 0
-  double inflation = 0.1;        ///< obstacle inflation in the occupancy map (m), >= 0
+  /// Desired clearance to obstacles in the collision cost (m), > 0 (a soft preference; the hard
+  /// limit is `inflation`).
+  double clearance = 0.5;
+  /// Obstacle inflation (m), >= 0: the drone's safety radius. The occupancy map (front end,
+  /// collision checks) is inflated by it, and an accepted plan keeps at least this distance from
+  /// every obstacle. The default is the ~1 kg drone's collision radius (0.2 m).
+  double inflation = 0.2;
   double tau_c = 1.0;            ///< emergency stop if a collision is predicted within (s), > 0
   double goal_tolerance = 0.3;   ///< mission waypoint reached within (m), > 0
   double no_replan_near_goal = 2.0;  ///< no periodic re-plan within this distance of the goal (m)
   double map_resolution = 0.1;   ///< occupancy / distance-field voxel size (m), (0, 1]
   double w_smooth = 1.0;         ///< jerk-energy weight, > 0
-  double w_time = 1.0;           ///< weight of total trajectory duration, >= 0
+  /// Weight of slowing a plan down below its nominal time allocation at v_des (J_time =
+  /// ΣT̄ (ln τ)², MinJerkProblem), (1/s), >= 0. Large: plans fly at about v_des where they can.
+  double w_time = 20.0;
   int max_attempts = 3;          ///< planning attempts per re-plan before it counts as failed, >= 1
 
   /// Names of the tunable parameters, θ_s then θ_l.

@@ -4,7 +4,7 @@
 /// modelled on EGO-Planner's gradient-based back-end).
 ///
 /// Given the start state, a local goal, the front-end's initial path and the distance field, it
-/// minimises w_smooth·∫|jerk|² + w_col·J_col + w_dyn·J_dyn + w_time·T over the inner waypoints
+/// minimises w_smooth·∫|jerk|² + w_col·J_col + w_dyn·J_dyn + w_time·J_time over the inner waypoints
 /// and one global time scale (MinJerkProblem documents the formulation and the derivatives).
 ///
 /// Why this formulation solves in few Ipopt iterations:
@@ -82,10 +82,11 @@ struct TrajectoryOptimizerOptions {
   /// Relative tolerance on the limits in the post-solve check: success needs
   /// max|v| <= v_des (1 + tol) and max|a| <= a_max (1 + tol). >= 0.
   double limit_tolerance = 0.05;
-  /// A check sample with distance < collision_margin (m) is a collision. >= 0.
+  /// A check sample closer than params.inflation + collision_margin (m) to an obstacle is a
+  /// collision (the inflation is the drone's safety radius). >= 0.
   double collision_margin = 0.0;
   double collision_scale = 100.0;    ///< κ_col of MinJerkCostParams, > 0
-  double feasibility_scale = 100.0;  ///< κ_dyn of MinJerkCostParams, > 0
+  double feasibility_scale = 1000.0;  ///< κ_dyn of MinJerkCostParams, > 0
 
   /// Throws ConfigError(origin, key, allowed range) for the first bad field.
   void Validate(const std::string& origin = "") const;
@@ -94,7 +95,7 @@ struct TrajectoryOptimizerOptions {
 /// Outcome of a solve.
 enum class PlanStatus {
   kSuccess,           ///< converged, collision-free on the check samples, within the limits
-  kCollision,         ///< converged but a check sample is closer than collision_margin
+  kCollision,         ///< converged but a check sample is closer than inflation + collision_margin
   kDynamicsViolated,  ///< converged, collision-free, but over the v/a limits (with tolerance)
   kMaxIterations,     ///< Ipopt's iteration limit (the last iterate is returned)
   kSolverFailure,     ///< Ipopt failed (restoration, step computation, ...)
