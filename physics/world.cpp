@@ -293,6 +293,9 @@ struct World::Impl {
       object->setCollisionShape(e.shape);
       object->setWorldTransform(e.pose);
       object->setCollisionFlags(btCollisionObject::CF_STATIC_OBJECT);
+      // Static obstacles never move: asleep, Bullet skips their AABB update every step (with
+      // setForceUpdateAllAabbs(false) it still updates every object that is "active").
+      object->setActivationState(ISLAND_SLEEPING);
       object->setFriction(0.5f);
       object->setRestitution(0.0f);
       Tag(*object, e.id.kind, e.id.index);

@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "quadtune/common/error.hpp"
 
@@ -196,13 +197,26 @@ namespace {
 
 // Per-thread scratch of MinJerkProblem::Evaluate (sized on first use, reused afterwards: the
 // Ipopt callbacks then run without heap allocations). Holds no state between calls.
+// A sample whose penalty is active: its derivative coefficients (see Evaluate).
+struct ActiveSample {
+  int row = 0;
+  Eigen::Vector3d grad;  // τ^-d wγ
+  Eigen::Vector3d rho;   // τ^-d (wΓ r_ρ − d wγ)
+  Eigen::Matrix3d hess;  // τ^-2d wΓ
+};
+
 struct EvaluateScratch {
   Eigen::MatrixXd b;
   Eigen::MatrixXd db;
   Eigen::MatrixXd ddb;
   Eigen::MatrixXd hb;
   Eigen::MatrixXd hdb;
-  Eigen::VectorXd v;  // ∂r/∂q_a(i) / e_a for one sample: τ^-d · row(3 + i)
+  Eigen::MatrixXd w, w1, w2;       // S_d b, S_d b', S_d b'' (samples × 3)
+  std::vector<ActiveSample> active;
+  Eigen::MatrixXd v;               // active rows of S_d, inner-waypoint columns (active × m)
+  Eigen::MatrixXd coef;            // per active sample, 3 coefficients
+  Eigen::MatrixXd vt_coef;         // vᵀ coef (m × 3)
+  Eigen::MatrixXd weighted;        // diag(c) v
 };
 
 EvaluateScratch& Scratch() {
@@ -276,16 +290,22 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
   const double limits_sq[3] = {0.0, params_.v_max * params_.v_max, params_.a_max * params_.a_max};
   const double inv_tau_pow[3] = {1.0, 1.0 / tau, 1.0 / (tau * tau)};
   const double weights[3] = {params_.w_col, params_.w_dyn, params_.w_dyn};
-  ws.v.resize(m);
-  Eigen::VectorXd& v = ws.v;
-  for (int j = 0; j < NumSamples(); ++j) {
-    for (int d = 0; d < 3; ++d) {
-      const double* row = sample_rows_[d].row(j).data();
-      const double scale = inv_tau_pow[d];
-      Eigen::Vector3d w = Eigen::Vector3d::Zero();
-      for (int k = 0; k < nb; ++k) w += row[k] * b.row(k).transpose();
+  const int ns = NumSamples();
+  for (int d = 0; d < 3; ++d) {
+    const auto& rows = sample_rows_[d];
+    const double scale = inv_tau_pow[d];
+    const double dd = static_cast<double>(d);
+    const double weight = weights[d];
+    // The states of every sample at once: W = S_d b (and S_d b', S_d b'' for the derivatives).
+    ws.w.noalias() = rows * b;
+    if (want_grad) ws.w1.noalias() = rows * db;
+    if (want_hess) ws.w2.noalias() = rows * ddb;
+    // Per active sample: its row index, the q-gradient coefficients wγ τ^-d, the ρ-row
+    // coefficients t τ^-d and the six distinct entries of wΓ τ^-2d (for the q–q blocks).
+    ws.active.clear();
+    for (int j = 0; j < ns; ++j) {
+      const Eigen::Vector3d w = ws.w.row(j).transpose();
       const Eigen::Vector3d r = scale * w;
-
       Eigen::Vector3d gamma;      // ∂ψ/∂r
       Eigen::Matrix3d big_gamma;  // ∂²ψ/∂r²
       if (d == 0) {
@@ -321,40 +341,55 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
                       (6.0 * k * viol * viol * inv_l) * Eigen::Matrix3d::Identity();
         }
       }
-      const double weight = weights[d];
       if (weight == 0.0) continue;
 
       // r = τ^-d S_j b: ∂r/∂q_a(i) = τ^-d row(3+i) e_a, ∂r/∂ρ = τ^-d (S_j b' − d S_j b).
-      Eigen::Vector3d w1 = Eigen::Vector3d::Zero();
-      for (int k = 0; k < nb; ++k) w1 += row[k] * db.row(k).transpose();
-      const double dd = static_cast<double>(d);
+      const Eigen::Vector3d w1 = ws.w1.row(j).transpose();
       const Eigen::Vector3d r_rho = scale * (w1 - dd * w);
-      for (int i = 0; i < m; ++i) v(i) = scale * row[3 + i];
       const Eigen::Vector3d wg = weight * gamma;
-      for (int a = 0; a < 3; ++a) g.segment(a * m, m) += wg(a) * v;
       g(ir) += wg.dot(r_rho);
-      if (!want_hess) continue;
-
-      const Eigen::Matrix3d wgg = weight * big_gamma;
-      // q–q blocks (lower triangle): Σ_j wΓ_ab v vᵀ.
-      for (int a = 0; a < 3; ++a) {
-        for (int bb = 0; bb <= a; ++bb) {
-          const double c = wgg(a, bb);
-          if (c == 0.0) continue;
-          for (int k = 0; k < m; ++k) {
-            const double cv = c * v(k);
-            const int i_end = a == bb ? k : 0;  // diagonal blocks: rows i >= k only
-            for (int i = m - 1; i >= i_end; --i) (*hess)(a * m + i, bb * m + k) += cv * v(i);
-          }
-        }
+      ActiveSample sample;
+      sample.row = j;
+      sample.grad = scale * wg;
+      if (want_hess) {
+        const Eigen::Matrix3d wgg = weight * big_gamma;
+        // ρ row: ∂²ψ/∂ρ∂q = (wΓ r_ρ)_a v_i + wγ_a ∂²r_a/∂ρ∂q_a(i), the latter = −d v_i.
+        sample.rho = scale * (wgg * r_rho - dd * wg);
+        const Eigen::Vector3d w2 = ws.w2.row(j).transpose();
+        const Eigen::Vector3d r_rhorho = scale * (w2 - 2.0 * dd * w1 + dd * dd * w);
+        (*hess)(ir, ir) += r_rho.dot(wgg * r_rho) + wg.dot(r_rhorho);
+        sample.hess = (scale * scale) * wgg;
       }
-      // ρ row: ∂²ψ/∂ρ∂q = (wΓ r_ρ)_a v_i + wγ_a ∂²r_a/∂ρ∂q_a(i), the latter = −d v_i.
-      const Eigen::Vector3d t = wgg * r_rho - dd * wg;
-      for (int a = 0; a < 3; ++a) hess->row(ir).segment(a * m, m) += t(a) * v.transpose();
-      Eigen::Vector3d w2 = Eigen::Vector3d::Zero();
-      for (int k = 0; k < nb; ++k) w2 += row[k] * ddb.row(k).transpose();
-      const Eigen::Vector3d r_rhorho = scale * (w2 - 2.0 * dd * w1 + dd * dd * w);
-      (*hess)(ir, ir) += r_rho.dot(wgg * r_rho) + wg.dot(r_rhorho);
+      ws.active.push_back(sample);
+    }
+    const auto na = static_cast<Eigen::Index>(ws.active.size());
+    if (na == 0 || !want_grad) continue;
+    // v_j = τ^-d S_j(3..3+m): gather the active rows, then the q-gradient, the ρ row and the
+    // q–q blocks are small matrix products: g_qa += Vᵀ c_a, H_ρq_a += Vᵀ t_a,
+    // H_qa,qb += Vᵀ diag(wΓ_ab) V (lower block triangle; the mirror fills the rest).
+    ws.v.resize(na, m);
+    ws.coef.resize(na, 3);
+    for (Eigen::Index i = 0; i < na; ++i) {
+      const ActiveSample& sample = ws.active[static_cast<std::size_t>(i)];
+      ws.v.row(i) = rows.row(sample.row).segment(3, m);
+      ws.coef.row(i) = sample.grad.transpose();
+    }
+    ws.vt_coef.noalias() = ws.v.transpose() * ws.coef;  // m × 3
+    for (int a = 0; a < 3; ++a) g.segment(a * m, m) += ws.vt_coef.col(a);
+    if (!want_hess) continue;
+    for (Eigen::Index i = 0; i < na; ++i) {
+      ws.coef.row(i) = ws.active[static_cast<std::size_t>(i)].rho.transpose();
+    }
+    ws.vt_coef.noalias() = ws.v.transpose() * ws.coef;
+    for (int a = 0; a < 3; ++a) hess->row(ir).segment(a * m, m) += ws.vt_coef.col(a).transpose();
+    for (int a = 0; a < 3; ++a) {
+      for (int bb = 0; bb <= a; ++bb) {
+        ws.weighted.resize(na, m);
+        for (Eigen::Index i = 0; i < na; ++i) {
+          ws.weighted.row(i) = ws.active[static_cast<std::size_t>(i)].hess(a, bb) * ws.v.row(i);
+        }
+        hess->block(a * m, bb * m, m, m).noalias() += ws.weighted.transpose() * ws.v;
+      }
     }
   }
   if (want_hess) hess->triangularView<Eigen::StrictlyUpper>() = hess->transpose();

@@ -246,6 +246,9 @@ void TrajectoryOptimizerOptions::Validate(const std::string& origin) const {
     throw ConfigError(origin, "stall_relative_change", "must be in (0, 1e-3]");
   }
   if (stall_iterations < 1) throw ConfigError(origin, "stall_iterations", "must be >= 1");
+  if (!(rounding_floor > 0.0) || !(rounding_floor <= 1e-10)) {
+    throw ConfigError(origin, "rounding_floor", "must be in (0, 1e-10]");
+  }
   positive(check_dt, "check_dt");
   if (!(limit_tolerance >= 0.0) || !std::isfinite(limit_tolerance)) {
     throw ConfigError(origin, "limit_tolerance", "must be finite and >= 0");
@@ -378,15 +381,18 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     Ipopt::IpoptApplication& app = ThreadApplication();
     app.Options()->SetNumericValue("tol", options_.tolerance);
     app.Options()->SetIntegerValue("max_iter", options_.max_iterations);
-    // Stagnation safeguard (TrajectoryOptimizerOptions::stall_relative_change): only for a field
+    // Stagnation safeguards (TrajectoryOptimizerOptions::stall_relative_change, rounding_floor):
+    // Ipopt's "acceptable" termination with only its objective-change part active. For a field
     // without curvature, whose Gauss–Newton model and kinked gradient keep Newton from reaching
-    // `tol`. Ipopt's "acceptable" termination with only its objective-change part active; with
-    // a C² field (ProvidesCurvature()) it is off and every solve must meet `tol`.
-    const bool stall_armed = !field.ProvidesCurvature();
+    // `tol`, at stall_relative_change; for a C² field (ProvidesCurvature()) only at the
+    // objective's rounding floor, where the line search can no longer tell f(x + αd) from f(x).
+    const bool curvature = field.ProvidesCurvature();
     app.Options()->SetNumericValue("acceptable_tol", 1e19);
     app.Options()->SetNumericValue("acceptable_dual_inf_tol", 1e19);
-    app.Options()->SetNumericValue("acceptable_obj_change_tol", options_.stall_relative_change);
-    app.Options()->SetIntegerValue("acceptable_iter", stall_armed ? options_.stall_iterations : 0);
+    app.Options()->SetNumericValue(
+        "acceptable_obj_change_tol",
+        curvature ? options_.rounding_floor : options_.stall_relative_change);
+    app.Options()->SetIntegerValue("acceptable_iter", options_.stall_iterations);
     Ipopt::SmartPtr<MinJerkTnlp> tnlp = new MinJerkTnlp(problem, z0);
     const Ipopt::ApplicationReturnStatus ipopt_status = app.OptimizeTNLP(tnlp);
 
@@ -453,7 +459,10 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     } else {
       result.status = PlanStatus::kSuccess;
       result.message =
-          ipopt_status == Ipopt::Solve_Succeeded ? "converged" : "stalled (non-smooth field)";
+          ipopt_status == Ipopt::Solve_Succeeded
+              ? "converged"
+              : (curvature ? "stalled at the objective's rounding floor"
+                           : "stalled (non-smooth field)");
     }
     result.solve_time_s = elapsed();
     return result;

@@ -15,7 +15,7 @@ packages=(
   libeigen3-dev libbullet-dev coinor-libipopt-dev liblapack-dev libblas-dev
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev
   libtbb-dev libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev
-  libsqlite3-dev sqlite3 nlohmann-json3-dev
+  libsqlite3-dev sqlite3 nlohmann-json3-dev libmimalloc-dev
   libopenmpi-dev openmpi-bin
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-matplotlib python3-numpy python3-pandas python3-scipy python3-yaml

@@ -74,10 +74,18 @@ struct TrajectoryOptimizerOptions {
   /// reaches `tolerance`. Such a solve also ends (Ipopt "acceptable", message "stalled
   /// (non-smooth field)", reported as converged) when the relative objective change
   /// |Δf|/max(1,|f|) stays below this value for `stall_iterations` consecutive iterations.
-  /// With a C² field (ProvidesCurvature() true) it is off: every solve must meet `tolerance`.
+  /// With a C² field (ProvidesCurvature() true) only `rounding_floor` applies.
   /// Deterministic. (0, 1e-3].
   double stall_relative_change = 1e-6;
   int stall_iterations = 3;  ///< >= 1
+  /// With a C² field: a solve also ends (Ipopt "acceptable", message "stalled at the objective's
+  /// rounding floor", reported as converged) when |Δf|/max(1,|f|) stays below this value for
+  /// `stall_iterations` consecutive iterations: the objective is then constant to a few units in
+  /// the last place, the line search backtracks to α ≈ 1e-10 without seeing a decrease, and more
+  /// iterations only cost evaluations (measured: up to 300 of them in one solve). Quadratic
+  /// convergence never has three such iterations in a row before meeting `tolerance`.
+  /// (0, 1e-10].
+  double rounding_floor = 1e-13;
   double check_dt = 0.01;    ///< time step of the post-solve check samples (s), > 0
   /// Relative tolerance on the limits in the post-solve check: success needs
   /// max|v| <= v_des (1 + tol) and max|a| <= a_max (1 + tol). >= 0.
