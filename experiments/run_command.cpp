@@ -2,7 +2,6 @@
 // Under an MPI launcher with more than one process, `run` spreads the trials over the ranks
 // (engine/distributed.hpp); only rank 0 prints progress and writes OUT.
 #include <spdlog/spdlog.h>
-#include <malloc.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -187,6 +186,17 @@ int Run(const RunArgs& a) {
   return Finish(s, a, store, tty);
 }
 
+/// Resident set size of this process (MiB), from /proc/self/statm: the pool's memory as the
+/// machine sees it, whichever allocator the program uses (mallinfo2 knows only glibc's).
+double ResidentMiB() {
+  std::ifstream statm("/proc/self/statm");
+  long pages_total = 0;
+  long pages_resident = 0;
+  statm >> pages_total >> pages_resident;
+  return static_cast<double>(pages_resident) * static_cast<double>(sysconf(_SC_PAGESIZE)) /
+         (1024.0 * 1024.0);
+}
+
 struct BenchArgs {
   std::string experiment;
   int max_threads = 2;
@@ -274,7 +284,7 @@ int Bench(const BenchArgs& a) {
   // Memory of a world pool: 64 slots, each holding the world a flight built on this map (the
   // flights are cancelled at once; the worlds stay in their slots, as in a tuning run).
   {
-    const std::size_t before = mallinfo2().uordblks;
+    const double before = ResidentMiB();
     std::vector<engine::WorkerSlot> slots(64);
     for (std::size_t i = 0; i < slots.size(); ++i) {
       engine::FlightRequest req;
@@ -284,7 +294,7 @@ int Bench(const BenchArgs& a) {
       req.cancelled = [] { return true; };
       (void)e.planner.Fly(req, slots[i]);
     }
-    const double mib = static_cast<double>(mallinfo2().uordblks - before) / (1024.0 * 1024.0);
+    const double mib = ResidentMiB() - before;
     std::printf("memory of a pool of %zu worlds on this map: %.1f MiB (%.3f MiB per world)\n",
                 slots.size(), mib, mib / static_cast<double>(slots.size()));
   }
