@@ -257,4 +257,91 @@ void SetExactDoubles(YAML::Emitter& out) {
   out.SetFloatPrecision(9);
 }
 
+YAML::Node YamlDeepMerge(const YAML::Node& base, const YAML::Node& over) {
+  if (!over.IsDefined() || over.IsNull()) return YAML::Clone(base);
+  if (!base.IsMap() || !over.IsMap()) return YAML::Clone(over);
+  YAML::Node out = YAML::Clone(base);
+  for (const auto& kv : over) {
+    const std::string key = kv.first.as<std::string>();
+    out[key] = out[key].IsDefined() ? YamlDeepMerge(out[key], kv.second) : YAML::Clone(kv.second);
+  }
+  return out;
+}
+
+std::string YamlEmit(const YAML::Node& node) {
+  YAML::Emitter emitter;
+  SetExactDoubles(emitter);
+  emitter << node;
+  return emitter.c_str();
+}
+
+void YamlSetPath(YAML::Node root, const std::string& path, const YAML::Node& value,
+                 const std::string& file, const std::string& key) {
+  std::vector<std::string> parts;
+  std::stringstream ss(path);
+  for (std::string part; std::getline(ss, part, '.');) {
+    if (part.empty()) throw ConfigError(file, key, "'" + path + "' has an empty part");
+    parts.push_back(part);
+  }
+  if (parts.empty()) throw ConfigError(file, key, "must name a key, e.g. budget.flights");
+  // yaml-cpp nodes are handles: walk down keeping one handle per level. In a sequence, a part
+  // is an index (e.g. stages.1.override).
+  auto index_of = [&](const YAML::Node& seq, const std::string& part) -> std::size_t {
+    std::size_t pos = 0;
+    unsigned long k = 0;
+    try {
+      k = std::stoul(part, &pos);
+    } catch (const std::exception&) {
+      pos = 0;
+    }
+    if (pos != part.size() || k >= seq.size()) {
+      throw ConfigError(file, key, "'" + path + "': '" + part + "' must be an index below " +
+                                       std::to_string(seq.size()) + " of a list");
+    }
+    return k;
+  };
+  // (Assigning to a YAML::Node writes through it, so the walk keeps one handle per level.)
+  std::vector<YAML::Node> chain{root};
+  for (std::size_t i = 0; i + 1 < parts.size(); ++i) {
+    YAML::Node& node = chain.back();
+    if (node.IsSequence()) {
+      chain.push_back(node[index_of(node, parts[i])]);
+      continue;
+    }
+    YAML::Node next = node[parts[i]];
+    if (next.IsDefined() && !next.IsNull() && !next.IsMap() && !next.IsSequence()) {
+      throw ConfigError(file, key, "'" + path + "': '" + parts[i] + "' is not a map");
+    }
+    if (!next.IsDefined() || next.IsNull()) node[parts[i]] = YAML::Node(YAML::NodeType::Map);
+    chain.push_back(node[parts[i]]);
+  }
+  YAML::Node& last = chain.back();
+  if (last.IsSequence()) {
+    last[index_of(last, parts.back())] = value;
+  } else {
+    last[parts.back()] = value;
+  }
+}
+
+std::string ApplyAssignments(const std::string& text, const std::vector<std::string>& assignments,
+                             const std::string& file) {
+  if (assignments.empty()) return text;
+  YAML::Node root = YamlMap::FromString(text, file).node();
+  if (!root.IsMap()) throw ConfigError(file, "", "must be a YAML map");
+  for (const std::string& a : assignments) {
+    const auto eq = a.find('=');
+    if (eq == std::string::npos || eq == 0) {
+      throw ConfigError(file, "--set", "'" + a + "' is not KEY=VALUE (e.g. budget.flights=10)");
+    }
+    YAML::Node value;
+    try {
+      value = YAML::Load(a.substr(eq + 1));
+    } catch (const YAML::Exception& e) {
+      throw ConfigError(file, "--set", "'" + a + "': the value is not YAML: " + e.msg);
+    }
+    YamlSetPath(root, a.substr(0, eq), value, file, "--set " + a.substr(0, eq));
+  }
+  return YamlEmit(root);
+}
+
 }  // namespace quadtune

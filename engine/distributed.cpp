@@ -81,7 +81,10 @@ bool MpiBuilt() { return false; }
 MpiSession::MpiSession() { NotBuilt(); }
 MpiSession::~MpiSession() = default;
 void MpiSession::Abort(int code) const { std::_Exit(code); }
-Experiment LoadExperimentShared(const MpiSession&, const std::string&) { NotBuilt(); }
+Experiment LoadExperimentShared(const MpiSession&, const std::string&,
+                                const std::vector<std::string>&) {
+  NotBuilt();
+}
 RunSummary RunDistributed(const MpiSession&, const Experiment&, const DistributedOptions&) {
   NotBuilt();
 }
@@ -702,13 +705,14 @@ void MpiSession::Abort(int code) const {
   std::_Exit(code);
 }
 
-Experiment LoadExperimentShared(const MpiSession& mpi, const std::string& path) {
+Experiment LoadExperimentShared(const MpiSession& mpi, const std::string& path,
+                                const std::vector<std::string>& assignments) {
   std::optional<Experiment> experiment;
   std::exception_ptr error;
   std::string text;
   if (mpi.Rank() == 0) {
     try {
-      experiment = Experiment::LoadFile(path);
+      experiment = Experiment::LoadFile(path, assignments);
       text = experiment->text;
     } catch (...) {
       error = std::current_exception();

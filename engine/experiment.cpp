@@ -125,13 +125,16 @@ ParamValues Experiment::Defaults() const {
   return d;
 }
 
-Experiment Experiment::LoadFile(const std::string& path) {
+Experiment Experiment::LoadFile(const std::string& path) { return LoadFile(path, {}); }
+
+Experiment Experiment::LoadFile(const std::string& path,
+                                const std::vector<std::string>& assignments) {
   std::ifstream in(path);
   if (!in) throw ConfigError(path, "", "cannot read the experiment file");
   std::stringstream ss;
   ss << in.rdbuf();
   const std::string dir = std::filesystem::path(path).parent_path().string();
-  return FromString(ss.str(), path, dir.empty() ? "." : dir);
+  return FromString(ApplyAssignments(ss.str(), assignments, path), path, dir.empty() ? "." : dir);
 }
 
 Experiment Experiment::FromString(const std::string& text, const std::string& origin,

@@ -22,48 +22,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// `over` merged onto a copy of `base`: maps merge key by key, anything else replaces.
-YAML::Node DeepMerge(const YAML::Node& base, const YAML::Node& over) {
-  if (!over.IsDefined() || over.IsNull()) return YAML::Clone(base);
-  if (!base.IsMap() || !over.IsMap()) return YAML::Clone(over);
-  YAML::Node out = YAML::Clone(base);
-  for (const auto& kv : over) {
-    const std::string key = kv.first.as<std::string>();
-    out[key] = out[key].IsDefined() ? DeepMerge(out[key], kv.second) : YAML::Clone(kv.second);
-  }
-  return out;
-}
-
-std::string Emit(const YAML::Node& node) {
-  YAML::Emitter emitter;
-  emitter << node;
-  return emitter.c_str();
-}
-
-/// Sets the dotted `path` of `root` (a map) to `value`; every parent must be a map or absent.
-void SetPath(YAML::Node root, const std::string& path, const YAML::Node& value,
-             const std::string& file) {
-  std::vector<std::string> parts;
-  std::stringstream ss(path);
-  for (std::string part; std::getline(ss, part, '.');) {
-    if (part.empty()) throw ConfigError(file, "sweep.key", "'" + path + "' has an empty part");
-    parts.push_back(part);
-  }
-  if (parts.empty()) throw ConfigError(file, "sweep.key", "must name a key, e.g. planner.layout_file");
-  // yaml-cpp nodes are handles: walk down by reassignment-free references.
-  std::vector<YAML::Node> chain{root};
-  for (std::size_t i = 0; i + 1 < parts.size(); ++i) {
-    YAML::Node next = chain.back()[parts[i]];
-    if (next.IsDefined() && !next.IsNull() && !next.IsMap()) {
-      throw ConfigError(file, "sweep.key",
-                        "'" + path + "': '" + parts[i] + "' is not a map in the experiment");
-    }
-    if (!next.IsDefined() || next.IsNull()) chain.back()[parts[i]] = YAML::Node(YAML::NodeType::Map);
-    chain.push_back(chain.back()[parts[i]]);
-  }
-  chain.back()[parts.back()] = value;
-}
-
 std::string Slug(const std::string& label) {
   std::string out;
   for (char ch : label) {
@@ -99,8 +57,15 @@ struct Candidate {
 
 }  // namespace
 
-Study Study::LoadFile(const std::string& path) {
-  const YamlMap map = YamlMap::LoadFile(path);
+Study Study::LoadFile(const std::string& path) { return LoadFile(path, {}); }
+
+Study Study::LoadFile(const std::string& path, const std::vector<std::string>& assignments) {
+  const YamlMap original = YamlMap::LoadFile(path);  // file errors name the file and the line
+  const YamlMap map = assignments.empty()
+                          ? original
+                          : YamlMap::FromString(ApplyAssignments(YamlEmit(original.node()),
+                                                                 assignments, path),
+                                                path);
   map.RejectUnknownKeys({"name", "seed", "experiment", "override", "sweep", "stages", "validation"});
   Study s;
   s.file = path;
@@ -115,8 +80,8 @@ Study Study::LoadFile(const std::string& path) {
   s.base_dir = fs::path(base_file).parent_path().string();
   if (s.base_dir.empty()) s.base_dir = ".";
   YAML::Node merged = base.node();
-  if (map.Has("override")) merged = DeepMerge(merged, map.Map("override").node());
-  s.base_text = Emit(merged);
+  if (map.Has("override")) merged = YamlDeepMerge(merged, map.Map("override").node());
+  s.base_text = YamlEmit(merged);
 
   if (map.Has("sweep")) {
     const YamlMap sweep = map.Map("sweep");
@@ -126,7 +91,7 @@ Study Study::LoadFile(const std::string& path) {
     if (!values || !values.IsSequence() || values.size() == 0) {
       sweep.Fail("values", "must be a non-empty list of values for '" + s.sweep_key + "'");
     }
-    for (const auto& v : values) s.sweep_values.push_back(Emit(v));
+    for (const auto& v : values) s.sweep_values.push_back(YamlEmit(v));
     const YAML::Node labels = sweep.node()["labels"];
     if (labels) {
       if (!labels.IsSequence() || labels.size() != values.size()) {
@@ -134,7 +99,7 @@ Study Study::LoadFile(const std::string& path) {
       }
       for (const auto& l : labels) s.labels.push_back(l.as<std::string>());
     } else {
-      for (const auto& v : values) s.labels.push_back(v.IsScalar() ? v.as<std::string>() : Emit(v));
+      for (const auto& v : values) s.labels.push_back(v.IsScalar() ? v.as<std::string>() : YamlEmit(v));
     }
     for (std::size_t i = 0; i < s.labels.size(); ++i) {
       for (std::size_t j = 0; j < i; ++j) {
@@ -165,7 +130,7 @@ Study Study::LoadFile(const std::string& path) {
       for (const auto& earlier : s.stages) found = found || earlier.name == stage.start_from;
       if (!found) st.Fail("start_from", "must name an earlier stage, got '" + stage.start_from + "'");
     }
-    if (st.Has("override")) stage.override_yaml = Emit(st.Map("override").node());
+    if (st.Has("override")) stage.override_yaml = YamlEmit(st.Map("override").node());
     s.stages.push_back(stage);
   }
   if (s.stages.empty()) s.stages.push_back({"tuning", "", ""});
@@ -185,9 +150,9 @@ Study Study::LoadFile(const std::string& path) {
 Experiment Study::Build(std::size_t point, std::size_t stage, const ParamValues& start) const {
   QT_DEMAND(point < labels.size() && stage < stages.size(), "Study::Build: index out of range");
   YAML::Node node = YAML::Load(base_text);
-  if (!sweep_key.empty()) SetPath(node, sweep_key, YAML::Load(sweep_values[point]), file);
+  if (!sweep_key.empty()) YamlSetPath(node, sweep_key, YAML::Load(sweep_values[point]), file, "sweep.key");
   if (!stages[stage].override_yaml.empty()) {
-    node = DeepMerge(node, YAML::Load(stages[stage].override_yaml));
+    node = YamlDeepMerge(node, YAML::Load(stages[stage].override_yaml));
   }
   if (!start.empty()) {
     YAML::Node s(YAML::NodeType::Map);
@@ -196,7 +161,7 @@ Experiment Study::Build(std::size_t point, std::size_t stage, const ParamValues&
   }
   const std::string origin =
       file + " (point " + labels[point] + ", stage " + stages[stage].name + ")";
-  return Experiment::FromString(Emit(node), origin, base_dir);
+  return Experiment::FromString(YamlEmit(node), origin, base_dir);
 }
 
 StudySummary RunStudy(const Study& study, const StudyOptions& options) {

@@ -32,6 +32,7 @@ void OnSignal(int) { g_interrupted.store(true); }
 
 struct RunArgs {
   std::string experiment;
+  std::vector<std::string> set;  ///< --set KEY=VALUE edits of the experiment file
   int threads = 0;
   std::string out = "results/run";
   bool resume = false;
@@ -110,7 +111,7 @@ int RunMpi(const RunArgs& a) {
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
   try {
-    const engine::Experiment e = engine::LoadExperimentShared(mpi, a.experiment);
+    const engine::Experiment e = engine::LoadExperimentShared(mpi, a.experiment, a.set);
     const bool tty = rank == 0 && isatty(fileno(stderr)) != 0 && !a.quiet;
     engine::DistributedOptions options;
     options.run.threads = a.threads;
@@ -122,10 +123,12 @@ int RunMpi(const RunArgs& a) {
       options.run.on_progress = ProgressPrinter(tty);
       std::error_code ec;
       const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+      std::string sets;
+      for (const auto& kv : a.set) sets += " --set '" + kv + "'";
       options.resume_command = fmt::format(
-          "mpirun -np {} {} run {} --out {} --resume{}", mpi.Size(),
+          "mpirun -np {} {} run {} --out {} --resume{}{}", mpi.Size(),
           ec ? std::string("quadtune") : self.string(), a.experiment, a.out,
-          a.threads > 0 ? fmt::format(" --threads {}", a.threads) : std::string());
+          a.threads > 0 ? fmt::format(" --threads {}", a.threads) : std::string(), sets);
       spdlog::info("experiment '{}' ({}): planner {}, methods {}, repeats {}, {} flights per "
                    "trial, {} ranks × {} threads, {} mode{}",
                    e.name, a.experiment, e.planner.Name(), e.methods.size(), e.repeats,
@@ -162,7 +165,7 @@ int Run(const RunArgs& a) {
     return RunMpi(a);
   }
   // Every configuration error is reported here, before any work starts.
-  const engine::Experiment e = engine::Experiment::LoadFile(a.experiment);
+  const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
   namespace fs = std::filesystem;
   fs::create_directories(a.out);
   const std::string store = (fs::path(a.out) / "results.sqlite").string();
@@ -202,6 +205,8 @@ struct BenchArgs {
   int max_threads = 2;
   int flights = 4;
   int resolves = 200;
+  std::string csv;    ///< "": no CSV; else one row per thread count
+  bool plot = false;  ///< draw the thread-scaling figure next to the CSV
 };
 
 /// Flights/s and short-term evals/s at 1..N threads, and the scheduler's overhead per task.
@@ -230,6 +235,16 @@ int Bench(const BenchArgs& a) {
   std::printf("%8s %12s %16s %16s %14s %20s\n", "threads", "flights/s", "short evals/s",
               "mixed wall (s)", "mixed speed-up", "overhead/task (us)");
   double mixed_one_thread = 0.0;
+  std::ofstream csv;
+  if (!a.csv.empty()) {
+    const std::filesystem::path parent = std::filesystem::path(a.csv).parent_path();
+    if (!parent.empty()) std::filesystem::create_directories(parent);
+    csv.open(a.csv);
+    if (!csv) throw ConfigError(a.csv, "--csv", "cannot write the file");
+    csv << "threads,cores,flights_per_s,resolves_per_s,mixed_s,mixed_speedup,overhead_us,"
+           "flights,resolves,experiment\n";
+  }
+  const unsigned cores = std::thread::hardware_concurrency();
   for (int t = 1; t <= a.max_threads; ++t) {
     engine::Scheduler sched(t);
     engine::WorldPool pool;
@@ -280,6 +295,13 @@ int Bench(const BenchArgs& a) {
     }
     std::printf("%8d %12.2f %16.1f %16.2f %14.2f %20.2f\n", t, flights_per_s, resolves_per_s,
                 mixed_s, mixed_one_thread / mixed_s, overhead_us);
+    std::fflush(stdout);
+    if (csv.is_open()) {
+      csv << t << ',' << cores << ',' << flights_per_s << ',' << resolves_per_s << ',' << mixed_s
+          << ',' << mixed_one_thread / mixed_s << ',' << overhead_us << ',' << a.flights << ','
+          << a.resolves << ',' << e.name << '\n';
+      csv.flush();
+    }
   }
   // Memory of a world pool: 64 slots, each holding the world a flight built on this map (the
   // flights are cancelled at once; the worlds stay in their slots, as in a tuning run).
@@ -298,6 +320,10 @@ int Bench(const BenchArgs& a) {
     std::printf("memory of a pool of %zu worlds on this map: %.1f MiB (%.3f MiB per world)\n",
                 slots.size(), mib, mib / static_cast<double>(slots.size()));
   }
+  if (csv.is_open()) {
+    spdlog::info("wrote {}", a.csv);
+    if (a.plot) return RunPlotScript("bench '" + a.csv + "'");
+  }
   return 0;
 }
 
@@ -313,6 +339,9 @@ void RegisterRun(CLI::App& app, int& exit_code) {
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();
   cmd->add_flag("--resume", args.resume, "continue the run stored in OUT/results.sqlite");
   cmd->add_flag("--quiet", args.quiet, "no progress line");
+  cmd->add_option("--set", args.set,
+                  "KEY=VALUE: change the experiment file's dotted KEY, e.g. --set "
+                  "budget.flights=10 --set repeats=2 (repeat as needed; --resume needs the same)");
   cmd->callback([&exit_code] { exit_code = Run(args); });
 }
 
@@ -340,6 +369,8 @@ void RegisterBench(CLI::App& app, int& exit_code) {
   cmd->add_option("--max-threads", args.max_threads, "largest thread count")->capture_default_str();
   cmd->add_option("--flights", args.flights, "flights per thread count")->capture_default_str();
   cmd->add_option("--resolves", args.resolves, "re-solves per thread count")->capture_default_str();
+  cmd->add_option("--csv", args.csv, "also write one row per thread count to this CSV file");
+  cmd->add_flag("--plot", args.plot, "draw the thread-scaling figure next to the CSV (PNG)");
   cmd->callback([&exit_code] { exit_code = Bench(args); });
 }
 

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "commands.hpp"
 #include "quadtune/engine/study.hpp"
@@ -22,6 +23,7 @@ void OnStudySignal(int) { g_study_interrupted.store(true); }
 
 struct StudyArgs {
   std::string file;
+  std::vector<std::string> set;  ///< --set KEY=VALUE edits of the study file
   std::string out = "results/study";
   int threads = 0;
   bool resume = false;
@@ -30,7 +32,7 @@ struct StudyArgs {
 };
 
 int RunStudyCommand(const StudyArgs& a) {
-  const engine::Study study = engine::Study::LoadFile(a.file);  // all errors before any work
+  const engine::Study study = engine::Study::LoadFile(a.file, a.set);  // all errors before any work
   spdlog::info("study '{}' ({}): {} point(s){}, {} stage(s), {} validation flights per tuned trial",
                study.name, a.file, study.labels.size(),
                study.sweep_key.empty() ? "" : " over " + study.sweep_key, study.stages.size(),
@@ -100,6 +102,9 @@ void RegisterStudy(CLI::App& app, int& exit_code) {
   cmd->add_flag("--resume", args.resume, "continue the stages stored in OUT");
   cmd->add_flag("--quiet", args.quiet, "no progress line");
   cmd->add_flag("!--no-plot", args.plot, "skip the figures");
+  cmd->add_option("--set", args.set,
+                  "KEY=VALUE: change the study file's dotted KEY, e.g. --set "
+                  "override.budget.flights=10 --set validation.flights=2 (repeatable)");
   cmd->callback([&exit_code] { exit_code = RunStudyCommand(args); });
 }
 

@@ -81,5 +81,39 @@ TEST(YamlMap, IntegerRejectsFraction) {
   EXPECT_THAT(ErrorOf([&] { (void)m.Integer("n"); }), HasSubstr("not an integer"));
 }
 
+TEST(ApplyAssignments, SetsNestedKeysListsAndNewKeys) {
+  const std::string text =
+      "budget: {flights: 100, batch: 2}\nstages:\n  - {name: a}\n  - {name: b, x: 1}\n";
+  const auto m = YamlMap::FromString(
+      ApplyAssignments(text,
+                       {"budget.flights=3", "stages.1.x=7", "stages.0.extra.deep=true",
+                        "list=[1, 2.5]", "seed=11"},
+                       "e.yaml"),
+      "e.yaml");
+  EXPECT_EQ(m.Map("budget").Integer("flights"), 3);
+  EXPECT_EQ(m.Map("budget").Integer("batch"), 2);  // untouched
+  EXPECT_EQ(m.Maps("stages")[1].Integer("x"), 7);
+  EXPECT_TRUE(m.Maps("stages")[0].Map("extra").Bool("deep"));
+  EXPECT_EQ(m.Numbers("list"), (std::vector<double>{1.0, 2.5}));
+  EXPECT_EQ(m.Integer("seed"), 11);
+  EXPECT_EQ(ApplyAssignments(text, {}, "e.yaml"), text);
+}
+
+TEST(ApplyAssignments, EachMalformedAssignmentNamesFileAndKey) {
+  const std::string text = "name: x\nstages: [{a: 1}]\n";
+  EXPECT_THAT(ErrorOf([&] { (void)ApplyAssignments(text, {"budget.flights"}, "e.yaml"); }),
+              HasSubstr("e.yaml: --set: 'budget.flights' is not KEY=VALUE"));
+  EXPECT_THAT(ErrorOf([&] { (void)ApplyAssignments(text, {"=3"}, "e.yaml"); }),
+              HasSubstr("is not KEY=VALUE"));
+  EXPECT_THAT(ErrorOf([&] { (void)ApplyAssignments(text, {"name.sub=3"}, "e.yaml"); }),
+              HasSubstr("e.yaml: --set name.sub: 'name.sub': 'name' is not a map"));
+  EXPECT_THAT(ErrorOf([&] { (void)ApplyAssignments(text, {"stages.4.a=3"}, "e.yaml"); }),
+              HasSubstr("'4' must be an index below 1 of a list"));
+  EXPECT_THAT(ErrorOf([&] { (void)ApplyAssignments(text, {"a..b=3"}, "e.yaml"); }),
+              HasSubstr("has an empty part"));
+  EXPECT_THAT(ErrorOf([&] { (void)ApplyAssignments(text, {"x=[1, 2"}, "e.yaml"); }),
+              HasSubstr("the value is not YAML"));
+}
+
 }  // namespace
 }  // namespace quadtune

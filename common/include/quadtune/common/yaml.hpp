@@ -99,4 +99,22 @@ class YamlMap {
 /// Configures an emitter so that doubles round-trip exactly (17 significant digits).
 void SetExactDoubles(YAML::Emitter& out);
 
+// ---- edits of YAML trees (studies, and `--set` on the command line) ----
+
+/// `over` merged onto a copy of `base`: maps merge key by key, anything else replaces.
+[[nodiscard]] YAML::Node YamlDeepMerge(const YAML::Node& base, const YAML::Node& over);
+/// The node as YAML text.
+[[nodiscard]] std::string YamlEmit(const YAML::Node& node);
+/// Sets the dotted `path` (e.g. "budget.flights") of the map `root` to `value`, creating absent
+/// parent maps. A parent that is not a map throws ConfigError(file, key, ...), as does an empty
+/// part; `key` names the setting that asked for it (e.g. "sweep.key", "--set").
+void YamlSetPath(YAML::Node root, const std::string& path, const YAML::Node& value,
+                 const std::string& file, const std::string& key);
+/// `text` (a YAML map, from `file`) with each "dotted.path=value" of `assignments` applied in
+/// order; the value is read as YAML ("3", "[1, 2]", "{a: 1}", "layouts/x.yaml"). A malformed
+/// assignment throws ConfigError(file, "--set", ...) naming it.
+[[nodiscard]] std::string ApplyAssignments(const std::string& text,
+                                           const std::vector<std::string>& assignments,
+                                           const std::string& file);
+
 }  // namespace quadtune

@@ -31,6 +31,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "quadtune/engine/experiment.hpp"
 #include "quadtune/engine/tuner.hpp"
@@ -77,7 +78,9 @@ class MpiSession {
 /// Rank 0 reads and checks `path`; the other ranks build the experiment from rank 0's text
 /// (relative paths inside resolve against the file's folder on every rank). A collective call.
 /// Throws ConfigError on the rank that could not load it and PeerError on the others.
-Experiment LoadExperimentShared(const MpiSession& mpi, const std::string& path);
+/// `assignments` are `--set` edits (Experiment::LoadFile), applied on rank 0.
+Experiment LoadExperimentShared(const MpiSession& mpi, const std::string& path,
+                                const std::vector<std::string>& assignments = {});
 
 /// How to run distributed.
 struct DistributedOptions {

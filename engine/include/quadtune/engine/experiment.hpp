@@ -115,6 +115,9 @@ struct Experiment {
 
   /// Reads and checks a file (relative paths inside resolve against its folder, then assets/).
   static Experiment LoadFile(const std::string& path);
+  /// As LoadFile, with "dotted.key=value" assignments (`quadtune run --set`) applied to the
+  /// file's text first (ApplyAssignments); the stored configuration is the edited text.
+  static Experiment LoadFile(const std::string& path, const std::vector<std::string>& assignments);
   /// Reads and checks text; `origin` names it in errors, `base_dir` resolves relative paths.
   static Experiment FromString(const std::string& text, const std::string& origin = "<string>",
                                const std::string& base_dir = ".");

@@ -64,6 +64,9 @@ struct Study {
   /// Reads and checks a study file: every point and stage is built into an Experiment (so every
   /// configuration error surfaces before any work), errors name the file and the key.
   static Study LoadFile(const std::string& path);
+  /// As LoadFile, with "dotted.key=value" assignments (`quadtune study --set`) applied to the
+  /// study file's text first, e.g. override.budget.flights=10 or validation.flights=2.
+  static Study LoadFile(const std::string& path, const std::vector<std::string>& assignments);
   /// The experiment of `point` and `stage`, with `start` (if not empty) as its `start:`.
   [[nodiscard]] Experiment Build(std::size_t point, std::size_t stage,
                                  const ParamValues& start = {}) const;

@@ -1,0 +1,59 @@
+#pragma once
+/// \file
+/// Helpers for tests that run the `quadtune` program end to end: run a command line, read the
+/// CSV files it writes.
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace quadtune::test {
+
+/// The `quadtune` program of this build.
+inline std::string QuadtuneBinary() {
+  return std::string(QUADTUNE_BINARY_DIR) + "/experiments/quadtune";
+}
+
+/// Runs `quadtune ARGS` through the shell with its output in `log`; returns the exit status.
+inline int RunQuadtune(const std::string& args, const std::filesystem::path& log) {
+  const std::string cmd = QuadtuneBinary() + " " + args + " > '" + log.string() + "' 2>&1";
+  const int status = std::system(cmd.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+/// The whole text of a file ("" when it cannot be read).
+inline std::string ReadText(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// Rows of a CSV file (no quoted commas) as maps column → text.
+inline std::vector<std::map<std::string, std::string>> ReadCsv(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  auto split = [](const std::string& s) {
+    std::vector<std::string> out;
+    std::stringstream ss(s);
+    std::string item;
+    while (std::getline(ss, item, ',')) out.push_back(item);
+    return out;
+  };
+  std::vector<std::map<std::string, std::string>> rows;
+  std::string line;
+  if (!std::getline(in, line)) return rows;
+  const std::vector<std::string> header = split(line);
+  while (std::getline(in, line)) {
+    const auto cells = split(line);
+    std::map<std::string, std::string> row;
+    for (std::size_t i = 0; i < header.size() && i < cells.size(); ++i) row[header[i]] = cells[i];
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+}  // namespace quadtune::test

@@ -1,0 +1,262 @@
+// Scaled-down runs of every experiment the project ships (paper Sec. IV), end to end through the
+// `quadtune` program with the real planner: the shipped files with small budgets (`--set`), then
+// the figures and tables, checked for completeness and sanity.
+//
+//   benchmark comparison    experiments/benchmark.yaml          run + plot run
+//   obstacle density        experiments/density_study.yaml      study (sweep + validation)
+//   refinement              experiments/refinement_study.yaml   study (stages, moving bounds)
+//   thread scaling          quadtune bench --csv --plot
+//   one flight              quadtune fly (top-down figure)
+// The changing-environment experiment has its own end-to-end test (test/adapt).
+#include <gtest/gtest.h>
+#include <sqlite3.h>
+#include <sys/wait.h>
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "../cli_util.hpp"
+
+namespace quadtune {
+namespace {
+
+namespace fs = std::filesystem;
+using test::ReadCsv;
+using test::ReadText;
+using test::RunQuadtune;
+
+const std::string kExperiments = std::string(QUADTUNE_SOURCE_DIR) + "/experiments/";
+
+fs::path Fresh(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("quadtune_paper_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+/// A PNG file with content (a drawn figure is tens of kilobytes).
+void ExpectFigure(const fs::path& png) {
+  ASSERT_TRUE(fs::exists(png)) << png;
+  EXPECT_GT(fs::file_size(png), 15000u) << png;
+  std::ifstream in(png, std::ios::binary);
+  char magic[8] = {};
+  in.read(magic, 8);
+  EXPECT_EQ(std::string(magic + 1, 3), "PNG") << png;
+}
+
+double Number(const std::map<std::string, std::string>& row, const std::string& key) {
+  const auto it = row.find(key);
+  EXPECT_NE(it, row.end()) << key;
+  return it == row.end() ? std::nan("") : std::stod(it->second);
+}
+
+/// Rows of one SQL query (every column as text).
+std::vector<std::vector<std::string>> Query(const fs::path& db, const std::string& sql) {
+  sqlite3* h = nullptr;
+  std::vector<std::vector<std::string>> rows;
+  if (sqlite3_open_v2(db.c_str(), &h, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
+    ADD_FAILURE() << "cannot open " << db;
+    sqlite3_close(h);
+    return rows;
+  }
+  sqlite3_stmt* st = nullptr;
+  EXPECT_EQ(sqlite3_prepare_v2(h, sql.c_str(), -1, &st, nullptr), SQLITE_OK) << sqlite3_errmsg(h);
+  while (st != nullptr && sqlite3_step(st) == SQLITE_ROW) {
+    std::vector<std::string> row;
+    for (int c = 0; c < sqlite3_column_count(st); ++c) {
+      const auto* text = sqlite3_column_text(st, c);
+      row.emplace_back(text != nullptr ? reinterpret_cast<const char*>(text) : "");
+    }
+    rows.push_back(std::move(row));
+  }
+  sqlite3_finalize(st);
+  sqlite3_close(h);
+  return rows;
+}
+
+// Paper Sec. IV-A: five methods, repeats on maps of identical density, best-so-far curves, f_l
+// per flight, f_s counts and a summary table with Mann–Whitney U tests.
+TEST(PaperExperiments, BenchmarkComparisonScaledDown) {
+  const fs::path dir = Fresh("benchmark");
+  const std::string out = (dir / "run").string();
+  ASSERT_EQ(RunQuadtune("--log-level warn run " + kExperiments + "benchmark.yaml --out " + out +
+                            " --quiet --set repeats=2 --set budget.flights=3 "
+                            "--set budget.default_flights=2 --set budget.short_evals_per_flight=4 "
+                            "--set budget.queries_per_eval=2 --set pso.num_particles=4 "
+                            "--set bo.initial_design_size=2",
+                        dir / "run.log"),
+            0)
+      << ReadText(dir / "run.log");
+  const fs::path db = fs::path(out) / "results.sqlite";
+  // Every trial finished, with the budget's flights; bo_pso also scored θ_s by re-solves.
+  const auto trials = Query(db, "SELECT method, repeat, status FROM trial ORDER BY id");
+  ASSERT_EQ(trials.size(), 10u);
+  std::map<std::string, int> per_method;
+  for (const auto& t : trials) {
+    EXPECT_EQ(t[2], "done") << t[0];
+    ++per_method[t[0]];
+  }
+  for (const char* m : {"default", "random", "pso", "bo", "bo_pso"}) EXPECT_EQ(per_method[m], 2);
+  for (const auto& row : Query(db, "SELECT t.method, COUNT(*) FROM evaluation e JOIN trial t "
+                                   "ON e.trial_id = t.id WHERE e.kind = 'long' GROUP BY t.id")) {
+    EXPECT_EQ(std::stoi(row[1]), row[0] == "default" ? 2 : 3) << row[0];
+  }
+  const auto shorts = Query(db, "SELECT COUNT(*) FROM evaluation WHERE kind = 'short'");
+  ASSERT_EQ(shorts.size(), 1u);
+  EXPECT_GE(std::stoi(shorts[0][0]), 2 * 3 * 4);  // bo_pso: 4 candidates per flight (and more)
+  for (const auto& row : Query(db, "SELECT value, status FROM evaluation")) {
+    EXPECT_TRUE(std::isfinite(std::stod(row[0])));
+  }
+
+  ASSERT_EQ(RunQuadtune("plot run " + out, dir / "plot.log"), 0) << ReadText(dir / "plot.log");
+  ExpectFigure(fs::path(out) / "tuning.png");
+  const auto table = ReadCsv(fs::path(out) / "tuning.csv");
+  ASSERT_EQ(table.size(), 5u);
+  std::set<std::string> methods;
+  for (const auto& r : table) {
+    methods.insert(r.at("method"));
+    EXPECT_EQ(Number(r, "repeats"), 2.0);
+    const double final_mean = Number(r, "final_mean");
+    EXPECT_TRUE(std::isfinite(final_mean) && final_mean > 0.0) << r.at("method");
+    EXPECT_LE(Number(r, "final_min"), final_mean + 1e-9);
+    if (r.at("method") != "default") EXPECT_LE(Number(r, "flights_to_90pct"), 3.0);
+  }
+  EXPECT_EQ(methods, (std::set<std::string>{"default", "random", "pso", "bo", "bo_pso"}));
+  const std::string md = ReadText(fs::path(out) / "tuning.md");
+  for (const char* label : {"Default", "Random", "PSO only", "BO only", "BO+PSO", "p vs Default"}) {
+    EXPECT_NE(md.find(label), std::string::npos) << label;
+  }
+}
+
+// Paper Sec. IV-B2: tune at several densities, then validation flights of the tuned parameters
+// (and the defaults) on new maps; flight time, emergency stops, evaluations to 90% of optimum.
+TEST(PaperExperiments, DensityStudyScaledDown) {
+  const fs::path dir = Fresh("density");
+  const std::string out = (dir / "study").string();
+  ASSERT_EQ(RunQuadtune("--log-level warn study " + kExperiments + "density_study.yaml --out " +
+                            out +
+                            " --quiet --set override.repeats=1 --set override.budget.flights=3 "
+                            "--set override.budget.short_evals_per_flight=4 "
+                            "--set override.budget.queries_per_eval=2 "
+                            "--set override.bo.initial_design_size=2 "
+                            "--set override.pso.num_particles=4 --set validation.flights=2 "
+                            "--set 'sweep.values=[layouts/forest_3p0.yaml, layouts/forest_0p9.yaml]' "
+                            "--set 'sweep.labels=[\"3.0\", \"0.9\"]'",
+                        dir / "study.log"),
+            0)
+      << ReadText(dir / "study.log");
+  const auto rows = ReadCsv(fs::path(out) / "study.csv");
+  ASSERT_EQ(rows.size(), 2u);
+  for (const auto& r : rows) {
+    EXPECT_EQ(r.at("method"), "bo_pso");
+    EXPECT_EQ(Number(r, "validation_flights"), 2.0);
+    EXPECT_GT(Number(r, "flight_time_mean"), 5.0);
+    EXPECT_GT(Number(r, "default_flight_time_mean"), 5.0);
+    EXPECT_GE(Number(r, "max_emergency_stops"), 0.0);
+    EXPECT_GE(Number(r, "long_evals_to_90pct_mean"), 1.0);
+    EXPECT_LE(Number(r, "long_evals_to_90pct_mean"), 3.0);
+    EXPECT_GE(Number(r, "short_evals_to_90pct_mean"), 0.0);
+  }
+  // Validation: 2 flights × (1 tuned trial + the defaults) per density, all on new maps.
+  const auto flights = ReadCsv(fs::path(out) / "validation.csv");
+  EXPECT_EQ(flights.size(), 2u * 2u * 2u);
+  ExpectFigure(fs::path(out) / "study_sweep.png");
+  EXPECT_NE(ReadText(fs::path(out) / "study.md").find("90% optimum"), std::string::npos);
+  for (const char* label : {"3.0", "0.9"}) {
+    EXPECT_TRUE(fs::exists(fs::path(out) / label / "tuning" / "results.sqlite")) << label;
+  }
+}
+
+// Paper Sec. III-E/IV-C: tune in a low-fidelity world, refine in a high-fidelity one inside
+// damped moving bounds around the low-fidelity optimum; both drones.
+TEST(PaperExperiments, RefinementStudyScaledDown) {
+  const fs::path dir = Fresh("refinement");
+  const std::string out = (dir / "study").string();
+  ASSERT_EQ(RunQuadtune("--log-level warn study " + kExperiments + "refinement_study.yaml --out " +
+                            out +
+                            " --quiet --set override.budget.flights=3 "
+                            "--set override.bo.initial_design_size=2 "
+                            "--set stages.1.override.budget.flights=3 "
+                            "--set stages.1.override.bo.initial_design_size=1 "
+                            "--set validation.flights=1",
+                        dir / "study.log"),
+            0)
+      << ReadText(dir / "study.log");
+  const nlohmann::json study = nlohmann::json::parse(ReadText(fs::path(out) / "study.json"));
+  ASSERT_EQ(study["points"].size(), 2u);  // research_1kg and agile_small
+  for (const auto& point : study["points"]) {
+    const std::string label = point["label"];
+    ASSERT_EQ(point["stages"].size(), 2u) << label;
+    const auto& low = point["stages"][0];
+    const auto& high = point["stages"][1];
+    EXPECT_EQ(high["start_from"], "low_fidelity");
+    EXPECT_EQ(high["start"], low["best"]) << label;
+    // The high-fidelity search starts inside start ± half_width (unit-cube widths, 0.1) of
+    // every parameter: its first flight's parameters lie there.
+    const fs::path db = fs::path(out) / std::string(high["store"]);
+    const auto first = Query(db, "SELECT params FROM evaluation WHERE kind = 'long' ORDER BY "
+                                 "iteration, idx LIMIT 1");
+    ASSERT_EQ(first.size(), 1u) << label;
+    const nlohmann::json params = nlohmann::json::parse(first[0][0]);
+    for (const auto& p : high["space"]) {
+      const std::string name = p["name"];
+      const double lo = p["lower"], hi = p["upper"];
+      const bool log = p["log"];
+      auto unit = [&](double v) {
+        return log ? (std::log(v) - std::log(lo)) / (std::log(hi) - std::log(lo))
+                   : (v - lo) / (hi - lo);
+      };
+      const double u_start = unit(high["start"][name].get<double>());
+      const double u_first = unit(params[name].get<double>());
+      const double slack = name == "n_pol" ? 0.5 / (hi - lo) : 1e-9;  // integer rounding
+      EXPECT_LE(std::abs(u_first - u_start), 0.1 + slack) << label << " " << name;
+    }
+    ExpectFigure(fs::path(out) / ("refinement_" + label + ".png"));
+  }
+  // Validation in the high-fidelity world: defaults, low-fidelity best, refined best per drone.
+  const auto flights = ReadCsv(fs::path(out) / "validation.csv");
+  EXPECT_EQ(flights.size(), 2u * 3u);
+  for (const auto& f : flights) EXPECT_GT(Number(f, "flight_time"), 0.0);
+}
+
+// Thread scaling: flights/s and short-term evaluations/s per thread count, with the figure.
+TEST(PaperExperiments, ThreadScalingWritesCsvAndFigure) {
+  const fs::path dir = Fresh("scaling");
+  const fs::path csv = dir / "bench.csv";
+  ASSERT_EQ(RunQuadtune("--log-level warn bench " + kExperiments + "tiny.yaml --max-threads 2 "
+                            "--flights 2 --resolves 40 --csv " + csv.string() + " --plot",
+                        dir / "bench.log"),
+            0)
+      << ReadText(dir / "bench.log");
+  const auto rows = ReadCsv(csv);
+  ASSERT_EQ(rows.size(), 2u);
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    EXPECT_EQ(Number(rows[i], "threads"), static_cast<double>(i + 1));
+    EXPECT_GT(Number(rows[i], "flights_per_s"), 0.0);
+    EXPECT_GT(Number(rows[i], "resolves_per_s"), 0.0);
+    EXPECT_GT(Number(rows[i], "mixed_speedup"), 0.0);
+  }
+  ExpectFigure(dir / "bench.png");
+}
+
+// Any flight: a top-down figure of the layout with the flown and the planned trajectories.
+TEST(PaperExperiments, FlightWritesTopDownFigure) {
+  const fs::path dir = Fresh("flight");
+  ASSERT_EQ(RunQuadtune("--log-level warn fly --spacing 3.0 --seed 2 --out " +
+                            (dir / "f").string(),
+                        dir / "fly.log"),
+            0)
+      << ReadText(dir / "fly.log");
+  ExpectFigure(dir / "f" / "flight_topdown.png");
+  const nlohmann::json summary = nlohmann::json::parse(ReadText(dir / "f" / "summary.json"));
+  EXPECT_EQ(summary["status"], "completed");
+  EXPECT_GT(ReadCsv(dir / "f" / "plans.csv").size(), 50u);
+}
+
+}  // namespace
+}  // namespace quadtune
