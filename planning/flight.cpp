@@ -237,6 +237,23 @@ void WriteFlightFiles(const std::string& directory, const FlightResult& result,
     }
   }
   {
+    // One row per planning step: what the planner decided and why a step failed.
+    std::ofstream out(dir / "plan_steps.csv");
+    out.precision(9);
+    out << "time,ok,collision_triggered,failed_attempts,status,solve_time_s,compute_units,"
+           "min_clearance,duration,message\n";
+    for (const auto& p : result.plans) {
+      std::string message = p.message;
+      for (char& ch : message) {
+        if (ch == ',' || ch == '\n') ch = ';';
+      }
+      out << p.time << ',' << (p.ok ? 1 : 0) << ',' << (p.collision_triggered ? 1 : 0) << ','
+          << p.failed_attempts << ',' << ToString(p.status) << ',' << p.solve_time_s << ','
+          << p.compute_units << ',' << p.min_clearance << ',' << p.duration << ',' << message
+          << '\n';
+    }
+  }
+  {
     nlohmann::json j;
     j["cylinders"] = nlohmann::json::array();
     for (const auto& c : obstacles.cylinders) {

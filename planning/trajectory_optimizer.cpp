@@ -427,7 +427,11 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     result.trajectory = problem.ToTrajectory(z);
     result.duration = result.trajectory.Duration();
 
-    // Post-solve check on dense samples.
+    // Post-solve check on dense samples. A plan keeps inflation + collision_margin from every
+    // obstacle; one that starts closer than that (after a disturbance, a collision or an
+    // emergency stop) must not come closer than its start, or no plan could ever leave.
+    const double required_clearance = std::min(params.inflation + options_.collision_margin,
+                                               field.Evaluate(request.p0_W, nullptr));
     result.min_clearance = std::numeric_limits<double>::infinity();
     for (const auto& s : result.trajectory.Sample(options_.check_dt)) {
       result.max_speed = std::max(result.max_speed, s.v_W.norm());
@@ -446,11 +450,10 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     } else if (!converged) {
       result.status = PlanStatus::kSolverFailure;
       result.message = "Ipopt failed with status " + std::to_string(result.ipopt_status);
-    } else if (result.min_clearance < params.inflation + options_.collision_margin) {
+    } else if (result.min_clearance < required_clearance) {
       result.status = PlanStatus::kCollision;
       result.message = "trajectory passes " + std::to_string(result.min_clearance) +
-                       " m from an obstacle (needs inflation + collision_margin = " +
-                       std::to_string(params.inflation + options_.collision_margin) + " m)";
+                       " m from an obstacle (needs " + std::to_string(required_clearance) + " m)";
     } else if (result.max_speed > params.v_des * (1.0 + options_.limit_tolerance) ||
                result.max_acceleration > params.a_max * (1.0 + options_.limit_tolerance)) {
       result.status = PlanStatus::kDynamicsViolated;

@@ -130,8 +130,9 @@ struct FlightHooks {
                                const TrajectoryOptimizer& optimizer, const FlightHooks& hooks = {});
 
 /// Writes a flight for people and plots into `directory` (created): flight.csv (state log),
-/// plans.csv (planned trajectories sampled at 0.05 s), obstacles.json, summary.json (metrics,
-/// start and goal). The figure script reads these.
+/// plans.csv (planned trajectories sampled at 0.05 s), plan_steps.csv (every planning step:
+/// outcome, failed attempts, status, t_c, failure message), obstacles.json, summary.json
+/// (metrics, start and goal). The figure script reads these.
 void WriteFlightFiles(const std::string& directory, const FlightResult& result,
                       const physics::ObstacleSet& obstacles, const Mission& mission);
 

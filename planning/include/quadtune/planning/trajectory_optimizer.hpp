@@ -91,7 +91,8 @@ struct TrajectoryOptimizerOptions {
   /// max|v| <= v_des (1 + tol) and max|a| <= a_max (1 + tol). >= 0.
   double limit_tolerance = 0.05;
   /// A check sample closer than params.inflation + collision_margin (m) to an obstacle is a
-  /// collision (the inflation is the drone's safety radius). >= 0.
+  /// collision (the inflation is the drone's safety radius); a plan that starts closer than that
+  /// must not come closer than its start. >= 0.
   double collision_margin = 0.0;
   double collision_scale = 100.0;    ///< κ_col of MinJerkCostParams, > 0
   double feasibility_scale = 1000.0;  ///< κ_dyn of MinJerkCostParams, > 0
