@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <memory>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -39,9 +40,13 @@ struct RunArgs {
   bool quiet = false;
 };
 
-/// The progress line (a tty: rewritten in place; otherwise a debug log line).
-std::function<void(const engine::Progress&)> ProgressPrinter(bool tty) {
-  return [tty](const engine::Progress& p) {
+/// The progress line: on a terminal rewritten in place at every update; otherwise (a log file,
+/// a cluster job) an info log line at most every 30 s and whenever a trial ends, so long runs
+/// show progress without flooding the log. `quiet`: none at all.
+std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quiet = false) {
+  auto last = std::make_shared<std::chrono::steady_clock::time_point>();
+  return [tty, quiet, last](const engine::Progress& p) {
+    if (quiet) return;
     const double done = p.trials_done + static_cast<double>(p.flights_done) / p.flights_total;
     const double eta = done > 0 ? p.elapsed_s * (p.trials_total - done) / done : 0.0;
     const double rate = p.elapsed_s > 0 ? static_cast<double>(p.short_evals) / p.elapsed_s : 0.0;
@@ -54,8 +59,12 @@ std::function<void(const engine::Progress&)> ProgressPrinter(bool tty) {
     if (tty) {
       std::fprintf(stderr, "\r\033[K%s", line.c_str());
       std::fflush(stderr);
-    } else {
-      spdlog::debug("{}", line);
+      return;
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (p.flights_done == p.flights_total || now - *last >= std::chrono::seconds(30)) {
+      *last = now;
+      spdlog::info("{}", line);
     }
   };
 }
@@ -120,7 +129,7 @@ int RunMpi(const RunArgs& a) {
     if (rank == 0) {
       fs::create_directories(a.out);
       options.run.store_path = store;
-      options.run.on_progress = ProgressPrinter(tty);
+      options.run.on_progress = ProgressPrinter(tty, a.quiet);
       std::error_code ec;
       const fs::path self = fs::read_symlink("/proc/self/exe", ec);
       std::string sets;
@@ -184,7 +193,7 @@ int Run(const RunArgs& a) {
                e.budget.flights, threads,
                e.mode == engine::TimingMode::kRealtime ? "realtime" : "reproducible",
                a.resume ? ", resuming" : "");
-  options.on_progress = ProgressPrinter(tty);
+  options.on_progress = ProgressPrinter(tty, a.quiet);
   const engine::RunSummary s = engine::RunExperiment(e, options);
   return Finish(s, a, store, tty);
 }

@@ -42,10 +42,9 @@ PlanOutcome SolveQuery(const TrajectoryOptimizer& optimizer, const PlanningQuery
   PlanOutcome out;
   const int attempts = std::max(1, params.max_attempts);
   for (int k = 0; k < attempts; ++k) {
-    PlannerParams p = params;
-    if (k >= 2) p.v_des = params.v_des * std::pow(retry_slowdown, k - 1);
-    const PlanRequest request = query.ToRequest(/*use_warm_start=*/k == 0);
-    PlanResult r = optimizer.Solve(request, query.field, p);
+    PlanRequest request = query.ToRequest(/*use_warm_start=*/k == 0);
+    if (k >= 2) request.speed_scale = std::pow(retry_slowdown, k - 1);
+    PlanResult r = optimizer.Solve(request, query.field, params);
     out.attempts = k + 1;
     out.solve_time_s += r.solve_time_s;
     out.compute_units += r.compute_units;

@@ -307,7 +307,8 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     } catch (const std::exception& e) {
       return Invalid(e.what());
     }
-    const Eigen::Vector3d vf = request.goal_v_W.value_or(Eigen::Vector3d::Zero());
+    const Eigen::Vector3d vf =
+        request.speed_scale * request.goal_v_W.value_or(Eigen::Vector3d::Zero());
     if (!request.p0_W.allFinite() || !request.v0_W.allFinite() || !request.a0_W.allFinite() ||
         !request.goal_W.allFinite() || !vf.allFinite()) {
       return Invalid("start state or goal is not finite");
@@ -317,6 +318,9 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     }
     if (!(request.warm_start_time >= 0.0) || !std::isfinite(request.warm_start_time)) {
       return Invalid("warm_start_time must be finite and >= 0");
+    }
+    if (!(request.speed_scale > 0.0 && request.speed_scale <= 1.0)) {
+      return Invalid("speed_scale must be in (0, 1]");
     }
 
     // Path start → goal through the front-end's points.
@@ -331,7 +335,8 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
 
     const int n_pieces = params.n_pol;
     const std::vector<double> nominal =
-        AllocateTime(path, n_pieces, request.v0_W.norm(), vf.norm(), params.v_des, params.a_max);
+        AllocateTime(path, n_pieces, request.v0_W.norm(), vf.norm(),
+                     request.speed_scale * params.v_des, params.a_max);
     const double piece_length = length / n_pieces;
     const int samples =
         std::clamp(static_cast<int>(std::ceil(piece_length / options_.sample_spacing)),
@@ -344,6 +349,7 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     boundary.pf_W = request.goal_W;
     boundary.vf_W = vf;
     MinJerkCostParams cost_params = MinJerkCostParams::FromPlannerParams(params);
+    cost_params.v_max = request.speed_scale * params.v_des;  // the check keeps params.v_des
     cost_params.collision_scale = options_.collision_scale;
     cost_params.feasibility_scale = options_.feasibility_scale;
     const MinJerkProblem problem(boundary, nominal,

@@ -51,6 +51,24 @@ TEST(Objectives, ShortTermSolveTimeUsesComputeUnitsInReproducibleMode) {
   EXPECT_DOUBLE_EQ(ShortTermObjective(s, o, TimingMode::kRealtime).value, 2.0 * 0.005 + 0.5);
 }
 
+TEST(Objectives, SolveTimeClearanceTermIsOffUnlessGiven) {
+  ResolveRecord s;
+  s.success = true;
+  s.compute_units = 30.0;  // 3 ms
+  s.failed_attempts = 0;
+  s.min_clearance = 0.3;
+  const ObjectiveOptions paper =
+      ObjectiveOptions::FromYaml(YamlMap::FromString("short_term: {kind: solve_time}\n", "o.yaml"));
+  EXPECT_DOUBLE_EQ(ShortTermObjective(s, paper, TimingMode::kReproducible).value, 0.003);
+  const ObjectiveOptions with_c = ObjectiveOptions::FromYaml(YamlMap::FromString(
+      "short_term: {kind: solve_time, w_c: 0.1, clearance: 0.5}\n", "o.yaml"));
+  const auto v = ShortTermObjective(s, with_c, TimingMode::kReproducible);
+  EXPECT_DOUBLE_EQ(v.terms.at("J_c"), 0.2 * 0.2);
+  EXPECT_DOUBLE_EQ(v.value, 0.003 + 0.1 * 0.04);
+  s.min_clearance = 0.6;  // beyond C: no penalty
+  EXPECT_DOUBLE_EQ(ShortTermObjective(s, with_c, TimingMode::kReproducible).value, 0.003);
+}
+
 TEST(Objectives, ChangingEnvironmentPenalisesClearanceBelowDesired) {
   ObjectiveOptions o;
   o.short_kind = ObjectiveOptions::ShortKind::kChangingEnvironment;

@@ -8,6 +8,9 @@
 #   mpi_run_test.sh kill QUADTUNE MPIEXEC WORKDIR
 #       rank 1 is killed (SIGKILL) mid-run: rank 0 reports it, the store is partial and
 #       `--resume` on 2 ranks completes it to the uninterrupted run's results.
+#   mpi_run_test.sh ipopt QUADTUNE MPIEXEC WORKDIR SOURCE_DIR
+#       as `equal`, with the real planner: experiments/tiny.yaml (Bullet flights, Ipopt solves),
+#       three methods × two repeats.
 #
 # Runs as root too (--allow-run-as-root), and on fewer cores than ranks (--oversubscribe).
 set -euo pipefail
@@ -61,16 +64,21 @@ same_results() {  # same_results DIR_A DIR_B
   cmp -s "$1/evaluations.txt" "$2/evaluations.txt" && cmp -s "$1/trials.txt" "$2/trials.txt"
 }
 
+experiment=(toy.yaml)
+if [[ $mode == ipopt ]]; then
+  experiment=("$5/experiments/tiny.yaml" --set 'methods=[default, random, bo_pso]' --set repeats=2)
+fi
+
 # The single-process reference.
-"$quadtune" --log-level warn run toy.yaml --out one --threads 1 --quiet
+"$quadtune" --log-level warn run "${experiment[@]}" --out one --threads 1 --quiet
 export_store one
 rows=$(($(wc -l < one/evaluations.txt) - 1))
 echo "1 process: $rows evaluations"
-(( rows > 100 ))
+(( rows > 30 ))
 
-if [[ $mode == equal ]]; then
-  "${mpi[@]}" "$quadtune" --log-level debug run toy.yaml --out two --threads 1 --quiet \
-    > two.log 2>&1 || { cat two.log; exit 1; }
+if [[ $mode == equal || $mode == ipopt ]]; then
+  "${mpi[@]}" "$quadtune" --log-level debug run "${experiment[@]}" --out two --threads 1 \
+    --quiet > two.log 2>&1 || { cat two.log; exit 1; }
   export_store two
   # Both ranks ran trials (rank 0 logs the trials the other ranks finished).
   grep -q "(rank 1)" two.log || { cat two.log; echo "rank 1 ran no trial"; exit 1; }

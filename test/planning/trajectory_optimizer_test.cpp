@@ -178,6 +178,29 @@ TEST(TrajectoryOptimizer, RespectsVelocityAndAccelerationLimits) {
   EXPECT_LT((r.trajectory.Acceleration(0.0) - request.a0_W).norm(), 1e-9);
 }
 
+TEST(TrajectoryOptimizer, SpeedScaleSlowsTheAllocationAndKeepsTheLimits) {
+  // A retry after a plan over the limits plans slower (speed_scale) but is checked against the
+  // real v_des and a_max, and its goal velocity slows down alike.
+  const EmptyField field;
+  const TrajectoryOptimizer optimizer;
+  PlannerParams params;
+  params.v_des = 2.0;
+  PlanRequest request = StraightRequest();
+  request.goal_v_W = Eigen::Vector3d(2.0, 0.0, 0.0);
+  const PlanResult full = optimizer.Solve(request, field, params);
+  request.speed_scale = 0.75;
+  const PlanResult slow = optimizer.Solve(request, field, params);
+  ASSERT_EQ(slow.status, PlanStatus::kSuccess) << slow.message;
+  EXPECT_GT(slow.duration, full.duration * 1.15);
+  EXPECT_LT((slow.trajectory.Velocity(slow.duration) - Eigen::Vector3d(1.5, 0.0, 0.0)).norm(),
+            1e-6);
+  EXPECT_LE(slow.max_speed, 0.75 * params.v_des * 1.05);
+  for (double bad : {0.0, -0.5, 1.5, std::nan("")}) {
+    request.speed_scale = bad;
+    EXPECT_EQ(optimizer.Solve(request, field, params).status, PlanStatus::kInvalidInput) << bad;
+  }
+}
+
 TEST(TrajectoryOptimizer, TrajectoryIsContinuousToAcceleration) {
   const CylinderField field = ThreePillars();
   const TrajectoryOptimizer optimizer;

@@ -3,7 +3,8 @@
 /// The objectives, as weighted terms whose weights come from the experiment file.
 ///
 /// - Short-term, solve-time kind (paper Sec. III-D): f_s = w_t J_t + w_s J_s with
-///   J_t = t_c + w_τ max(0, t_c − τ_t)² and J_s = n_s.
+///   J_t = t_c + w_τ max(0, t_c − τ_t)² and J_s = n_s; optionally + w_c J_c (the clearance
+///   penalty below), off unless short_term.w_c is given.
 /// - Short-term, changing-environment kind (paper Sec. IV-B): f_s = w_t t_exe + w_p ∫jerk² +
 ///   w_c J_c with J_c = (C − c_obs)² when c_obs < C, else 0.
 /// - Long-term (paper Sec. IV-A): f_l = t_f + t_f·n_c + w_e·n_e.
@@ -35,6 +36,9 @@ struct ObjectiveOptions {
   double tau_t = 0.05;     ///< short_term.tau_t > 0, real-time threshold τ_t (s)
   double w_p = 0.01;       ///< short_term.w_p >= 0, jerk weight (changing environment)
   double w_c = 100.0;      ///< short_term.w_c >= 0, clearance weight (changing environment)
+  /// short_term.w_c with kind solve_time, >= 0: weight of an optional extra term w_c J_c of the
+  /// solve-time f_s (0, the paper's f_s, unless given).
+  double w_c_solve = 0.0;
   double clearance = 0.5;  ///< short_term.clearance > 0, desired clearance C (m)
   double unit_time = 1e-4; ///< short_term.unit_time > 0: seconds per compute unit (reproducible)
   double w_e = 5.0;        ///< long_term.w_e >= 0 (s per emergency stop)

@@ -77,7 +77,8 @@ struct LocalPlannerOptions {
   EsdfOptions esdf;
   /// The distance-field box is the path's bounding box widened by clearance + this (m), >= 0.
   double field_margin = 1.0;
-  /// Slow-down of the time allocation per extra retry: v_des · factor^(k−1) on attempt k ≥ 2.
+  /// Slow-down of the time allocation per extra retry: speed_scale = factor^(k−1) on attempt
+  /// k ≥ 2 (the limits stay v_des and a_max).
   double retry_slowdown = 0.75;
 
   /// Throws ConfigError(origin, key, ...) for the first bad field.
@@ -86,7 +87,8 @@ struct LocalPlannerOptions {
 
 /// Solves a recorded query with short-term parameters θ_s (the rest of `params` is used as
 /// given). Attempt 0 warm-starts from the previous trajectory when there is one; attempt 1 starts
-/// cold; attempt k ≥ 2 also slows the allocation (v_des · retry_slowdown^(k−1)). Stops at the
+/// cold; attempt k ≥ 2 also slows the allocation (PlanRequest::speed_scale = retry_slowdown^(k−1),
+/// the limits stay v_des and a_max). Stops at the
 /// first success or after params.max_attempts. Never throws for solver failures.
 ///
 /// Thread safety: safe to call concurrently (TrajectoryOptimizer::Solve is).

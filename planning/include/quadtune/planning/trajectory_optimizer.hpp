@@ -58,6 +58,11 @@ struct PlanRequest {
   /// corresponds to this query's start. Not owned; must outlive the Solve() call.
   const Trajectory* warm_start = nullptr;
   double warm_start_time = 0.0;  ///< (s), >= 0
+  /// Slow-down, (0, 1]: the time allocation flies the path at speed_scale · v_des, the
+  /// feasibility penalty holds |v| below speed_scale · v_des and the goal velocity is scaled
+  /// alike. The success check keeps v_des and a_max: a retry after a plan over the limits plans
+  /// slower, and is judged by the real limits, not the reduced ones.
+  double speed_scale = 1.0;
 };
 
 /// Solver settings (not tuned by the experiments).
