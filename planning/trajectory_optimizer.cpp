@@ -21,6 +21,9 @@ namespace {
 using Ipopt::Index;
 using Ipopt::Number;
 
+// Largest stretch (and compression) of the nominal time allocation a solution may have.
+constexpr double kMaxTimeScale = 100.0;
+
 // Cumulative arc length of a polyline.
 std::vector<double> ArcLengths(const std::vector<Eigen::Vector3d>& path) {
   std::vector<double> s(path.size(), 0.0);
@@ -430,6 +433,18 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     }
     const Eigen::VectorXd& z = tnlp->Final();
     result.cost = problem.Evaluate(z, nullptr, nullptr);
+    // A diverged time scale (the last iterate of a failed solve) is reported, not sampled: a
+    // trajectory stretched 10^6 times would take gigabytes of check samples.
+    const double time_scale = MinJerkProblem::TimeScale(z);
+    if (!std::isfinite(time_scale) || time_scale > kMaxTimeScale ||
+        time_scale < 1.0 / kMaxTimeScale) {
+      result.status = PlanStatus::kSolverFailure;
+      result.message = "time scale " + std::to_string(time_scale) +
+                       " of the nominal allocation is out of range (Ipopt status " +
+                       std::to_string(result.ipopt_status) + ")";
+      result.solve_time_s = elapsed();
+      return result;
+    }
     result.trajectory = problem.ToTrajectory(z);
     result.duration = result.trajectory.Duration();
 
@@ -439,11 +454,17 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     const double required_clearance = std::min(params.inflation + options_.collision_margin,
                                                field.Evaluate(request.p0_W, nullptr));
     result.min_clearance = std::numeric_limits<double>::infinity();
-    for (const auto& s : result.trajectory.Sample(options_.check_dt)) {
-      result.max_speed = std::max(result.max_speed, s.v_W.norm());
-      result.max_acceleration = std::max(result.max_acceleration, s.a_W.norm());
-      result.min_clearance = std::min(result.min_clearance, field.Evaluate(s.p_W, nullptr));
+    const auto check = [&](double t) {
+      result.max_speed = std::max(result.max_speed, result.trajectory.Velocity(t).norm());
+      result.max_acceleration =
+          std::max(result.max_acceleration, result.trajectory.Acceleration(t).norm());
+      result.min_clearance =
+          std::min(result.min_clearance, field.Evaluate(result.trajectory.Position(t), nullptr));
+    };
+    for (long k = 0; static_cast<double>(k) * options_.check_dt < result.duration; ++k) {
+      check(static_cast<double>(k) * options_.check_dt);
     }
+    check(result.duration);
 
     if (!std::isfinite(result.cost.total) || !std::isfinite(result.max_speed) ||
         ipopt_status == Ipopt::Invalid_Number_Detected) {

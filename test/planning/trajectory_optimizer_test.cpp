@@ -201,6 +201,23 @@ TEST(TrajectoryOptimizer, SpeedScaleSlowsTheAllocationAndKeepsTheLimits) {
   }
 }
 
+TEST(TrajectoryOptimizer, DivergingTimeScaleIsReportedNotSampled) {
+  // Without a time weight only the tolerance stops the optimiser from stretching the trajectory
+  // (jerk ∝ τ^-5): the result is either a failure naming the time scale, with no trajectory
+  // built or sampled, or a trajectory at most kMaxTimeScale = 100 times the nominal ≈ 4.5 s.
+  const EmptyField field;
+  const TrajectoryOptimizer optimizer;
+  PlannerParams params;
+  params.w_time = 0.0;
+  const PlanResult r = optimizer.Solve(StraightRequest(), field, params);
+  if (r.status == PlanStatus::kSolverFailure) {
+    EXPECT_NE(r.message.find("time scale"), std::string::npos) << r.message;
+    EXPECT_TRUE(r.trajectory.Empty());
+  } else {
+    EXPECT_LT(r.duration, 100.0 * 4.5) << ToString(r.status) << ": " << r.message;
+  }
+}
+
 TEST(TrajectoryOptimizer, TrajectoryIsContinuousToAcceleration) {
   const CylinderField field = ThreePillars();
   const TrajectoryOptimizer optimizer;
