@@ -4,8 +4,8 @@
 #
 # 1. The default experiment (experiments/default.yaml): the paper's complementary tuner (BO on the
 #    long-term parameters from flights, PSO on the short-term parameters from recorded planning
-#    queries) against the planner's defaults, on go-and-return flights through a 1.3 m forest.
-#    Results in SQLite, a convergence figure and a table.
+#    queries) against BO alone and against the planner's defaults, on go-and-return flights
+#    through a 1.3 m forest, two random maps. Results in SQLite, a convergence figure and a table.
 # 2. Closed-loop go-and-return flights at default parameters through CGAL forests of the paper's
 #    four densities, 3.0 / 2.1 / 1.3 / 0.9 m average spacing, with figures and a table.
 # Each flight runs the real stack: Bullet physics and controller, depth sensor, local map, A* front
@@ -20,7 +20,7 @@ results="${QUADTUNE_RESULTS:-$root/results/main}"
 quadtune="$build_dir/experiments/quadtune"
 mkdir -p "$results"
 
-echo "== tuning: BO+PSO against the defaults (experiments/default.yaml) -> $results/tuning"
+echo "== tuning: BO+PSO against BO and the defaults (experiments/default.yaml) -> $results/tuning"
 rm -rf "$results/tuning"
 "$quadtune" run "$root/experiments/default.yaml" --out "$results/tuning"
 "$quadtune" plot run "$results/tuning"

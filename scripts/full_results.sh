@@ -1,0 +1,95 @@
+#!/usr/bin/env bash
+# Remakes the README's "Results": the full-scale runs of every paper experiment, their figures
+# and tables, copied into docs/results/ (the raw outputs stay in results/full/). Runs one after
+# another on all cores; on the 2-core development machine it took about an hour in all (the
+# README gives each run's wall time). Reuses the build in build/ (scripts/setup.sh makes it).
+#
+#   bash scripts/full_results.sh                 # everything
+#   bash scripts/full_results.sh benchmark adapt # only these (benchmark benchmark_jc density
+#                                                # adapt refinement scaling mpi)
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+q="${QUADTUNE_BUILD_DIR:-$root/build}/experiments/quadtune"
+raw="$root/results/full"
+docs="$root/docs/results"
+mkdir -p "$raw" "$docs"
+cd "$root"
+
+timed() {  # timed NAME CMD...: runs CMD, appends "NAME wall_s" to results/full/wall_times.txt
+  local name=$1
+  shift
+  local start
+  start=$(date +%s)
+  "$@"
+  echo "$name $(($(date +%s) - start))" >> "$raw/wall_times.txt"
+}
+
+run_benchmark() {
+  rm -rf "$raw/benchmark"
+  timed benchmark "$q" run experiments/benchmark.yaml --out "$raw/benchmark"
+  "$q" plot run "$raw/benchmark"
+  mkdir -p "$docs/benchmark"
+  cp "$raw/benchmark/"{tuning.png,tuning.md,tuning.csv,summary.json} "$docs/benchmark/"
+}
+
+run_benchmark_jc() {  # BO+PSO with the clearance term in f_s, against the same defaults
+  rm -rf "$raw/benchmark_jc"
+  timed benchmark_jc "$q" run experiments/benchmark.yaml --out "$raw/benchmark_jc" \
+    --set objective.short_term.w_c=0.1 --set 'methods=[default, bo_pso]'
+  "$q" plot run "$raw/benchmark_jc"
+  mkdir -p "$docs/benchmark_jc"
+  cp "$raw/benchmark_jc/"{tuning.png,tuning.md,tuning.csv,summary.json} "$docs/benchmark_jc/"
+}
+
+run_density() {
+  rm -rf "$raw/density"
+  timed density "$q" study experiments/density_study.yaml --out "$raw/density"
+  mkdir -p "$docs/density"
+  cp "$raw/density/"{study.md,study.csv,study_sweep.png,validation.csv,summary.json} \
+    "$docs/density/"
+}
+
+run_adapt() {
+  rm -rf "$raw/adapt"
+  timed adapt "$q" adapt experiments/changing_environment.yaml --out "$raw/adapt"
+  mkdir -p "$docs/adapt"
+  cp "$raw/adapt/"{adapt.png,summary.md,summary.json} "$docs/adapt/"
+}
+
+run_refinement() {
+  rm -rf "$raw/refinement"
+  timed refinement "$q" study experiments/refinement_study.yaml --out "$raw/refinement"
+  mkdir -p "$docs/refinement"
+  cp "$raw/refinement/"{study.md,study.csv,validation.csv,summary.json} "$docs/refinement/"
+  cp "$raw/refinement/"refinement_*.png "$docs/refinement/"
+}
+
+run_scaling() {
+  mkdir -p "$raw/scaling"
+  timed scaling "$q" bench experiments/benchmark.yaml --max-threads "$(nproc)" --flights 8 \
+    --resolves 2000 --csv "$raw/scaling/bench.csv" --plot
+  mkdir -p "$docs/scaling"
+  cp "$raw/scaling/"{bench.csv,bench.png} "$docs/scaling/"
+}
+
+run_mpi() {  # 2 ranks × 1 thread against 1 rank × 2 threads, same experiment, same results
+  local mpi=(mpirun -np 2 --oversubscribe)
+  [[ $(id -u) == 0 ]] && mpi+=(--allow-run-as-root)
+  rm -rf "$raw/mpi_threads" "$raw/mpi_ranks"
+  timed mpi_1rank_2threads "$q" run experiments/mpi_scaling.yaml --out "$raw/mpi_threads" \
+    --threads 2
+  timed mpi_2ranks_1thread "${mpi[@]}" "$q" run experiments/mpi_scaling.yaml \
+    --out "$raw/mpi_ranks" --threads 1
+  mkdir -p "$docs/mpi"
+  cp "$raw/mpi_threads/summary.json" "$docs/mpi/summary_1rank_2threads.json"
+  cp "$raw/mpi_ranks/summary.json" "$docs/mpi/summary_2ranks_1thread.json"
+}
+
+steps=("$@")
+((${#steps[@]} > 0)) || steps=(benchmark benchmark_jc density adapt refinement scaling mpi)
+for step in "${steps[@]}"; do
+  echo "== $step"
+  "run_$step"
+done
+cp "$raw/wall_times.txt" "$docs/wall_times.txt"
+echo "figures and tables in $docs; raw outputs in $raw"
