@@ -86,7 +86,7 @@ run_mpi() {  # 2 ranks × 1 thread against 1 rank × 2 threads, same experiment,
 }
 
 steps=("$@")
-((${#steps[@]} > 0)) || steps=(benchmark benchmark_jc density adapt refinement scaling mpi)
+((${#steps[@]} > 0)) || steps=(benchmark density adapt refinement scaling mpi)
 for step in "${steps[@]}"; do
   echo "== $step"
   "run_$step"
