@@ -42,11 +42,11 @@ struct RunArgs {
 
 /// The progress line: on a terminal rewritten in place at every update; otherwise (a log file,
 /// a cluster job) an info log line at most every 30 s and whenever a trial ends, so long runs
-/// show progress without flooding the log. `quiet`: none at all.
+/// show progress without flooding the log. Every other update, and all of them with `quiet`,
+/// goes to the debug log.
 std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quiet = false) {
   auto last = std::make_shared<std::chrono::steady_clock::time_point>();
   return [tty, quiet, last](const engine::Progress& p) {
-    if (quiet) return;
     const double done = p.trials_done + static_cast<double>(p.flights_done) / p.flights_total;
     const double eta = done > 0 ? p.elapsed_s * (p.trials_total - done) / done : 0.0;
     const double rate = p.elapsed_s > 0 ? static_cast<double>(p.short_evals) / p.elapsed_s : 0.0;
@@ -62,9 +62,11 @@ std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quie
       return;
     }
     const auto now = std::chrono::steady_clock::now();
-    if (p.flights_done == p.flights_total || now - *last >= std::chrono::seconds(30)) {
+    if (!quiet && (p.flights_done == p.flights_total || now - *last >= std::chrono::seconds(30))) {
       *last = now;
       spdlog::info("{}", line);
+    } else {
+      spdlog::debug("{}", line);
     }
   };
 }

@@ -37,6 +37,7 @@ const char* ToString(FlightStatus status) {
   switch (status) {
     case FlightStatus::kCompleted: return "completed";
     case FlightStatus::kTimeout: return "timeout";
+    case FlightStatus::kStalled: return "stalled";
     case FlightStatus::kDiverged: return "diverged";
     case FlightStatus::kError: return "error";
     case FlightStatus::kCancelled: return "cancelled";
@@ -62,6 +63,8 @@ void FlightOptions::Validate(const std::string& origin) const {
   CheckInRange(max_time, Range::Positive(), origin, "max_time");
   CheckInRange(log_rate_hz, Range::NonNegative(), origin, "log_rate_hz");
   CheckInRange(tracking_window, Range::Positive(), origin, "tracking_window");
+  CheckInRange(stall_time, Range::Positive(), origin, "stall_time");
+  CheckInRange(stall_distance, Range::NonNegative(), origin, "stall_distance");
 }
 
 FlightResult Fly(physics::World& world, const Mission& mission, const PlannerParams& params,
@@ -108,6 +111,8 @@ FlightResult Fly(physics::World& world, const Mission& mission, const PlannerPar
   double window_max = 0.0;
   m.min_clearance = std::numeric_limits<double>::infinity();
   Eigen::Vector3d last_p = mission.start_W;
+  Eigen::Vector3d stall_p_W = world.State().p_W;  // position at the start of the stall window
+  double stall_check_time = world.time() + options.stall_time;
   std::int64_t tick = 0;
   m.status = FlightStatus::kTimeout;
   try {
@@ -132,6 +137,17 @@ FlightResult Fly(physics::World& world, const Mission& mission, const PlannerPar
         m.status = FlightStatus::kTimeout;
         m.message = "mission not finished within max_time";
         break;
+      }
+      if (t >= stall_check_time) {
+        const double moved = (world.State().p_W - stall_p_W).norm();
+        if (moved < options.stall_distance) {
+          m.status = FlightStatus::kStalled;
+          m.message = "no progress: moved " + std::to_string(moved) + " m in the last " +
+                      std::to_string(options.stall_time) + " s";
+          break;
+        }
+        stall_p_W = world.State().p_W;
+        stall_check_time = t + options.stall_time;
       }
       world.Advance(dt);
       if (world.HasDiverged()) {

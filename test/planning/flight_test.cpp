@@ -119,6 +119,30 @@ TEST(Flight, TimeoutIsReportedNotThrown) {
   EXPECT_NEAR(r.metrics.flight_time, 3.0, 0.02);
 }
 
+TEST(Flight, StuckDroneEndsAsStalled) {
+  // The goal lies inside a thick pillar: no plan can reach it, the drone hovers at the start,
+  // and the flight ends after stall_time instead of burning compute until max_time.
+  ForestFlight f(3.0, 1);
+  physics::ObstacleSet obstacles;
+  physics::CylinderObstacle pillar;
+  pillar.center_W = Eigen::Vector2d(6.0, 0.0);
+  pillar.radius = 1.0;
+  pillar.z_min = 0.0;
+  pillar.z_max = 4.0;
+  obstacles.cylinders.push_back(pillar);
+  const physics::DroneDescription drone = ResearchDrone();
+  physics::World world(obstacles, drone, f.world_options);
+  FlightOptions options;
+  options.max_time = 60.0;
+  options.stall_time = 5.0;
+  const Mission mission = Mission::GoTo(Eigen::Vector3d(0.0, 0.0, 1.2), Eigen::Vector3d(6.0, 0.0, 1.2));
+  const FlightResult r = Fly(world, mission, PlannerParams{}, options, f.optimizer);
+  EXPECT_EQ(r.metrics.status, FlightStatus::kStalled) << r.metrics.message;
+  EXPECT_LT(r.metrics.flight_time, 20.0);
+  EXPECT_NE(r.metrics.message.find("no progress"), std::string::npos);
+  EXPECT_STREQ(ToString(FlightStatus::kStalled), "stalled");
+}
+
 TEST(Flight, WritesItsFiles) {
   ForestFlight f(3.0, 3);
   FlightOptions options;
@@ -150,6 +174,14 @@ TEST(Flight, BadArgumentsThrowConfigError) {
   PlannerParams params;
   params.h_pl = -1.0;
   EXPECT_THROW((void)Fly(world, f.mission, params, FlightOptions{}, f.optimizer), ConfigError);
+  FlightOptions no_stall_time;
+  no_stall_time.stall_time = 0.0;
+  EXPECT_THROW((void)Fly(world, f.mission, PlannerParams{}, no_stall_time, f.optimizer),
+               ConfigError);
+  FlightOptions negative_stall_distance;
+  negative_stall_distance.stall_distance = -1.0;
+  EXPECT_THROW((void)Fly(world, f.mission, PlannerParams{}, negative_stall_distance, f.optimizer),
+               ConfigError);
 }
 
 }  // namespace

@@ -45,6 +45,7 @@ struct Mission {
 enum class FlightStatus {
   kCompleted,  ///< every waypoint reached
   kTimeout,    ///< max_time passed first
+  kStalled,    ///< no progress: moved less than stall_distance within stall_time
   kDiverged,   ///< the simulation diverged (non-finite state, drone far away)
   kError,      ///< an exception inside the flight (message says which)
   kCancelled,  ///< stopped by the cancel hook
@@ -62,6 +63,11 @@ struct FlightOptions {
   double max_time = 120.0;        ///< flight time limit (s), > 0
   double log_rate_hz = 20.0;      ///< state log rate (Hz); 0: no state log
   double tracking_window = 1.0;   ///< window of the windowed tracking error J_p (s), > 0
+  /// A flight whose drone moved less than stall_distance (m) in the last stall_time (s) ends as
+  /// kStalled: stuck hovering (every plan failing) it would only burn compute until max_time.
+  /// stall_time > 0 (a value >= max_time disables it), stall_distance >= 0.
+  double stall_time = 15.0;
+  double stall_distance = 1.0;
 
   /// A 48×32 camera at 15 Hz, 5 m range: enough for 0.1 m maps, cheap enough for 100× real time.
   static physics::DepthSensorOptions DefaultSensor();
