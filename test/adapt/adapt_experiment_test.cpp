@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "../cli_util.hpp"
 #include "quadtune/engine/online_adaptation.hpp"
 
 namespace quadtune::engine {
@@ -23,7 +24,7 @@ namespace fs = std::filesystem;
 
 const std::string kSmall =
     std::string(QUADTUNE_SOURCE_DIR) + "/experiments/changing_environment_small.yaml";
-const std::string kBinary = std::string(QUADTUNE_BINARY_DIR) + "/experiments/quadtune";
+const std::string kBinary = test::QuadtuneBinary();
 
 TEST(AdaptFlight, SameSeedGivesTheSameChosenVdesSequence) {
   const AdaptExperiment e = AdaptExperiment::LoadFile(kSmall);
@@ -60,29 +61,7 @@ TEST(AdaptFlight, SameSeedGivesTheSameChosenVdesSequence) {
   EXPECT_GE(adopted, 3);
 }
 
-/// Rows of a CSV file as maps column → text.
-std::vector<std::map<std::string, std::string>> ReadCsv(const fs::path& path) {
-  std::ifstream in(path);
-  std::string line;
-  std::vector<std::string> header;
-  std::vector<std::map<std::string, std::string>> rows;
-  auto split = [](const std::string& s) {
-    std::vector<std::string> out;
-    std::stringstream ss(s);
-    std::string item;
-    while (std::getline(ss, item, ',')) out.push_back(item);
-    return out;
-  };
-  if (!std::getline(in, line)) return rows;
-  header = split(line);
-  while (std::getline(in, line)) {
-    const auto cells = split(line);
-    std::map<std::string, std::string> row;
-    for (std::size_t i = 0; i < header.size() && i < cells.size(); ++i) row[header[i]] = cells[i];
-    rows.push_back(std::move(row));
-  }
-  return rows;
-}
+using test::ReadCsv;
 
 TEST(AdaptCli, SmallExperimentWritesCsvsSummaryAndFigure) {
   const fs::path out = fs::temp_directory_path() / "quadtune_adapt_cli";
