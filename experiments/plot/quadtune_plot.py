@@ -395,6 +395,13 @@ def read_rows(path):
         return list(csv.DictReader(f))
 
 
+# Axis titles for the swept keys of the shipped studies (any other key is shown as it is).
+SWEEP_AXIS_LABELS = {
+    "planner.layout_file": "layout: mean obstacle spacing (m)",
+    "planner.drone": "drone",
+}
+
+
 def plot_study(directory):
     """Tables and figures of a study (`quadtune study`): per point the validation flights of the
     tuned parameters against the defaults and the evaluations needed to reach 90% of the optimum
@@ -487,7 +494,7 @@ def plot_study(directory):
         for ax in (ax_a, ax_b):
             ax.set_xticks(xs)
             ax.set_xticklabels(labels)
-            ax.set_xlabel(key)
+            ax.set_xlabel(SWEEP_AXIS_LABELS.get(key, key))
             ax.grid(alpha=0.3)
         ax_a.legend(fontsize=8)
         fig.tight_layout()
