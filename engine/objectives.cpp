@@ -11,7 +11,6 @@ void ObjectiveOptions::Validate(const std::string& file) const {
   CheckInRange(tau_t, Range::Positive(), file, "objective.short_term.tau_t");
   CheckInRange(w_p, Range::NonNegative(), file, "objective.short_term.w_p");
   CheckInRange(w_c, Range::NonNegative(), file, "objective.short_term.w_c");
-  CheckInRange(w_c_solve, Range::NonNegative(), file, "objective.short_term.w_c");
   CheckInRange(clearance, Range::Positive(), file, "objective.short_term.clearance");
   CheckInRange(unit_time, Range::Positive(), file, "objective.short_term.unit_time");
   CheckInRange(w_e, Range::NonNegative(), file, "objective.long_term.w_e");
@@ -31,11 +30,9 @@ ObjectiveOptions ObjectiveOptions::FromYaml(const YamlMap& map) {
   o.w_tau = s.Number("w_tau", o.w_tau, Range::NonNegative());
   o.tau_t = s.Number("tau_t", o.tau_t, Range::Positive());
   o.w_p = s.Number("w_p", o.w_p, Range::NonNegative());
-  if (o.short_kind == ShortKind::kSolveTime) {
-    o.w_c_solve = s.Number("w_c", o.w_c_solve, Range::NonNegative());
-  } else {
-    o.w_c = s.Number("w_c", o.w_c, Range::NonNegative());
-  }
+  o.w_c = s.Number("w_c",
+                   o.short_kind == ShortKind::kSolveTime ? 0.0 : kDefaultClearanceWeight,
+                   Range::NonNegative());
   o.clearance = s.Number("clearance", o.clearance, Range::Positive());
   o.unit_time = s.Number("unit_time", o.unit_time, Range::Positive());
   const YamlMap l = map.Map("long_term", true);
@@ -85,7 +82,7 @@ ObjectiveValue ShortTermObjective(const ResolveRecord& s, const ObjectiveOptions
     const double j_s = s.failed_attempts;
     v.terms["J_t"] = j_t;
     v.terms["J_s"] = j_s;
-    v.value = o.w_t * j_t + o.w_s * j_s + o.w_c_solve * j_c;
+    v.value = o.w_t * j_t + o.w_s * j_s + o.w_c * j_c;
   } else {
     v.value = s.success ? o.w_t * s.duration + o.w_p * s.jerk_integral + o.w_c * j_c
                         : o.failure_value;

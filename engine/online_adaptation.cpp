@@ -83,7 +83,7 @@ ObjectiveOptions AdaptationOptions::DefaultObjective() {
   o.short_kind = ObjectiveOptions::ShortKind::kChangingEnvironment;
   o.w_t = 1.0;
   o.w_p = 0.01;
-  o.w_c = 100.0;
+  o.w_c = ObjectiveOptions::kDefaultClearanceWeight;
   o.clearance = 0.5;
   o.failure_value = 50.0;
   return o;
@@ -136,6 +136,7 @@ AdaptationOptions AdaptationOptions::FromYaml(const YamlMap& map) {
     const ObjectiveOptions d = DefaultObjective();
     const YamlMap s = obj.Map("short_term", true);
     if (!s.Has("kind")) o.objective.short_kind = d.short_kind;
+    if (!s.Has("w_c")) o.objective.w_c = d.w_c;
     if (!obj.Has("failure_value")) o.objective.failure_value = d.failure_value;
     if (o.objective.short_kind != ObjectiveOptions::ShortKind::kChangingEnvironment) {
       s.Fail("kind", "must be changing_environment for online adaptation");

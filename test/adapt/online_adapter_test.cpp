@@ -217,6 +217,20 @@ TEST(AdaptExperiment, OutOfRangeValuesNameKeyAndRange) {
   EXPECT_THROW((void)AdaptExperiment::FromString("baselines: [2.0]\n", "x.yaml"), ConfigError);
 }
 
+TEST(AdaptExperiment, ObjectiveKeysWithoutKindKeepTheChangingEnvironmentDefaults) {
+  // short_term.kind may be left out of an adaptation file: the given w_c is kept, and an absent
+  // one is the changing-environment default, not the solve-time f_s's 0.
+  const AdaptExperiment given = AdaptExperiment::FromString(
+      std::string(kMinimal) + "adaptation: {objective: {short_term: {w_c: 7}}}\n", "x.yaml");
+  EXPECT_EQ(given.adaptation.objective.w_c, 7.0);
+  const AdaptExperiment absent = AdaptExperiment::FromString(
+      std::string(kMinimal) + "adaptation: {objective: {short_term: {w_t: 2}}}\n", "x.yaml");
+  EXPECT_EQ(absent.adaptation.objective.w_c, ObjectiveOptions::kDefaultClearanceWeight);
+  EXPECT_EQ(absent.adaptation.objective.w_t, 2.0);
+  EXPECT_EQ(absent.adaptation.objective.short_kind,
+            ObjectiveOptions::ShortKind::kChangingEnvironment);
+}
+
 TEST(AdaptExperiment, ShippedFileHoldsThePapersSettings) {
   const AdaptExperiment e = AdaptExperiment::LoadFile(std::string(QUADTUNE_SOURCE_DIR) +
                                                       "/experiments/changing_environment.yaml");

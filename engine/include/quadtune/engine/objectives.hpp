@@ -28,6 +28,8 @@ enum class TimingMode { kReproducible, kRealtime };
 
 /// Weights of the objectives (YAML `objective:`).
 struct ObjectiveOptions {
+  /// Default w_c of the changing-environment f_s.
+  static constexpr double kDefaultClearanceWeight = 100.0;
   enum class ShortKind { kSolveTime, kChangingEnvironment };
   ShortKind short_kind = ShortKind::kSolveTime;  ///< short_term.kind: solve_time | changing_environment
   double w_t = 1.0;        ///< short_term.w_t >= 0 (1/s for solve_time)
@@ -35,10 +37,9 @@ struct ObjectiveOptions {
   double w_tau = 1000.0;   ///< short_term.w_tau >= 0 (1/s²), real-time penalty weight (≫ 1)
   double tau_t = 0.05;     ///< short_term.tau_t > 0, real-time threshold τ_t (s)
   double w_p = 0.01;       ///< short_term.w_p >= 0, jerk weight (changing environment)
-  double w_c = 100.0;      ///< short_term.w_c >= 0, clearance weight (changing environment)
-  /// short_term.w_c with kind solve_time, >= 0: weight of an optional extra term w_c J_c of the
-  /// solve-time f_s (0, the paper's f_s, unless given).
-  double w_c_solve = 0.0;
+  /// short_term.w_c >= 0, clearance weight. Its default depends on the kind: 0 for solve_time
+  /// (the paper's f_s, the J_c term off), kDefaultClearanceWeight for changing_environment.
+  double w_c = 0.0;
   double clearance = 0.5;  ///< short_term.clearance > 0, desired clearance C (m)
   double unit_time = 1e-4; ///< short_term.unit_time > 0: seconds per compute unit (reproducible)
   double w_e = 5.0;        ///< long_term.w_e >= 0 (s per emergency stop)
