@@ -247,6 +247,11 @@ void OnlineAdapter::RunTrial(double t, const planning::LocalMap& map,
   if (!query) {
     trial.status = "front_end";
   } else {
+    // A trial slower than the drone at P_s plans its braking: the planner may exceed the trial's
+    // v_des while it slows at braking_fraction · a_max (the envelope checked below).
+    if (trial.v_des < p.segment.speed_s) {
+      query->braking_deceleration = options_.braking_fraction * params.a_max;
+    }
     outcome = planner_.Plan(optimizer_, *query, params);
     const planning::PlanResult& r = outcome->result;
     bool accepted = outcome->Ok();

@@ -15,6 +15,7 @@ PlanRequest PlanningQuery::ToRequest(bool use_warm_start) const {
   r.goal_W = goal_W;
   r.goal_v_W = goal_v_W;
   r.initial_path_W = initial_path_W;
+  r.braking_deceleration = braking_deceleration;
   if (use_warm_start && previous.has_value() && !previous->Empty()) {
     r.warm_start = &*previous;
     r.warm_start_time = previous_time;

@@ -1,6 +1,7 @@
 #include "quadtune/planning/min_jerk_problem.hpp"
 
 #include <Eigen/LU>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -77,7 +78,9 @@ MinJerkProblem::MinJerkProblem(const MinJerkBoundary& boundary,
   if (!(params_.clearance > 0.0) || !(params_.v_max > 0.0) || !(params_.a_max > 0.0) ||
       !(params_.w_smooth > 0.0) || params_.w_col < 0.0 || params_.w_dyn < 0.0 ||
       params_.w_time < 0.0 || !(params_.collision_scale > 0.0) ||
-      !(params_.feasibility_scale > 0.0)) {
+      !(params_.feasibility_scale > 0.0) || !(params_.brake_from_speed >= 0.0) ||
+      !(params_.braking_deceleration >= 0.0) || !std::isfinite(params_.brake_from_speed) ||
+      !std::isfinite(params_.braking_deceleration)) {
     throw std::invalid_argument("MinJerkProblem: weights/limits out of range");
   }
 
@@ -122,7 +125,11 @@ MinJerkProblem::MinJerkProblem(const MinJerkBoundary& boundary,
   for (int k : samples_per_piece) total_samples += k;
   for (auto& rows : sample_rows_) rows.resize(total_samples, nb);
   sample_piece_.reserve(static_cast<std::size_t>(total_samples));
+  const bool braking =
+      params_.braking_deceleration > 0.0 && params_.brake_from_speed > params_.v_max;
+  if (braking) inv_speed_limit_sq_.reserve(static_cast<std::size_t>(total_samples));
   int j = 0;
+  double piece_start = 0.0;  // nominal time of the piece's start (s)
   for (int i = 0; i < n; ++i) {
     const int count = samples_per_piece[static_cast<std::size_t>(i)];
     const Eigen::MatrixXd ki = coeff_map_.block(6 * i, 0, 6, nb);
@@ -131,8 +138,15 @@ MinJerkProblem::MinJerkProblem(const MinJerkBoundary& boundary,
                        static_cast<double>(count);
       for (int d = 0; d < 3; ++d) sample_rows_[d].row(j) = BasisRow(s, d) * ki;
       sample_piece_.push_back(i);
+      if (braking) {
+        const double limit =
+            std::max(params_.v_max,
+                     params_.brake_from_speed - params_.braking_deceleration * (piece_start + s));
+        inv_speed_limit_sq_.push_back(1.0 / (limit * limit));
+      }
       ++j;
     }
+    piece_start += nominal_[static_cast<std::size_t>(i)];
   }
 }
 
@@ -230,7 +244,6 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
                                           Eigen::MatrixXd* hess) const {
   const int n = NumVariables();
   const int m = num_pieces_ - 1;
-  const int nb = BoundarySize();
   const int ir = n - 1;  // index of ρ
   QT_DEMAND(z.size() == n, "wrong number of variables");
   const bool want_grad = grad != nullptr || hess != nullptr;
@@ -328,7 +341,9 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
                       (3.0 * k * e * e * inv_c) * hess_d;
         }
       } else {
-        const double inv_l = 1.0 / limits_sq[d];
+        const double inv_l = d == 1 && !inv_speed_limit_sq_.empty()
+                                 ? inv_speed_limit_sq_[static_cast<std::size_t>(j)]
+                                 : 1.0 / limits_sq[d];
         const double viol = r.squaredNorm() * inv_l - 1.0;
         if (!(viol > 0.0)) continue;
         const double k = params_.feasibility_scale;

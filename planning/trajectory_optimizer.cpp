@@ -270,19 +270,26 @@ TrajectoryOptimizer::TrajectoryOptimizer(const TrajectoryOptimizerOptions& optio
 
 std::vector<double> TrajectoryOptimizer::AllocateTime(const std::vector<Eigen::Vector3d>& path_W,
                                                       int num_pieces, double v0, double vf,
-                                                      double v_max, double a_max) {
+                                                      double v_max, double a_max, double braking) {
   QT_DEMAND(num_pieces >= 1 && path_W.size() >= 2, "need >= 1 piece and a path");
   QT_DEMAND(v_max > 0.0 && a_max > 0.0, "limits must be > 0");
+  QT_DEMAND(braking >= 0.0, "braking must be >= 0");
   const std::vector<double> s = ArcLengths(path_W);
   const double length = s.back();
+  // A start above v_max brakes down to it (braking > 0), else counts as v_max.
+  const double v_brake = braking > 0.0 && v0 > v_max ? v0 : 0.0;
   v0 = std::clamp(v0, 0.0, v_max);
   vf = std::clamp(vf, 0.0, v_max);
-  // Speed along the path: accelerate from v0, cruise at v_max, decelerate to vf; a floor keeps
-  // the time finite where the profile starts or ends at rest.
+  // Speed along the path: accelerate from v0 (or brake from v_brake), cruise at v_max,
+  // decelerate to vf; a floor keeps the time finite where the profile starts or ends at rest.
   const double v_floor = 0.1 * v_max;
   auto speed = [&](double at) {
     const double up = std::sqrt(v0 * v0 + 2.0 * a_max * at);
     const double down = std::sqrt(vf * vf + 2.0 * a_max * std::max(0.0, length - at));
+    if (v_brake > 0.0) {
+      const double braked = std::sqrt(std::max(0.0, v_brake * v_brake - 2.0 * braking * at));
+      return std::max(v_floor, std::min(std::max(v_max, braked), down));
+    }
     return std::max(v_floor, std::min({v_max, up, down}));
   };
   constexpr int kSteps = 32;  // midpoint rule per piece
@@ -325,6 +332,9 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     if (!(request.speed_scale > 0.0 && request.speed_scale <= 1.0)) {
       return Invalid("speed_scale must be in (0, 1]");
     }
+    if (!(request.braking_deceleration >= 0.0) || !std::isfinite(request.braking_deceleration)) {
+      return Invalid("braking_deceleration must be finite and >= 0");
+    }
 
     // Path start → goal through the front-end's points.
     std::vector<Eigen::Vector3d> path{request.p0_W};
@@ -337,9 +347,9 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     if (path.size() < 2 || !(length > 1e-3)) return Invalid("goal coincides with the start");
 
     const int n_pieces = params.n_pol;
-    const std::vector<double> nominal =
-        AllocateTime(path, n_pieces, request.v0_W.norm(), vf.norm(),
-                     request.speed_scale * params.v_des, params.a_max);
+    const std::vector<double> nominal = AllocateTime(path, n_pieces, request.v0_W.norm(), vf.norm(),
+                                                     request.speed_scale * params.v_des,
+                                                     params.a_max, request.braking_deceleration);
     const double piece_length = length / n_pieces;
     const int samples =
         std::clamp(static_cast<int>(std::ceil(piece_length / options_.sample_spacing)),
@@ -355,6 +365,8 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     cost_params.v_max = request.speed_scale * params.v_des;  // the check keeps params.v_des
     cost_params.collision_scale = options_.collision_scale;
     cost_params.feasibility_scale = options_.feasibility_scale;
+    cost_params.brake_from_speed = request.v0_W.norm();
+    cost_params.braking_deceleration = request.braking_deceleration;
     const MinJerkProblem problem(boundary, nominal,
                                  std::vector<int>(static_cast<std::size_t>(n_pieces), samples),
                                  field, cost_params);

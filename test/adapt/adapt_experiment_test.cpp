@@ -61,6 +61,28 @@ TEST(AdaptFlight, SameSeedGivesTheSameChosenVdesSequence) {
   EXPECT_GE(adopted, 3);
 }
 
+// Trials slower than the drone at P_s are planned as brakings (PlanningQuery::
+// braking_deceleration): none fails over the acceleration limit, and some pass the braking
+// envelope. Held to their v_des from P_s on, three of this flight's fail over a_max.
+TEST(AdaptFlight, SlowerTrialsArePlannedAsBrakings) {
+  const AdaptExperiment e = AdaptExperiment::LoadFile(kSmall);
+  const layout::Layout layout = layout::GenerateLayout(e.layout, e.seed);
+  const AdaptFlight a = RunAdaptFlight(e, layout, std::nullopt);
+  std::map<int, double> speed_s;  // segment index → speed at its P_s
+  for (const auto& s : a.segments) speed_s[s.index] = s.speed_s;
+  int slower = 0;
+  int braking = 0;
+  for (const auto& t : a.trials) {
+    const auto s = speed_s.find(t.segment);
+    if (s == speed_s.end() || !(t.v_des < s->second)) continue;
+    ++slower;
+    EXPECT_NE(t.status, "over_a_max") << "segment " << t.segment << " trial " << t.trial;
+    braking += t.status == "braking" ? 1 : 0;
+  }
+  EXPECT_GE(slower, 5);
+  EXPECT_GE(braking, 3);
+}
+
 using test::ReadCsv;
 
 TEST(AdaptCli, SmallExperimentWritesCsvsSummaryAndFigure) {

@@ -194,6 +194,56 @@ TEST(MinJerkProblem, HessianMatchesFiniteDifferencesForCylinderField) {
   }
 }
 
+TEST(MinJerkProblem, BrakingEnvelopeDerivativesMatchFiniteDifferences) {
+  // A start at 3 m/s with v_max 1 m/s: the speed limit of each sample follows
+  // max(v_max, 3 − 1.5 t̄); gradient and Hessian stay exact.
+  const HalfSpaceField field(Eigen::Vector3d(0.2, -1.0, 0.1), -0.3);
+  MinJerkBoundary boundary = Boundary();
+  boundary.v0_W = Eigen::Vector3d(2.9, 0.6, 0.3);
+  MinJerkCostParams params = TightParams();
+  params.brake_from_speed = boundary.v0_W.norm();
+  params.braking_deceleration = 1.5;
+  for (int pieces : {2, 4}) {
+    std::vector<double> durations;
+    for (int i = 0; i < pieces; ++i) durations.push_back(4.0 / pieces * (1.0 + 0.1 * i));
+    const MinJerkProblem problem(
+        boundary, durations, std::vector<int>(static_cast<std::size_t>(pieces), 9), field, params);
+    const Eigen::VectorXd z = PointNear(problem, 2.0);
+    Eigen::VectorXd grad;
+    Eigen::MatrixXd hess;
+    const MinJerkCostTerms terms = problem.Evaluate(z, &grad, &hess);
+    ASSERT_GT(terms.feasibility, 0.0);
+    EXPECT_LT((grad - FdGradient(problem, z, 1e-6)).norm(), 1e-5 * (1.0 + grad.norm()));
+    const Eigen::MatrixXd fd = FdHessian(problem, z, 1e-6);
+    EXPECT_LT((hess - fd).norm(), 1e-5 * (1.0 + hess.norm())) << pieces << " pieces";
+  }
+}
+
+TEST(MinJerkProblem, BrakingEnvelopeOnlyRelaxesTheSpeedLimit) {
+  // The same point costs less under the envelope (its early samples may fly faster than v_max),
+  // and exactly the same when the start is not above v_max (the envelope is then off).
+  const HalfSpaceField field(Eigen::Vector3d(0.2, -1.0, 0.1), -0.3);
+  MinJerkBoundary fast = Boundary();
+  fast.v0_W = Eigen::Vector3d(2.9, 0.6, 0.3);
+  const std::vector<double> durations{1.0, 1.2, 1.4};
+  const std::vector<int> samples{9, 9, 9};
+  MinJerkCostParams plain = TightParams();
+  MinJerkCostParams braking = plain;
+  braking.brake_from_speed = fast.v0_W.norm();
+  braking.braking_deceleration = 1.5;
+  const MinJerkProblem a(fast, durations, samples, field, plain);
+  const MinJerkProblem b(fast, durations, samples, field, braking);
+  const Eigen::VectorXd z = PointNear(a, 1.0);
+  const double fa = a.Evaluate(z, nullptr, nullptr).feasibility;
+  const double fb = b.Evaluate(z, nullptr, nullptr).feasibility;
+  EXPECT_GT(fa, 0.0);
+  EXPECT_LT(fb, fa);
+  MinJerkCostParams slow_start = braking;
+  slow_start.brake_from_speed = 0.5 * plain.v_max;
+  const MinJerkProblem c(fast, durations, samples, field, slow_start);
+  EXPECT_EQ(c.Evaluate(z, nullptr, nullptr).total, a.Evaluate(z, nullptr, nullptr).total);
+}
+
 TEST(CylinderField, SmoothDistanceDerivativesMatchFiniteDifferences) {
   physics::CylinderObstacle c1;
   c1.center_W = Eigen::Vector2d(0.0, 0.0);

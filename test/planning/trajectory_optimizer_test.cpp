@@ -313,6 +313,62 @@ TEST(TrajectoryOptimizer, AllocatesMoreTimeWhereItAcceleratesFromRest) {
   EXPECT_NEAR(t[1], 2.0 / 2.0, 1e-9);  // cruise piece: 2 m at 2 m/s
 }
 
+TEST(TrajectoryOptimizer, AllocationBrakesFromAFastStartWhenAsked) {
+  const std::vector<Eigen::Vector3d> path{Eigen::Vector3d::Zero(), Eigen::Vector3d(12, 0, 0)};
+  const auto clamped = TrajectoryOptimizer::AllocateTime(path, 4, 5.0, 0.0, 2.0, 3.0);
+  const auto braking = TrajectoryOptimizer::AllocateTime(path, 4, 5.0, 0.0, 2.0, 3.0, 1.5);
+  // 3 m pieces: braking from 5 m/s at 1.5 m/s² the first is flown faster than at 2 m/s (≈0.66 s
+  // instead of 1.5 s); from 7 m on both cruise at 2 m/s and brake to rest alike.
+  EXPECT_LT(braking[0], 0.7 * clamped[0]);
+  EXPECT_LT(braking[1], clamped[1]);
+  EXPECT_DOUBLE_EQ(braking[3], clamped[3]);
+  EXPECT_EQ(TrajectoryOptimizer::AllocateTime(path, 4, 1.0, 0.0, 2.0, 3.0, 1.5),
+            TrajectoryOptimizer::AllocateTime(path, 4, 1.0, 0.0, 2.0, 3.0));
+}
+
+// Re-planning at a lower v_des than the drone flies (the online adaptation's slower trials): told
+// to brake, the plan slows down at about the given rate (far inside a_max) and is down to v_des
+// soon after a braking at that rate would be (the jerk cost rounds the ramp's corner); held to
+// v_des from the start, no plan can keep a_max.
+TEST(TrajectoryOptimizer, BrakingPlanSlowsDownWithinTheAccelerationLimit) {
+  const EmptyField field;
+  const TrajectoryOptimizer optimizer;
+  PlannerParams params;
+  params.v_des = 2.0;
+  params.a_max = 3.0;
+  PlanRequest request;
+  request.p0_W = Eigen::Vector3d(0.0, 0.0, 1.0);
+  request.v0_W = Eigen::Vector3d(5.0, 0.0, 0.0);
+  request.goal_W = Eigen::Vector3d(14.0, 0.0, 1.0);
+  const double deceleration = 0.5 * params.a_max;
+  const double brake_time = (5.0 - params.v_des) / deceleration;  // 2 s
+  // Time after which a plan stays at or under v_des (with the 5% tolerance).
+  auto slow_from = [&](const Trajectory& trajectory) {
+    double t_slow = 0.0;
+    for (const auto& s : trajectory.Sample(0.01)) {
+      if (s.v_W.norm() > 1.05 * params.v_des) t_slow = s.t;
+    }
+    return t_slow;
+  };
+  const PlanResult held = optimizer.Solve(request, field, params);
+  ASSERT_FALSE(held.trajectory.Empty()) << held.message;
+  EXPECT_EQ(held.status, PlanStatus::kDynamicsViolated);
+  // Its allocation assumes v_des from the start, the penalty fights the start speed throughout:
+  // the plan stays over v_des for many seconds.
+  EXPECT_GT(slow_from(held.trajectory), 5.0 * brake_time);
+
+  request.braking_deceleration = deceleration;
+  const PlanResult braked = optimizer.Solve(request, field, params);
+  ASSERT_FALSE(braked.trajectory.Empty()) << braked.message;
+  // Over v_des while it brakes: reported as such, for the caller to judge.
+  EXPECT_EQ(braked.status, PlanStatus::kDynamicsViolated) << braked.message;
+  EXPECT_LE(braked.max_acceleration, 1.1 * deceleration);
+  EXPECT_LE(braked.max_speed, 1.001 * 5.0);
+  EXPECT_GT(slow_from(braked.trajectory), brake_time - 0.5);
+  EXPECT_LT(slow_from(braked.trajectory), brake_time + 0.5);
+  EXPECT_NEAR(braked.trajectory.Position(braked.duration).x(), 14.0, 1e-6);
+}
+
 // Many solves at once on 8 worker threads (would crash with Ipopt's MUMPS): every result equals
 // the single-threaded one.
 TEST(TrajectoryOptimizer, ConcurrentSolvesMatchSingleThreaded) {

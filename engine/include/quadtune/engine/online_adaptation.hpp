@@ -26,10 +26,12 @@
 /// objective's failure value and told to BO; it is never thrown. Trials solve with at most two
 /// attempts (warm, then cold start), never the slowed-down retries, so every trial's plan belongs
 /// to the v_des it was asked for. A plan from P_s whose start speed exceeds the proposed v_des
-/// cannot keep |v| <= v_des at its start; such a plan is accepted when it stays within the
-/// acceleration limit and under the braking envelope |v(τ)| <= (1 + tol) max(v_des,
-/// |v_s| − braking_fraction · a_max · τ) (tol: the optimiser's limit_tolerance), so the drone can
-/// slow down on entering a dense zone.
+/// cannot keep |v| <= v_des at its start: such a trial asks the planner to brake
+/// (PlanningQuery::braking_deceleration = braking_fraction · a_max: its time allocation and speed
+/// penalty follow a braking at that rate from |v_s| down to v_des), and its plan is accepted when
+/// it stays within the acceleration limit, never exceeds |v_s| and is down to v_des by the time
+/// that braking would be, τ_b = (|v_s| − v_des) / (braking_fraction · a_max) (each with the
+/// optimiser's limit_tolerance), so the drone can slow down on entering a dense zone.
 ///
 /// Thread safety: an OnlineAdapter belongs to one flight (one thread). Options, records and
 /// AdaptExperiment are values; RunAdaptFlight only uses its arguments and may run concurrently.

@@ -51,6 +51,9 @@ struct PlanningQuery {
   /// Parameters in force when the query was made: θ_l and the fixed ones matter; θ_s is what a
   /// short-term evaluation replaces.
   PlannerParams params;
+  /// PlanRequest::braking_deceleration of the request (m/s², 0: off): set by callers that
+  /// re-plan with a v_des below the start speed (the online adaptation's slower trials).
+  double braking_deceleration = 0.0;
 
   /// The optimiser request for this query (warm start optional; it points into *this).
   [[nodiscard]] PlanRequest ToRequest(bool use_warm_start = true) const;

@@ -24,7 +24,8 @@
 ///               obstacles as sensed, not inflated),
 ///      J_dyn  = κ_dyn Σ_samples [max(0, |v_j|²/v_max² − 1)³ + max(0, |a_j|²/a_max² − 1)³],
 ///      J_time = Σ T̄_i · ρ²  (ρ = ln τ: how much the trajectory is stretched in time),
-///    samples at s = (k/K_i) T̄_i, k = 1..K_i, in every piece. κ_col, κ_dyn are fixed
+///    samples at s = (k/K_i) T̄_i, k = 1..K_i, in every piece (with a braking envelope, see
+///    MinJerkCostParams, v_max of sample j is max(v_max, v_s − b t̄_j)). κ_col, κ_dyn are fixed
 ///    normalisations (not tuned) that make the paper's default weights meaningful.
 ///    J_time makes v_des the planner's speed: the nominal allocation T̄ flies the path at v_des
 ///    (trapezoidal profile with a_max), and the optimiser slows the whole trajectory down (τ > 1)
@@ -76,6 +77,11 @@ struct MinJerkCostParams {
   double a_max = 3.0;              ///< acceleration limit of the feasibility penalty (m/s^2), > 0
   double collision_scale = 100.0;  ///< κ_col, fixed normalisation, > 0
   double feasibility_scale = 1000.0;  ///< κ_dyn, fixed normalisation, > 0
+  /// Braking envelope (both > 0 and brake_from_speed > v_max to take effect): the speed limit
+  /// of sample j is max(v_max, brake_from_speed − braking_deceleration · t̄_j), t̄_j its time
+  /// from the start in the nominal allocation, instead of v_max. Off by default.
+  double brake_from_speed = 0.0;      ///< (m/s), >= 0
+  double braking_deceleration = 0.0;  ///< (m/s²), >= 0
 
   /// The planner's weights and limits (w_smooth, w_col, w_dyn, w_time, clearance, v_des, a_max).
   static MinJerkCostParams FromPlannerParams(const PlannerParams& params);
@@ -147,6 +153,8 @@ class MinJerkProblem {
   // Per-sample rows (nb) for position, normalised velocity and acceleration: S_d (ns × nb).
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> sample_rows_[3];
   std::vector<int> sample_piece_;
+  // Per-sample 1/limit² of the speed penalty under a braking envelope; empty: 1/v_max² for all.
+  std::vector<double> inv_speed_limit_sq_;
 };
 
 }  // namespace quadtune::planning

@@ -63,6 +63,14 @@ struct PlanRequest {
   /// alike. The success check keeps v_des and a_max: a retry after a plan over the limits plans
   /// slower, and is judged by the real limits, not the reduced ones.
   double speed_scale = 1.0;
+  /// Braking from a start faster than v_des (m/s², >= 0; 0: off). When > 0 and |v0| exceeds
+  /// speed_scale · v_des, the plan may fly faster than v_des while it brakes: the time
+  /// allocation slows from |v0| at this deceleration, and the feasibility penalty's speed limit
+  /// is max(v_des, |v0| − braking_deceleration · t) along the nominal time t (instead of v_des
+  /// from the start on, which no plan can meet without exceeding a_max). The success check is
+  /// unchanged: such a plan is over v_des for a while and comes back as kDynamicsViolated, to
+  /// be judged against the envelope by the caller (the online adaptation's braking check).
+  double braking_deceleration = 0.0;
 };
 
 /// Solver settings (not tuned by the experiments).
@@ -167,10 +175,13 @@ class TrajectoryOptimizer {
 
   /// Nominal time allocation used by Solve(): durations (s) of `num_pieces` pieces of equal arc
   /// length along `path_W` (start to goal) for a trapezoidal speed profile from `v0` to `vf`
-  /// (m/s, clamped to v_max) with limits v_max, a_max. Public for tests.
+  /// (m/s, clamped to v_max) with limits v_max, a_max. With `braking` > 0 (m/s²) a start above
+  /// v_max is not clamped: the profile brakes from v0 to v_max at that deceleration first.
+  /// Public for tests.
   [[nodiscard]] static std::vector<double> AllocateTime(const std::vector<Eigen::Vector3d>& path_W,
                                                         int num_pieces, double v0, double vf,
-                                                        double v_max, double a_max);
+                                                        double v_max, double a_max,
+                                                        double braking = 0.0);
 
  private:
   TrajectoryOptimizerOptions options_;
