@@ -329,7 +329,7 @@ TEST(TrajectoryOptimizer, AllocationBrakesFromAFastStartWhenAsked) {
 // Re-planning at a lower v_des than the drone flies (the online adaptation's slower trials): told
 // to brake, the plan slows down at about the given rate (far inside a_max) and is down to v_des
 // soon after a braking at that rate would be (the jerk cost rounds the ramp's corner); held to
-// v_des from the start, no plan can keep a_max.
+// v_des from the start instead, it stays over v_des for many seconds.
 TEST(TrajectoryOptimizer, BrakingPlanSlowsDownWithinTheAccelerationLimit) {
   const EmptyField field;
   const TrajectoryOptimizer optimizer;
