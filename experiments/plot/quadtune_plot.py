@@ -550,12 +550,21 @@ def plot_study(directory):
             groups.append(("{} best".format(stage["name"]),
                            [r for r in v if r["source_stage"] == stage["name"]]))
         groups = [(name, g) for name, g in groups if g]
-        ms = [mean_std(float(r["f_l"]) for r in g) for _, g in groups]
-        ax_c.bar(range(len(groups)), [m for m, _ in ms], yerr=[s for _, s in ms], capsize=4,
-                 color=[cmap(i) for i in range(len(groups))])
+        # Mean, with the range of the flights as the bar (f_l of a failed flight is far above
+        # the others: a ± std bar would reach below zero) and every flight as a dot.
+        values = [[float(r["f_l"]) for r in g] for _, g in groups]
+        means = [sum(x) / len(x) for x in values]
+        ax_c.bar(range(len(groups)), means,
+                 yerr=[[m - min(x) for m, x in zip(means, values)],
+                       [max(x) - m for m, x in zip(means, values)]],
+                 capsize=4, color=[cmap(i) for i in range(len(groups))], alpha=0.8)
+        for i, x in enumerate(values):
+            ax_c.plot([i] * len(x), x, "k.", ms=4)
         ax_c.set_xticks(range(len(groups)))
         ax_c.set_xticklabels([name for name, _ in groups], rotation=15, fontsize=8)
-        ax_c.set_ylabel("f_l in the last stage's world (mean ± std)")
+        ax_c.set_ylabel("f_l (mean; bar: min–max; dots: flights)")
+        if min(min(x) for x in values) > 0:
+            ax_c.set_yscale("log")  # one failed flight (f_l ≈ failure value) beside ≈ 20-40
         ax_c.set_title("(C) validation flights in the {} world".format(point["stages"][-1]["name"]))
         for ax in (ax_a, ax_b, ax_c):
             ax.grid(alpha=0.3)
