@@ -47,29 +47,10 @@ Eigen::Vector3d PointAt(const std::vector<Eigen::Vector3d>& path, const std::vec
 }
 
 // The Ipopt view of a MinJerkProblem: unconstrained, dense lower-triangular Hessian.
-class MinJerkTnlp final : public Ipopt::TNLP {
+class MinJerkTnlp final : public UnconstrainedDenseTnlp {
  public:
   MinJerkTnlp(const MinJerkProblem& problem, Eigen::VectorXd z0)
-      : problem_(problem), z0_(std::move(z0)), n_(problem.NumVariables()) {}
-
-  bool get_nlp_info(Index& n, Index& m, Index& nnz_jac_g, Index& nnz_h_lag,
-                    IndexStyleEnum& index_style) override {
-    n = n_;
-    m = 0;
-    nnz_jac_g = 0;
-    nnz_h_lag = n_ * (n_ + 1) / 2;
-    index_style = C_STYLE;
-    return true;
-  }
-
-  bool get_bounds_info(Index n, Number* x_l, Number* x_u, Index /*m*/, Number* /*g_l*/,
-                       Number* /*g_u*/) override {
-    for (Index i = 0; i < n; ++i) {
-      x_l[i] = -1e20;  // below nlp_lower_bound_inf: unbounded
-      x_u[i] = 1e20;
-    }
-    return true;
-  }
+      : UnconstrainedDenseTnlp(problem.NumVariables()), problem_(problem), z0_(std::move(z0)) {}
 
   bool get_starting_point(Index n, bool init_x, Number* x, bool /*init_z*/, Number* /*z_L*/,
                           Number* /*z_U*/, Index /*m*/, bool /*init_lambda*/,
@@ -94,28 +75,11 @@ class MinJerkTnlp final : public Ipopt::TNLP {
     return grad_.allFinite();
   }
 
-  bool eval_g(Index /*n*/, const Number* /*x*/, bool /*new_x*/, Index /*m*/,
-              Number* /*g*/) override {
-    return true;
-  }
-
-  bool eval_jac_g(Index /*n*/, const Number* /*x*/, bool /*new_x*/, Index /*m*/, Index /*nele_jac*/,
-                  Index* /*iRow*/, Index* /*jCol*/, Number* /*values*/) override {
-    return true;
-  }
-
   bool eval_h(Index n, const Number* x, bool new_x, Number obj_factor, Index /*m*/,
               const Number* /*lambda*/, bool /*new_lambda*/, Index /*nele_hess*/, Index* iRow,
               Index* jCol, Number* values) override {
     if (values == nullptr) {
-      Index k = 0;
-      for (Index r = 0; r < n; ++r) {
-        for (Index c = 0; c <= r; ++c) {
-          iRow[k] = r;
-          jCol[k] = c;
-          ++k;
-        }
-      }
+      DenseLowerStructure(n, iRow, jCol);
       return true;
     }
     ++hess_evals_;
@@ -164,7 +128,6 @@ class MinJerkTnlp final : public Ipopt::TNLP {
 
   const MinJerkProblem& problem_;
   Eigen::VectorXd z0_;
-  Index n_;
   Eigen::VectorXd z_;
   int cached_level_ = 0;
   double value_ = 0.0;

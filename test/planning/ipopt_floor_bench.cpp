@@ -25,27 +25,10 @@ namespace {
 using Ipopt::Index;
 using Ipopt::Number;
 
-class QuarticTnlp final : public Ipopt::TNLP {
+class QuarticTnlp final : public quadtune::planning::UnconstrainedDenseTnlp {
  public:
-  QuarticTnlp(int n, double x0) : n_(n), x0_(x0) {}
+  QuarticTnlp(int n, double x0) : UnconstrainedDenseTnlp(n), x0_(x0) {}
 
-  bool get_nlp_info(Index& n, Index& m, Index& nnz_jac_g, Index& nnz_h_lag,
-                    IndexStyleEnum& index_style) override {
-    n = n_;
-    m = 0;
-    nnz_jac_g = 0;
-    nnz_h_lag = n_ * (n_ + 1) / 2;
-    index_style = C_STYLE;
-    return true;
-  }
-  bool get_bounds_info(Index n, Number* x_l, Number* x_u, Index /*m*/, Number* /*g_l*/,
-                       Number* /*g_u*/) override {
-    for (Index i = 0; i < n; ++i) {
-      x_l[i] = -1e20;
-      x_u[i] = 1e20;
-    }
-    return true;
-  }
   bool get_starting_point(Index n, bool /*init_x*/, Number* x, bool /*init_z*/, Number* /*z_L*/,
                           Number* /*z_U*/, Index /*m*/, bool /*init_lambda*/,
                           Number* /*lambda*/) override {
@@ -67,27 +50,18 @@ class QuarticTnlp final : public Ipopt::TNLP {
     }
     return true;
   }
-  bool eval_g(Index /*n*/, const Number* /*x*/, bool /*new_x*/, Index /*m*/,
-              Number* /*g*/) override {
-    return true;
-  }
-  bool eval_jac_g(Index /*n*/, const Number* /*x*/, bool /*new_x*/, Index /*m*/, Index /*nele*/,
-                  Index* /*iRow*/, Index* /*jCol*/, Number* /*values*/) override {
-    return true;
-  }
   bool eval_h(Index n, const Number* x, bool /*new_x*/, Number obj_factor, Index /*m*/,
               const Number* /*lambda*/, bool /*new_lambda*/, Index /*nele*/, Index* iRow,
               Index* jCol, Number* values) override {
+    if (values == nullptr) {
+      DenseLowerStructure(n, iRow, jCol);
+      return true;
+    }
     Index k = 0;
     for (Index r = 0; r < n; ++r) {
       for (Index c = 0; c <= r; ++c, ++k) {
-        if (values == nullptr) {
-          iRow[k] = r;
-          jCol[k] = c;
-        } else {
-          const double d = x[r] - 1.0;
-          values[k] = r == c ? obj_factor * (12.0 * d * d + 0.02) : 0.0;
-        }
+        const double d = x[r] - 1.0;
+        values[k] = r == c ? obj_factor * (12.0 * d * d + 0.02) : 0.0;
       }
     }
     return true;
@@ -99,7 +73,6 @@ class QuarticTnlp final : public Ipopt::TNLP {
                          Ipopt::IpoptCalculatedQuantities* /*ip_cq*/) override {}
 
  private:
-  int n_;
   double x0_;
 };
 
