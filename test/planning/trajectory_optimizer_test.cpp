@@ -5,6 +5,7 @@
 #include <oneapi/tbb/task_arena.h>
 
 #include <atomic>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -279,6 +280,13 @@ TEST(TrajectoryOptimizer, ReportsInvalidInputWithoutThrowing) {
   request = StraightRequest();
   request.v0_W.x() = std::nan("");
   EXPECT_EQ(optimizer.Solve(request, field, PlannerParams{}).status, PlanStatus::kInvalidInput);
+  for (double bad : {-1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    request = StraightRequest();
+    request.braking_deceleration = bad;
+    const PlanResult braking = optimizer.Solve(request, field, PlannerParams{});
+    EXPECT_EQ(braking.status, PlanStatus::kInvalidInput);
+    EXPECT_NE(braking.message.find("braking_deceleration"), std::string::npos) << braking.message;
+  }
   PlannerParams bad;
   bad.n_pol = 1;
   const PlanResult r = optimizer.Solve(StraightRequest(), field, bad);
