@@ -174,8 +174,9 @@ std::vector<Eigen::Vector3d> MinJerkProblem::InnerWaypoints(const Eigen::VectorX
 
 double MinJerkProblem::TimeScale(const Eigen::VectorXd& z) { return std::exp(z(z.size() - 1)); }
 
-void MinJerkProblem::BoundaryVectors(const Eigen::VectorXd& z, Eigen::MatrixXd* b,
-                                     Eigen::MatrixXd* db, Eigen::MatrixXd* ddb) const {
+void MinJerkProblem::BoundaryVectors(const Eigen::VectorXd& z, const Eigen::Vector3d& origin,
+                                     Eigen::MatrixXd* b, Eigen::MatrixXd* db,
+                                     Eigen::MatrixXd* ddb) const {
   const int m = num_pieces_ - 1;
   const int nb = BoundarySize();
   const double tau = std::exp(z(NumVariables() - 1));
@@ -184,11 +185,11 @@ void MinJerkProblem::BoundaryVectors(const Eigen::VectorXd& z, Eigen::MatrixXd* 
   if (db != nullptr) db->setZero(nb, 3);
   if (ddb != nullptr) ddb->setZero(nb, 3);
   for (int a = 0; a < 3; ++a) {
-    (*b)(0, a) = boundary_.p0_W(a);
+    (*b)(0, a) = boundary_.p0_W(a) - origin(a);
     (*b)(1, a) = tau * boundary_.v0_W(a);
     (*b)(2, a) = tau2 * boundary_.a0_W(a);
-    for (int i = 0; i < m; ++i) (*b)(3 + i, a) = z(a * m + i);
-    (*b)(nb - 3, a) = boundary_.pf_W(a);
+    for (int i = 0; i < m; ++i) (*b)(3 + i, a) = z(a * m + i) - origin(a);
+    (*b)(nb - 3, a) = boundary_.pf_W(a) - origin(a);
     (*b)(nb - 2, a) = tau * boundary_.vf_W(a);
     (*b)(nb - 1, a) = tau2 * boundary_.af_W(a);
     // d/dρ of τ^k x is k τ^k x; second derivative k² τ^k x.
@@ -257,7 +258,9 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
 
   const double rho = z(ir);
   const double tau = std::exp(rho);
-  BoundaryVectors(z, &ws.b, want_grad ? &ws.db : nullptr, want_hess ? &ws.ddb : nullptr);
+  // Positions relative to the start (see the file comment, "Numerics").
+  const Eigen::Vector3d& origin = boundary_.p0_W;
+  BoundaryVectors(z, origin, &ws.b, want_grad ? &ws.db : nullptr, want_hess ? &ws.ddb : nullptr);
   const Eigen::MatrixXd& b = ws.b;
   const Eigen::MatrixXd& db = ws.db;
   const Eigen::MatrixXd& ddb = ws.ddb;
@@ -318,7 +321,7 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
     ws.active.clear();
     for (int j = 0; j < ns; ++j) {
       const Eigen::Vector3d w = ws.w.row(j).transpose();
-      const Eigen::Vector3d r = scale * w;
+      const Eigen::Vector3d r = d == 0 ? Eigen::Vector3d(w + origin) : Eigen::Vector3d(scale * w);
       Eigen::Vector3d gamma;      // ∂ψ/∂r
       Eigen::Matrix3d big_gamma;  // ∂²ψ/∂r²
       if (d == 0) {
@@ -416,9 +419,10 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
 
 Trajectory MinJerkProblem::ToTrajectory(const Eigen::VectorXd& z) const {
   Eigen::MatrixXd b;
-  BoundaryVectors(z, &b, nullptr, nullptr);
+  BoundaryVectors(z, boundary_.p0_W, &b, nullptr, nullptr);
   const double tau = TimeScale(z);
-  const Eigen::MatrixXd c = coeff_map_ * b;  // 6N × 3, normalised time
+  Eigen::MatrixXd c = coeff_map_ * b;  // 6N × 3, normalised time, positions relative to p0
+  for (int i = 0; i < num_pieces_; ++i) c.row(6 * i) += boundary_.p0_W.transpose();
   std::vector<double> durations;
   std::vector<Trajectory::Coefficients> coeffs;
   durations.reserve(static_cast<std::size_t>(num_pieces_));

@@ -171,6 +171,14 @@ Ipopt::SmartPtr<Ipopt::IpoptApplication> NewPlannerIpoptApplication() {
   // No constraints: second-order corrections never apply, their trial points only cost
   // objective evaluations (measured: same iterates, ≈25% fewer evaluations).
   opts->SetIntegerValue("max_soc", 0);
+  // A Newton step that moves every variable by less than 1e-8 of max(1, |value|) (0.1 µm on a
+  // waypoint 10 m from the world origin, a relative change of 1e-8 of the time scale) is taken
+  // without a line search: at that resolution f(x + αd) and f(x) differ by rounding only, and the
+  // line search (Ipopt's default threshold is 10 machine epsilons) halved α 20–35 times per
+  // iteration before the rounding-floor stall test ended the solve. Convergence is still
+  // decided by `tol` on the gradient; measured on the recorded 1.3 m queries: the same solutions
+  // (mean cost equal to 5 digits), ≈30% fewer objective evaluations.
+  opts->SetNumericValue("tiny_step_tol", 1e-8);
   // An empty file name: no `ipopt.opt` is read from the working directory.
   a->Initialize("");
   return a;

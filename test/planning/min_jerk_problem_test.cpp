@@ -139,6 +139,48 @@ TEST(MinJerkProblem, GradientMatchesFiniteDifferences) {
   }
 }
 
+TEST(MinJerkProblem, CostAndDerivativesDoNotDependOnWhereTheWorldOriginIs) {
+  // The same problem 5 km from the world origin (boundary, waypoints and field moved together):
+  // cost, gradient and Hessian must agree with the problem near the origin to rounding of their
+  // own size. Positions enter relative to the start; in world coordinates the jerk energy is a
+  // difference of products of size |p|² and loses |p|²/L² of its digits.
+  const Eigen::Vector3d normal = Eigen::Vector3d(0.2, -1.0, 0.1).normalized();
+  const Eigen::Vector3d shift(4000.0, -3000.0, 20.0);
+  const HalfSpaceField near_field(normal, -0.3);
+  const HalfSpaceField far_field(normal, -0.3 + normal.dot(shift));
+  MinJerkBoundary far = Boundary();
+  far.p0_W += shift;
+  far.pf_W += shift;
+  for (int pieces : {2, 4, 7}) {
+    std::vector<double> durations;
+    for (int i = 0; i < pieces; ++i) durations.push_back(4.0 / pieces * (1.0 + 0.1 * i));
+    const std::vector<int> samples(static_cast<std::size_t>(pieces), 9);
+    const MinJerkProblem near_problem(Boundary(), durations, samples, near_field, TightParams());
+    const MinJerkProblem far_problem(far, durations, samples, far_field, TightParams());
+    const Eigen::VectorXd z_near = PointNear(near_problem, 1.0);
+    Eigen::VectorXd z_far = z_near;
+    const int m = pieces - 1;
+    for (int a = 0; a < 3; ++a) z_far.segment(a * m, m).array() += shift(a);
+    Eigen::VectorXd g_near, g_far;
+    Eigen::MatrixXd h_near, h_far;
+    const MinJerkCostTerms t_near = near_problem.Evaluate(z_near, &g_near, &h_near);
+    const MinJerkCostTerms t_far = far_problem.Evaluate(z_far, &g_far, &h_far);
+    ASSERT_GT(t_near.collision, 0.0);
+    ASSERT_GT(t_near.feasibility, 0.0);
+    EXPECT_LT(std::abs(t_far.total - t_near.total), 1e-12 * t_near.total) << pieces;
+    EXPECT_LT(std::abs(t_far.jerk - t_near.jerk), 1e-12 * t_near.jerk) << pieces;
+    EXPECT_LT((g_far - g_near).norm(), 1e-11 * g_near.norm()) << pieces;
+    EXPECT_LT((h_far - h_near).norm(), 1e-11 * h_near.norm()) << pieces;
+    // The trajectory is the same curve, moved.
+    const Trajectory tr_near = near_problem.ToTrajectory(z_near);
+    const Trajectory tr_far = far_problem.ToTrajectory(z_far);
+    for (double t = 0.0; t <= tr_near.Duration(); t += 0.1) {
+      EXPECT_LT((tr_far.Position(t) - shift - tr_near.Position(t)).norm(), 1e-9) << t;
+      EXPECT_LT((tr_far.Acceleration(t) - tr_near.Acceleration(t)).norm(), 1e-9) << t;
+    }
+  }
+}
+
 TEST(MinJerkProblem, HessianMatchesFiniteDifferencesForAffineField) {
   // With an affine distance field the Gauss–Newton drop (∇²d) is zero: the Hessian is exact.
   const HalfSpaceField field(Eigen::Vector3d(0.2, -1.0, 0.1), -0.3);

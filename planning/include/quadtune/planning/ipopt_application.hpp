@@ -5,7 +5,9 @@
 /// Options (all deterministic; no CPU or wall-time limit): print level 0 and no banner, no
 /// option file, `linear_solver ma27` backed by the thread-safe dense solver of dense_ma27.hpp
 /// (registered here), no linear-system scaling, the exact Hessian, `max_soc 0` (without
-/// constraints second-order corrections only cost evaluations). The per-solve options (`tol`,
+/// constraints second-order corrections only cost evaluations), `tiny_step_tol 1e-8` (a step
+/// below that relative size is taken without a line search, which cannot resolve it; see
+/// NewPlannerIpoptApplication's definition). The per-solve options (`tol`,
 /// `max_iter`, the "acceptable" stall test) are set by TrajectoryOptimizer::Solve.
 ///
 /// UnconstrainedDenseTnlp is the part every such problem shares (the planner's MinJerkProblem

@@ -34,6 +34,16 @@
 ///    J_time = Σ T_i against the jerk energy τ^-5 would pick its own speed, ≈ (720 L²/w_time)^{1/6}
 ///    for a rest-to-rest path of length L, whatever v_des is.) ρ² is also convex and exactly
 ///    quadratic in the variable ρ, and the optimum lies near ρ = 0, where the solve starts.
+///  - Numerics: the position entries of b are taken relative to the start p0 (velocities and
+///    accelerations as they are). Every term is invariant to that shift in exact arithmetic (the
+///    spline reproduces constants: position rows of S_0 sum to 1, velocity and acceleration rows
+///    to 0, and H̄ annihilates a constant), but in world coordinates, tens to thousands of metres
+///    from the world origin, the jerk energy bᵀH̄b and the sampled velocities are small
+///    differences of large products: measured on recorded 1.3 m forest queries, the gradient
+///    then stopped agreeing with f at a scaled dual infeasibility of 1e-7 to 1e-4, above Ipopt's
+///    `tol`, and ≈30% of the objective evaluations were line-search trials at that floor.
+///    Sample positions get p0 added back before the field is read; ToTrajectory adds it to each
+///    piece's constant coefficient.
 ///  - Derivatives: gradient and Hessian are exact for every term, the collision term included:
 ///    it reads d through DistanceField::EvaluateWithHessian (a C² version of the distance with
 ///    its exact Hessian ∇²d), so Ipopt takes true Newton steps and converges quadratically.
@@ -139,8 +149,8 @@ class MinJerkProblem {
   int BoundarySize() const { return num_pieces_ + 5; }
   // Boundary vector per axis (nb) and its first/second derivative with respect to ρ (db, ddb
   // may be null).
-  void BoundaryVectors(const Eigen::VectorXd& z, Eigen::MatrixXd* b, Eigen::MatrixXd* db,
-                       Eigen::MatrixXd* ddb) const;
+  void BoundaryVectors(const Eigen::VectorXd& z, const Eigen::Vector3d& origin, Eigen::MatrixXd* b,
+                       Eigen::MatrixXd* db, Eigen::MatrixXd* ddb) const;
 
   MinJerkBoundary boundary_;
   std::vector<double> nominal_;
