@@ -174,9 +174,9 @@ std::vector<Eigen::Vector3d> MinJerkProblem::InnerWaypoints(const Eigen::VectorX
 
 double MinJerkProblem::TimeScale(const Eigen::VectorXd& z) { return std::exp(z(z.size() - 1)); }
 
-void MinJerkProblem::BoundaryVectors(const Eigen::VectorXd& z, const Eigen::Vector3d& origin,
-                                     Eigen::MatrixXd* b, Eigen::MatrixXd* db,
-                                     Eigen::MatrixXd* ddb) const {
+void MinJerkProblem::BoundaryVectors(const Eigen::VectorXd& z, Eigen::MatrixXd* b,
+                                     Eigen::MatrixXd* db, Eigen::MatrixXd* ddb) const {
+  const Eigen::Vector3d& origin = boundary_.p0_W;
   const int m = num_pieces_ - 1;
   const int nb = BoundarySize();
   const double tau = std::exp(z(NumVariables() - 1));
@@ -258,9 +258,9 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
 
   const double rho = z(ir);
   const double tau = std::exp(rho);
-  // Positions relative to the start (see the file comment, "Numerics").
+  // Positions in b are relative to the start (see the file comment, "Numerics").
   const Eigen::Vector3d& origin = boundary_.p0_W;
-  BoundaryVectors(z, origin, &ws.b, want_grad ? &ws.db : nullptr, want_hess ? &ws.ddb : nullptr);
+  BoundaryVectors(z, &ws.b, want_grad ? &ws.db : nullptr, want_hess ? &ws.ddb : nullptr);
   const Eigen::MatrixXd& b = ws.b;
   const Eigen::MatrixXd& db = ws.db;
   const Eigen::MatrixXd& ddb = ws.ddb;
@@ -419,7 +419,7 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
 
 Trajectory MinJerkProblem::ToTrajectory(const Eigen::VectorXd& z) const {
   Eigen::MatrixXd b;
-  BoundaryVectors(z, boundary_.p0_W, &b, nullptr, nullptr);
+  BoundaryVectors(z, &b, nullptr, nullptr);
   const double tau = TimeScale(z);
   Eigen::MatrixXd c = coeff_map_ * b;  // 6N × 3, normalised time, positions relative to p0
   for (int i = 0; i < num_pieces_; ++i) c.row(6 * i) += boundary_.p0_W.transpose();

@@ -147,10 +147,10 @@ class MinJerkProblem {
 
  private:
   int BoundarySize() const { return num_pieces_ + 5; }
-  // Boundary vector per axis (nb) and its first/second derivative with respect to ρ (db, ddb
-  // may be null).
-  void BoundaryVectors(const Eigen::VectorXd& z, const Eigen::Vector3d& origin, Eigen::MatrixXd* b,
-                       Eigen::MatrixXd* db, Eigen::MatrixXd* ddb) const;
+  // Boundary vector per axis (nb), positions relative to p0 (see "Numerics"), and its
+  // first/second derivative with respect to ρ (db, ddb may be null).
+  void BoundaryVectors(const Eigen::VectorXd& z, Eigen::MatrixXd* b, Eigen::MatrixXd* db,
+                       Eigen::MatrixXd* ddb) const;
 
   MinJerkBoundary boundary_;
   std::vector<double> nominal_;
