@@ -14,6 +14,12 @@ namespace {
 constexpr std::int32_t kInfSq = std::numeric_limits<std::int32_t>::max() / 4;
 constexpr double kQuantumSteps = 32000.0;
 constexpr std::size_t kMaxCells = std::size_t{1} << 26;
+// The windowed transform's 16-bit "no site within the truncation": above every kept value, and
+// kInf16 + cap stays below 2^15 for cap ≤ kMaxWindowedCap.
+constexpr std::int16_t kInf16 = 16384;
+constexpr std::int32_t kMaxWindowedCap = 8191;
+// Values of a row the windowed transform carries through the window at once.
+constexpr std::size_t kChunk = 32;
 
 /// 1-D squared distance transform of f (kInfSq = no site) by the lower envelope of parabolas
 /// (Felzenszwalb & Huttenlocher). Writes d; values above `cap` become kInfSq. Scratch: v, fv
@@ -51,6 +57,44 @@ void LowerEnvelope(const std::int32_t* f, int n, std::int32_t* d, int* v, float*
     const int dq = q - v[j];
     const std::int32_t val = dq * dq + f[v[j]];
     d[q] = val > cap ? kInfSq : val;
+  }
+}
+
+/// One pass of the windowed transform along y or z: rows of nx contiguous values, read from
+/// `in` (rows nx apart) and written to `dst` (rows `stride` apart); out_row(q) = min over
+/// |k| ≤ t_cells of in_row(q + k) + k², then values above cap become kInf16. kChunk values of a
+/// row at a time are held over the whole window; the loops over them vectorise (16-bit min and
+/// add), with an AVX2 clone picked at load time where the processor has it.
+#if defined(__x86_64__) && defined(__GNUC__)
+__attribute__((target_clones("avx2", "default")))
+#endif
+void WindowedPass(const std::int16_t* in, std::int16_t* dst, std::size_t nx, int rows,
+                  std::size_t stride, int t_cells, std::int16_t cap) {
+  for (int q = 0; q < rows; ++q) {
+    std::int16_t* o = dst + stride * static_cast<std::size_t>(q);
+    const int k_lo = std::max(-t_cells, -q);
+    const int k_hi = std::min(t_cells, rows - 1 - q);
+    std::size_t x0 = 0;
+    for (; x0 + kChunk <= nx; x0 += kChunk) {
+      std::int16_t acc[kChunk];
+      std::fill(acc, acc + kChunk, kInf16);
+      for (int k = k_lo; k <= k_hi; ++k) {
+        const std::int16_t* src = in + nx * static_cast<std::size_t>(q + k) + x0;
+        const auto kk = static_cast<std::int16_t>(k * k);
+        for (std::size_t c = 0; c < kChunk; ++c) {
+          acc[c] = std::min(acc[c], static_cast<std::int16_t>(src[c] + kk));
+        }
+      }
+      for (std::size_t c = 0; c < kChunk; ++c) o[x0 + c] = acc[c] > cap ? kInf16 : acc[c];
+    }
+    for (std::size_t x = x0; x < nx; ++x) {
+      std::int16_t best = kInf16;
+      for (int k = k_lo; k <= k_hi; ++k) {
+        const std::int16_t v = in[nx * static_cast<std::size_t>(q + k) + x];
+        best = std::min(best, static_cast<std::int16_t>(v + k * k));
+      }
+      o[x] = best > cap ? kInf16 : best;
+    }
   }
 }
 
@@ -255,9 +299,65 @@ Esdf EsdfBuilder::Compute(const Eigen::Vector3d& origin_W, double resolution,
   return finish();
 }
 
+void EsdfBuilder::SquaredEdtWindowed(const std::uint8_t* occupancy, const Eigen::Vector3i& dims,
+                                     bool target, int t_cells, std::vector<std::int32_t>* out) {
+  const std::size_t nx = static_cast<std::size_t>(dims.x());
+  const int ny = dims.y();
+  const int nz = dims.z();
+  const std::size_t nxy = nx * static_cast<std::size_t>(ny);
+  const std::size_t n = nxy * static_cast<std::size_t>(nz);
+  const auto cap = static_cast<std::int16_t>(t_cells * t_cells);
+  grid16_.resize(n);
+  std::int16_t* g = grid16_.data();
+
+  // Pass along x, as in SquaredEdt.
+  for (std::size_t row = 0; row < static_cast<std::size_t>(ny) * static_cast<std::size_t>(nz); ++row) {
+    const std::uint8_t* o = occupancy + row * nx;
+    std::int16_t* r = g + row * nx;
+    int last = -(1 << 20);
+    for (std::size_t x = 0; x < nx; ++x) {
+      if ((o[x] != 0) == target) last = static_cast<int>(x);
+      r[x] = static_cast<std::int16_t>(std::min(static_cast<int>(x) - last, t_cells + 1));
+    }
+    last = 1 << 21;
+    for (std::size_t x = nx; x-- > 0;) {
+      if ((o[x] != 0) == target) last = static_cast<int>(x);
+      const int dx = std::min(static_cast<int>(r[x]), last - static_cast<int>(x));
+      r[x] = dx > t_cells ? kInf16 : static_cast<std::int16_t>(dx * dx);
+    }
+  }
+
+  plane16_.resize(nx * static_cast<std::size_t>(std::max(ny, nz)));
+  if (ny > 1) {
+    for (int z = 0; z < nz; ++z) {
+      std::int16_t* slab = g + nxy * static_cast<std::size_t>(z);
+      std::copy(slab, slab + nxy, plane16_.data());
+      WindowedPass(plane16_.data(), slab, nx, ny, nx, t_cells, cap);
+    }
+  }
+  if (nz > 1) {
+    for (int y = 0; y < ny; ++y) {
+      std::int16_t* base = g + nx * static_cast<std::size_t>(y);
+      for (int z = 0; z < nz; ++z) {
+        const std::int16_t* row = base + nxy * static_cast<std::size_t>(z);
+        std::copy(row, row + nx, plane16_.data() + nx * static_cast<std::size_t>(z));
+      }
+      WindowedPass(plane16_.data(), base, nx, nz, nxy, t_cells, cap);
+    }
+  }
+  out->resize(n);
+  std::int32_t* d = out->data();
+  for (std::size_t i = 0; i < n; ++i) d[i] = g[i] == kInf16 ? kInfSq : g[i];
+}
+
 void EsdfBuilder::SquaredEdt(const std::uint8_t* occupancy, const Eigen::Vector3i& dims,
                              bool target, std::int32_t cap, std::vector<std::int32_t>* out) {
   const int nx = dims.x();
+  const int t_root = static_cast<int>(std::lround(std::sqrt(static_cast<double>(cap))));
+  if (t_root * t_root == cap && cap <= kMaxWindowedCap) {
+    SquaredEdtWindowed(occupancy, dims, target, t_root, out);
+    return;
+  }
   const int ny = dims.y();
   const int nz = dims.z();
   const std::size_t snx = static_cast<std::size_t>(nx);

@@ -63,6 +63,63 @@ TEST(Esdf, MatchesBruteForceOnRandomOccupancy) {
   }
 }
 
+/// Brute force of the stored (quantised) value, computed the way esdf.hpp documents it: nearest
+/// opposite cell centre, minus half a cell, clamped at max_distance, rounded to the quantum.
+double BruteForceStored(const std::vector<std::uint8_t>& occ, const Vector3i& dims,
+                        const Vector3i& c, double res, double max_distance) {
+  const bool self = occ[Index(c, dims)] != 0;
+  long best_sq = -1;
+  for (int z = 0; z < dims.z(); ++z) {
+    for (int y = 0; y < dims.y(); ++y) {
+      for (int x = 0; x < dims.x(); ++x) {
+        const Vector3i o(x, y, z);
+        if ((occ[Index(o, dims)] != 0) == self) continue;
+        const long sq = (o - c).squaredNorm();
+        if (best_sq < 0 || sq < best_sq) best_sq = sq;
+      }
+    }
+  }
+  const double d = best_sq < 0 ? max_distance
+                               : std::min((std::sqrt(static_cast<double>(best_sq)) - 0.5) * res,
+                                          max_distance);
+  const double quantum = max_distance / 32000.0;
+  const double q = static_cast<double>(std::lround(d * (1.0 / quantum)));
+  return (self ? -q : q) * quantum;
+}
+
+// Truncation distances of up to ~88 cells take the windowed 16-bit transform, longer ones the
+// lower envelope; both must store exactly the brute-force values, truncated or not.
+TEST(Esdf, BothTransformsStoreTheExactTruncatedDistance) {
+  const Vector3i dims(29, 17, 13);
+  const double res = 0.1;
+  for (double max_distance : {0.35, 1.0, 2.0, 9.5}) {
+    EsdfOptions opt;
+    opt.max_distance = max_distance;
+    for (double density : {0.003, 0.05, 0.6, 0.97}) {
+      Rng rng(DeriveSeed(11, {static_cast<std::uint64_t>(density * 1000),
+                              static_cast<std::uint64_t>(max_distance * 100)}));
+      std::vector<std::uint8_t> occ(static_cast<std::size_t>(dims.prod()));
+      for (auto& o : occ) o = Uniform01(rng) < density ? 1 : 0;
+      const Esdf esdf = Esdf::FromOccupancy(Vector3d(0.2, -0.4, 0.0), res, dims, occ, opt);
+      int mismatches = 0;
+      for (int z = 0; z < dims.z(); ++z) {
+        for (int y = 0; y < dims.y(); ++y) {
+          for (int x = 0; x < dims.x(); ++x) {
+            const Vector3i c(x, y, z);
+            const double expected = BruteForceStored(occ, dims, c, res, max_distance);
+            if (esdf.CellDistance(c) != expected && ++mismatches <= 3) {
+              ADD_FAILURE() << "max_distance " << max_distance << " density " << density
+                            << " cell " << c.transpose() << ": " << esdf.CellDistance(c)
+                            << " != " << expected;
+            }
+          }
+        }
+      }
+      EXPECT_EQ(mismatches, 0) << "max_distance " << max_distance << " density " << density;
+    }
+  }
+}
+
 TEST(Esdf, TruncatesAtMaxDistance) {
   const Vector3i dims(40, 5, 5);
   std::vector<std::uint8_t> occ(static_cast<std::size_t>(dims.prod()), 0);

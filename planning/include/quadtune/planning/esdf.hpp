@@ -7,7 +7,11 @@
 /// default); an exact Euclidean distance transform (Felzenszwalb & Huttenlocher, "Distance
 /// Transforms of Sampled Functions", 2012: a linear-time lower envelope of parabolas per line,
 /// applied along x, then y, then z) gives, for every cell centre, the distance to the nearest
-/// occupied cell centre (free cells) or to the nearest free cell centre (occupied cells). The
+/// occupied cell centre (free cells) or to the nearest free cell centre (occupied cells). When
+/// the truncation spans at most ~88 cells (the default 2 m at 0.1 m: 22), the y and z passes
+/// instead take the minimum over the truncation window itself, in 16-bit lanes that vectorise:
+/// the same values (a site farther than the window lies beyond the truncation) in about 0.45 of
+/// the envelope's time (mapping_bench BM_EsdfBuild, the forest box of 186 000 cells). The
 /// stored signed distance puts the surface on the cell faces:
 ///   free cell:      d = (distance to nearest occupied centre − res/2)  > 0
 ///   occupied cell:  d = −(distance to nearest free centre − res/2)     < 0
@@ -153,12 +157,18 @@ class EsdfBuilder {
   /// occupancy equals `target`; values above `cap` (a squared truncation) may read kInf.
   void SquaredEdt(const std::uint8_t* occupancy, const Eigen::Vector3i& dims, bool target,
                   std::int32_t cap, std::vector<std::int32_t>* out);
+  /// The same transform for cap = t_cells² ≤ 8191, by the minimum over the 2·t_cells + 1
+  /// neighbours of each line (16-bit, vectorised); equal to the envelope's result.
+  void SquaredEdtWindowed(const std::uint8_t* occupancy, const Eigen::Vector3i& dims,
+                          bool target, int t_cells, std::vector<std::int32_t>* out);
 
   std::vector<std::uint8_t> occupancy_;      // box occupancy read from the map
   std::vector<std::uint8_t> sub_occupancy_;  // around the deep occupied cells
   std::vector<std::int32_t> outside_;  // squared cell distances to the nearest occupied centre
   std::vector<std::int32_t> inside_;   // squared cell distances to the nearest free centre
   std::vector<std::int32_t> slab_;     // a transposed slab
+  std::vector<std::int16_t> grid16_;   // the windowed transform's values
+  std::vector<std::int16_t> plane16_;  // the windowed transform's input rows of one pass
   std::vector<std::int32_t> line_d_;
   std::vector<int> hull_v_;
   std::vector<float> hull_fv_;
