@@ -67,6 +67,29 @@ void FlightOptions::Validate(const std::string& origin) const {
   CheckInRange(stall_distance, Range::NonNegative(), origin, "stall_distance");
 }
 
+StallDetector::StallDetector(double stall_time, double stall_distance, double t0,
+                             const Eigen::Vector3d& p0_W, std::size_t waypoint)
+    : stall_time_(stall_time),
+      stall_distance_(stall_distance),
+      check_time_(t0 + stall_time),
+      p_start_W_(p0_W),
+      waypoint_(waypoint) {}
+
+std::optional<double> StallDetector::Update(double t, const Eigen::Vector3d& p_W,
+                                            std::size_t waypoint) {
+  if (waypoint != waypoint_) {
+    waypoint_ = waypoint;
+  } else if (t >= check_time_) {
+    const double moved = (p_W - p_start_W_).norm();
+    if (moved < stall_distance_) return moved;
+  } else {
+    return std::nullopt;
+  }
+  p_start_W_ = p_W;
+  check_time_ = t + stall_time_;
+  return std::nullopt;
+}
+
 FlightResult Fly(physics::World& world, const Mission& mission, const PlannerParams& params,
                  const FlightOptions& options, const TrajectoryOptimizer& optimizer,
                  const FlightHooks& hooks) {
@@ -111,8 +134,8 @@ FlightResult Fly(physics::World& world, const Mission& mission, const PlannerPar
   double window_max = 0.0;
   m.min_clearance = std::numeric_limits<double>::infinity();
   Eigen::Vector3d last_p = mission.start_W;
-  Eigen::Vector3d stall_p_W = world.State().p_W;  // position at the start of the stall window
-  double stall_check_time = world.time() + options.stall_time;
+  StallDetector stall(options.stall_time, options.stall_distance, world.time(),
+                      world.State().p_W, replanner.waypoint_index());
   std::int64_t tick = 0;
   m.status = FlightStatus::kTimeout;
   try {
@@ -138,16 +161,12 @@ FlightResult Fly(physics::World& world, const Mission& mission, const PlannerPar
         m.message = "mission not finished within max_time";
         break;
       }
-      if (t >= stall_check_time) {
-        const double moved = (world.State().p_W - stall_p_W).norm();
-        if (moved < options.stall_distance) {
-          m.status = FlightStatus::kStalled;
-          m.message = "no progress: moved " + std::to_string(moved) + " m in the last " +
-                      std::to_string(options.stall_time) + " s";
-          break;
-        }
-        stall_p_W = world.State().p_W;
-        stall_check_time = t + options.stall_time;
+      if (const std::optional<double> moved =
+              stall.Update(t, world.State().p_W, replanner.waypoint_index())) {
+        m.status = FlightStatus::kStalled;
+        m.message = "no progress: moved " + std::to_string(*moved) + " m in the last " +
+                    std::to_string(options.stall_time) + " s";
+        break;
       }
       world.Advance(dt);
       if (world.HasDiverged()) {

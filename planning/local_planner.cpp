@@ -36,16 +36,20 @@ void LocalPlannerOptions::Validate(const std::string& origin) const {
   esdf.Validate(origin);
   CheckInRange(field_margin, Range::NonNegative(), origin, "field_margin");
   CheckInRange(retry_slowdown, {0.0, 1.0, true, false}, origin, "retry_slowdown");
+  CheckInRange(retry_collision_gain, Range::Closed(1.0, 1e6), origin, "retry_collision_gain");
 }
 
 PlanOutcome SolveQuery(const TrajectoryOptimizer& optimizer, const PlanningQuery& query,
-                       const PlannerParams& params, double retry_slowdown) {
+                       const PlannerParams& params, double retry_slowdown,
+                       double retry_collision_gain) {
   PlanOutcome out;
   const int attempts = std::max(1, params.max_attempts);
+  PlannerParams attempt_params = params;
   for (int k = 0; k < attempts; ++k) {
     PlanRequest request = query.ToRequest(/*use_warm_start=*/k == 0);
     if (k >= 2) request.speed_scale = std::pow(retry_slowdown, k - 1);
-    PlanResult r = optimizer.Solve(request, query.field, params);
+    PlanResult r = optimizer.Solve(request, query.field, attempt_params);
+    if (r.status == PlanStatus::kCollision) attempt_params.w_col *= retry_collision_gain;
     out.attempts = k + 1;
     out.solve_time_s += r.solve_time_s;
     out.compute_units += r.compute_units;
@@ -106,7 +110,8 @@ std::optional<PlanningQuery> LocalPlanner::MakeQuery(
 
 PlanOutcome LocalPlanner::Plan(const TrajectoryOptimizer& optimizer, const PlanningQuery& query,
                                const PlannerParams& params) const {
-  return SolveQuery(optimizer, query, params, options_.retry_slowdown);
+  return SolveQuery(optimizer, query, params, options_.retry_slowdown,
+                    options_.retry_collision_gain);
 }
 
 }  // namespace quadtune::planning

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
@@ -36,6 +37,40 @@ struct ForestFlight {
   Mission mission;
   TrajectoryOptimizer optimizer;
 };
+
+// A drone that flies 4 m out at 1 m/s and straight back, checked every 8 s: the check at 8 s
+// finds it where it started. That is a stall only if no waypoint was reached in between.
+TEST(StallDetector, ATurnRoundWithinTheWindowIsProgress) {
+  const auto position = [](double t) {
+    return Eigen::Vector3d(t <= 4.0 ? t : 8.0 - t, 0.0, 1.0);
+  };
+  for (bool waypoint_reached : {false, true}) {
+    StallDetector stall(8.0, 1.0, 0.0, position(0.0), 0);
+    std::optional<double> stalled;
+    for (int k = 1; k <= 900 && !stalled; ++k) {
+      const double t = 0.01 * k;
+      const std::size_t waypoint = waypoint_reached && t >= 4.0 ? 1 : 0;
+      stalled = stall.Update(t, position(std::min(t, 8.0)), waypoint);
+      if (stalled) EXPECT_NEAR(t, 8.0, 0.011);
+    }
+    EXPECT_EQ(stalled.has_value(), !waypoint_reached);
+    if (stalled) EXPECT_LT(*stalled, 1.0);
+  }
+}
+
+TEST(StallDetector, HoveringStallsAndSteadyFlightDoesNot) {
+  StallDetector hover(5.0, 1.0, 0.0, Eigen::Vector3d::Zero(), 0);
+  StallDetector cruise(5.0, 1.0, 0.0, Eigen::Vector3d::Zero(), 0);
+  std::optional<double> hovered;
+  for (int k = 1; k <= 3000; ++k) {
+    const double t = 0.01 * k;
+    // Hovering with 0.2 m of drift.
+    if (!hovered) hovered = hover.Update(t, Eigen::Vector3d(0.2 * std::sin(t), 0.0, 0.0), 0);
+    EXPECT_FALSE(cruise.Update(t, Eigen::Vector3d(0.5 * t, 0.0, 0.0), 0).has_value()) << t;
+  }
+  ASSERT_TRUE(hovered.has_value());
+  EXPECT_LT(*hovered, 1.0);
+}
 
 /// Go-and-return flights (24 m each way) at default parameters, seeds 1–4. Success means the
 /// mission completed without a collision. Measured with `quadtune fly --spacing S --seed N` over

@@ -134,12 +134,45 @@ TEST(LocalPlanner, FailedTrialsAreCounted) {
   EXPECT_GT(out.compute_units, 0.0);
 }
 
+// The collision cost is a penalty: with w_col = 0.003 every attempt's optimum cuts into the
+// clearance of the forest's pillars. Weighting it 10× more after such an attempt lets the third
+// attempt (w_col 0.3) keep the clearance; without that, all three fail the same way.
+TEST(LocalPlanner, RetriesAfterACollisionWeightTheCollisionCostMore) {
+  ForestQuery f;
+  const TrajectoryOptimizer optimizer;
+  PlannerParams p = f.params;
+  p.w_col = 0.003;
+  const PlanOutcome off = SolveQuery(optimizer, f.query, p, 0.75, /*retry_collision_gain=*/1.0);
+  EXPECT_FALSE(off.Ok());
+  EXPECT_EQ(off.failed_attempts, p.max_attempts);
+  EXPECT_EQ(off.result.status, PlanStatus::kCollision) << off.result.message;
+  const PlanOutcome on = SolveQuery(optimizer, f.query, p, 0.75, /*retry_collision_gain=*/10.0);
+  ASSERT_TRUE(on.Ok()) << on.result.message;
+  EXPECT_GE(on.failed_attempts, 1);
+  EXPECT_GE(on.result.min_clearance, p.inflation + optimizer.Options().collision_margin);
+  // The first attempt is the same either way (the gain applies only after a failure).
+  const PlanOutcome one_off = SolveQuery(optimizer, f.query, [&] {
+    PlannerParams q = p;
+    q.max_attempts = 1;
+    return q;
+  }(), 0.75, 1.0);
+  const PlanOutcome one_on = SolveQuery(optimizer, f.query, [&] {
+    PlannerParams q = p;
+    q.max_attempts = 1;
+    return q;
+  }(), 0.75, 10.0);
+  ExpectSameOutcome(one_off, one_on);
+}
+
 TEST(LocalPlannerOptions, BadValuesNameTheKey) {
   LocalPlannerOptions o;
   o.retry_slowdown = 0.0;
   EXPECT_THROW(o.Validate(), ConfigError);
   o = LocalPlannerOptions{};
   o.field_margin = -1.0;
+  EXPECT_THROW(o.Validate(), ConfigError);
+  o = LocalPlannerOptions{};
+  o.retry_collision_gain = 0.5;
   EXPECT_THROW(o.Validate(), ConfigError);
 }
 

@@ -14,7 +14,9 @@
 /// concurrently (the optimiser is shared read-only).
 
 #include <Eigen/Core>
+#include <cstddef>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -65,6 +67,7 @@ struct FlightOptions {
   double tracking_window = 1.0;   ///< window of the windowed tracking error J_p (s), > 0
   /// A flight whose drone moved less than stall_distance (m) in the last stall_time (s) ends as
   /// kStalled: stuck hovering (every plan failing) it would only burn compute until max_time.
+  /// The window restarts whenever a mission waypoint is reached (StallDetector).
   /// stall_time > 0 (a value >= max_time disables it), stall_distance >= 0.
   double stall_time = 15.0;
   double stall_distance = 1.0;
@@ -126,6 +129,26 @@ struct FlightHooks {
   std::function<bool()> cancelled;
   /// See Replanner::SetAdapter (not owned; must outlive Fly). nullptr: plain replanning.
   PlanAdapter* adapter = nullptr;
+};
+
+/// Fly()'s stall test (FlightOptions::stall_time, stall_distance): checked every stall_time
+/// seconds, the flight has stalled when the drone is less than stall_distance from where it was
+/// at the window's start. The window restarts at every check and whenever another mission
+/// waypoint becomes current: a go-and-return flight that turns round within a window may end it
+/// near where it began, having flown all the way.
+class StallDetector {
+ public:
+  StallDetector(double stall_time, double stall_distance, double t0, const Eigen::Vector3d& p0_W,
+                std::size_t waypoint);
+  /// Feeds the state at time t; returns the distance moved in the window when it has stalled.
+  std::optional<double> Update(double t, const Eigen::Vector3d& p_W, std::size_t waypoint);
+
+ private:
+  double stall_time_;
+  double stall_distance_;
+  double check_time_;
+  Eigen::Vector3d p_start_W_;
+  std::size_t waypoint_;
 };
 
 /// Flies `mission` in `world` (reset to hover at the mission start; its options, drone and

@@ -6,8 +6,9 @@
 ///     local map, pruning) and a distance-field snapshot of the region around the path, packed into
 ///     a self-contained PlanningQuery;
 ///  2. SolveQuery — the Ipopt back end on that query with a given θ_s, retried up to
-///     PlannerParams::max_attempts times (without warm start, then with a slower time allocation)
-///     before the plan counts as failed.
+///     PlannerParams::max_attempts times (without warm start, then with a slower time allocation;
+///     a stronger collision weight after a plan that cut into the clearance) before the plan
+///     counts as failed.
 ///
 /// A PlanningQuery is a value: any thread can re-solve it later with other short-term parameters
 /// θ_s = {w_col, w_dyn, n_pol}; that is exactly what a short-term evaluation does (paper Sec.
@@ -83,6 +84,11 @@ struct LocalPlannerOptions {
   /// Slow-down of the time allocation per extra retry: speed_scale = factor^(k−1) on attempt
   /// k ≥ 2 (the limits stay v_des and a_max).
   double retry_slowdown = 0.75;
+  /// Factor on w_col for the attempts after one whose plan came too close to an obstacle,
+  /// [1, 1e6] (1: off). The collision cost is a penalty: with a small w_col the optimum may cut
+  /// into the clearance by a few millimetres, and a drone hovering just outside it then fails
+  /// the same way on every re-plan (measured: the usual cause of stalled benchmark flights).
+  double retry_collision_gain = 10.0;
 
   /// Throws ConfigError(origin, key, ...) for the first bad field.
   void Validate(const std::string& origin = "") const;
@@ -91,13 +97,15 @@ struct LocalPlannerOptions {
 /// Solves a recorded query with short-term parameters θ_s (the rest of `params` is used as
 /// given). Attempt 0 warm-starts from the previous trajectory when there is one; attempt 1 starts
 /// cold; attempt k ≥ 2 also slows the allocation (PlanRequest::speed_scale = retry_slowdown^(k−1),
-/// the limits stay v_des and a_max). Stops at the
+/// the limits stay v_des and a_max); after an attempt that failed the clearance check, the next
+/// ones weight the collision cost retry_collision_gain times more (cumulatively). Stops at the
 /// first success or after params.max_attempts. Never throws for solver failures.
 ///
 /// Thread safety: safe to call concurrently (TrajectoryOptimizer::Solve is).
 [[nodiscard]] PlanOutcome SolveQuery(const TrajectoryOptimizer& optimizer,
                                      const PlanningQuery& query, const PlannerParams& params,
-                                     double retry_slowdown = 0.75);
+                                     double retry_slowdown = 0.75,
+                                     double retry_collision_gain = 10.0);
 
 /// The front end and snapshot maker, with reusable scratch memory.
 ///
