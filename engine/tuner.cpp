@@ -178,7 +178,16 @@ void BoundAroundStart(const Experiment& e, optimizers::BayesOpt& bo) {
   const double r = e.bo.moving_bounds.half_width;
   const Eigen::VectorXd lo = (u.array() - r).max(0.0).matrix();
   const Eigen::VectorXd hi = (u.array() + r).min(1.0).matrix();
-  bo.SetBounds(space.FromUnitContinuous(lo), space.FromUnitContinuous(hi));
+  // An integer parameter's unit interval spans half a cell beyond its bounds (FromUnitContinuous
+  // maps 0 to lower − 0.5): clamp to the bounds, which SetBounds widens by that half cell again.
+  Eigen::VectorXd x_lo = space.FromUnitContinuous(lo);
+  Eigen::VectorXd x_hi = space.FromUnitContinuous(hi);
+  for (int i = 0; i < space.Dim(); ++i) {
+    const auto& p = space.At(i);
+    x_lo[i] = std::clamp(x_lo[i], p.lower, p.upper);
+    x_hi[i] = std::clamp(x_hi[i], p.lower, p.upper);
+  }
+  bo.SetBounds(x_lo, x_hi);
 }
 
 /// One trial: method × repeat.

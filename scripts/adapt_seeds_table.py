@@ -45,7 +45,7 @@ def main():
     for path in runs:
         summary = json.loads(path.read_text())
         flight = next(f for f in summary["flights"] if f["adapted"])
-        finding = summary["finding"]
+        finding = summary.get("finding", {})  # absent when a zone kind had no adopted plan
         d = finding.get("dense_mean_chosen_v_des")
         s = finding.get("sparse_mean_chosen_v_des")
         total, accepted = slower_trials(path.parent / flight["directory"])

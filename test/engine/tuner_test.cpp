@@ -95,6 +95,26 @@ TEST(Tuner, EachMethodGivesCompleteResultSet) {
   EXPECT_EQ(lines, 1 + 5 * 6 + 24);
 }
 
+// A refinement stage (`start:` with moving bounds) whose start sits on the bounds of an integer
+// parameter: its first bounds reach half a cell past the range in the unit cube, and must be
+// clamped to the range instead of rejected (the refinement study once stopped on n_pol = 10).
+TEST(Tuner, RefinementStartOnTheBoundsOfAnIntegerParameterRuns) {
+  for (const char* max_iter : {"2", "40"}) {
+    std::string yaml = test::ToyYaml("[bo]", "", 4);
+    const std::string bo = "bo: {initial_design_size: 2,";
+    yaml.replace(yaml.find(bo), bo.size(),
+                 "bo: {moving_bounds: {enabled: true, damping: 0.8, half_width: 0.1}, "
+                 "initial_design_size: 2,");
+    yaml += std::string("start: {gain: 1.5, max_iter: ") + max_iter + ", speed: 0.5, margin: 3.0}\n";
+    const Experiment e = Experiment::FromString(yaml, "toy.yaml");
+    RunOptions o;
+    const RunSummary s = RunExperiment(e, o);
+    ASSERT_EQ(s.status, RunStatus::kCompleted) << max_iter;
+    ASSERT_EQ(s.trials.size(), 1u);
+    EXPECT_EQ(s.trials[0].flights, 4) << max_iter;
+  }
+}
+
 TEST(Tuner, ToyPlannerIsTunedBelowItsDefaults) {
   RunOptions o;
   const Experiment e = Experiment::FromString(test::ToyYaml("[default, bo_pso]", "", 16), "toy.yaml");

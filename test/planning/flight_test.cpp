@@ -51,10 +51,14 @@ TEST(StallDetector, ATurnRoundWithinTheWindowIsProgress) {
       const double t = 0.01 * k;
       const std::size_t waypoint = waypoint_reached && t >= 4.0 ? 1 : 0;
       stalled = stall.Update(t, position(std::min(t, 8.0)), waypoint);
-      if (stalled) EXPECT_NEAR(t, 8.0, 0.011);
+      if (stalled) {
+        EXPECT_NEAR(t, 8.0, 0.011);
+      }
     }
     EXPECT_EQ(stalled.has_value(), !waypoint_reached);
-    if (stalled) EXPECT_LT(*stalled, 1.0);
+    if (stalled) {
+      EXPECT_LT(*stalled, 1.0);
+    }
   }
 }
 
@@ -74,9 +78,9 @@ TEST(StallDetector, HoveringStallsAndSteadyFlightDoesNot) {
 
 /// Go-and-return flights (24 m each way) at default parameters, seeds 1–4. Success means the
 /// mission completed without a collision. Measured with `quadtune fly --spacing S --seed N` over
-/// seeds 1–20: 20/20 at 3.0 m spacing (mean t_f 29.1 s) and 18/20 at 1.3 m spacing (mean t_f
-/// 34.8 s; one flight stalled in a dead end, one ended with a single grazing contact after an
-/// emergency stop). The test asks for 4/4 at 3.0 m and at least 3/4 at 1.3 m.
+/// seeds 1–20: 20/20 at 3.0 m spacing (mean t_f 29.1 s) and 19/20 at 1.3 m spacing (mean t_f
+/// 35.1 s; seed 4 hits an obstacle after an emergency stop and stalls there); seeds 1–60 at
+/// 1.3 m: 54/60. The test asks for 4/4 at 3.0 m and at least 3/4 at 1.3 m.
 class GoAndReturn : public ::testing::TestWithParam<double> {};
 
 TEST_P(GoAndReturn, SucceedsWithoutCollisionAtDefaultParameters) {
