@@ -138,8 +138,7 @@ ResolveRecord IpoptPlanner::Resolve(const Opaque& query, const ParamValues& thet
   for (const auto& [name, value] : theta_s) params.Set(name, value);
   params.Validate("short-term parameters");
   const planning::PlanOutcome out = planning::SolveQuery(
-      *optimizer_, q, params, options_->flight.planner.retry_slowdown,
-      options_->flight.planner.retry_collision_gain);
+      *optimizer_, q, params, options_->flight.planner);
   ResolveRecord r;
   r.success = out.Ok();
   r.message = out.Ok() ? "" : out.result.message;

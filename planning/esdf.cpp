@@ -60,6 +60,29 @@ void LowerEnvelope(const std::int32_t* f, int n, std::int32_t* d, int* v, float*
   }
 }
 
+/// The pass along x of both transforms: per row of nx cells, the squared distance (cells²) to
+/// the nearest cell of the row whose occupancy equals `target`, or `inf` beyond t_cells (two
+/// sweeps; the first keeps at most t_cells + 1, so T may be 16-bit).
+template <typename T>
+void RowPass(const std::uint8_t* occupancy, std::size_t nx, std::size_t rows, bool target,
+             int t_cells, T inf, T* g) {
+  for (std::size_t row = 0; row < rows; ++row) {
+    const std::uint8_t* o = occupancy + row * nx;
+    T* r = g + row * nx;
+    int last = -(1 << 20);
+    for (std::size_t x = 0; x < nx; ++x) {
+      if ((o[x] != 0) == target) last = static_cast<int>(x);
+      r[x] = static_cast<T>(std::min(static_cast<int>(x) - last, t_cells + 1));
+    }
+    last = 1 << 21;
+    for (std::size_t x = nx; x-- > 0;) {
+      if ((o[x] != 0) == target) last = static_cast<int>(x);
+      const int dx = std::min(static_cast<int>(r[x]), last - static_cast<int>(x));
+      r[x] = dx > t_cells ? inf : static_cast<T>(dx * dx);
+    }
+  }
+}
+
 /// One pass of the windowed transform along y or z: rows of nx contiguous values, read from
 /// `in` (rows nx apart) and written to `dst` (rows `stride` apart); out_row(q) = min over
 /// |k| ≤ t_cells of in_row(q + k) + k², then values above cap become kInf16. kChunk values of a
@@ -310,22 +333,8 @@ void EsdfBuilder::SquaredEdtWindowed(const std::uint8_t* occupancy, const Eigen:
   grid16_.resize(n);
   std::int16_t* g = grid16_.data();
 
-  // Pass along x, as in SquaredEdt.
-  for (std::size_t row = 0; row < static_cast<std::size_t>(ny) * static_cast<std::size_t>(nz); ++row) {
-    const std::uint8_t* o = occupancy + row * nx;
-    std::int16_t* r = g + row * nx;
-    int last = -(1 << 20);
-    for (std::size_t x = 0; x < nx; ++x) {
-      if ((o[x] != 0) == target) last = static_cast<int>(x);
-      r[x] = static_cast<std::int16_t>(std::min(static_cast<int>(x) - last, t_cells + 1));
-    }
-    last = 1 << 21;
-    for (std::size_t x = nx; x-- > 0;) {
-      if ((o[x] != 0) == target) last = static_cast<int>(x);
-      const int dx = std::min(static_cast<int>(r[x]), last - static_cast<int>(x));
-      r[x] = dx > t_cells ? kInf16 : static_cast<std::int16_t>(dx * dx);
-    }
-  }
+  RowPass(occupancy, nx, static_cast<std::size_t>(ny) * static_cast<std::size_t>(nz), target,
+          t_cells, kInf16, g);
 
   plane16_.resize(nx * static_cast<std::size_t>(std::max(ny, nz)));
   if (ny > 1) {
@@ -352,37 +361,22 @@ void EsdfBuilder::SquaredEdtWindowed(const std::uint8_t* occupancy, const Eigen:
 
 void EsdfBuilder::SquaredEdt(const std::uint8_t* occupancy, const Eigen::Vector3i& dims,
                              bool target, std::int32_t cap, std::vector<std::int32_t>* out) {
-  const int nx = dims.x();
-  const int t_root = static_cast<int>(std::lround(std::sqrt(static_cast<double>(cap))));
-  if (t_root * t_root == cap && cap <= kMaxWindowedCap) {
-    SquaredEdtWindowed(occupancy, dims, target, t_root, out);
+  const int t_cells = static_cast<int>(std::lround(std::sqrt(static_cast<double>(cap))));
+  if (t_cells * t_cells == cap && cap <= kMaxWindowedCap) {
+    SquaredEdtWindowed(occupancy, dims, target, t_cells, out);
     return;
   }
+  const int nx = dims.x();
   const int ny = dims.y();
   const int nz = dims.z();
   const std::size_t snx = static_cast<std::size_t>(nx);
   const std::size_t snxy = snx * static_cast<std::size_t>(ny);
   const std::size_t n = snxy * static_cast<std::size_t>(nz);
-  const int t_cells = static_cast<int>(std::lround(std::sqrt(static_cast<double>(cap))));
   out->resize(n);
   std::int32_t* g = out->data();
 
-  // Pass along x: two sweeps per row, then square (distances beyond the truncation: none).
-  for (std::size_t row = 0; row < static_cast<std::size_t>(ny) * static_cast<std::size_t>(nz); ++row) {
-    const std::uint8_t* o = occupancy + row * snx;
-    std::int32_t* r = g + row * snx;
-    int last = -(1 << 20);
-    for (int x = 0; x < nx; ++x) {
-      if ((o[x] != 0) == target) last = x;
-      r[x] = x - last;
-    }
-    last = 1 << 21;
-    for (int x = nx - 1; x >= 0; --x) {
-      if ((o[x] != 0) == target) last = x;
-      const int dx = std::min(r[x], last - x);
-      r[x] = dx > t_cells ? kInfSq : dx * dx;
-    }
-  }
+  RowPass(occupancy, snx, static_cast<std::size_t>(ny) * static_cast<std::size_t>(nz), target,
+          t_cells, kInfSq, g);
 
   // Passes along y and z on transposed slabs, so that every line is contiguous.
   const int n_max = std::max({nx, ny, nz});

@@ -40,16 +40,15 @@ void LocalPlannerOptions::Validate(const std::string& origin) const {
 }
 
 PlanOutcome SolveQuery(const TrajectoryOptimizer& optimizer, const PlanningQuery& query,
-                       const PlannerParams& params, double retry_slowdown,
-                       double retry_collision_gain) {
+                       const PlannerParams& params, const LocalPlannerOptions& options) {
   PlanOutcome out;
   const int attempts = std::max(1, params.max_attempts);
   PlannerParams attempt_params = params;
   for (int k = 0; k < attempts; ++k) {
     PlanRequest request = query.ToRequest(/*use_warm_start=*/k == 0);
-    if (k >= 2) request.speed_scale = std::pow(retry_slowdown, k - 1);
+    if (k >= 2) request.speed_scale = std::pow(options.retry_slowdown, k - 1);
     PlanResult r = optimizer.Solve(request, query.field, attempt_params);
-    if (r.status == PlanStatus::kCollision) attempt_params.w_col *= retry_collision_gain;
+    if (r.status == PlanStatus::kCollision) attempt_params.w_col *= options.retry_collision_gain;
     out.attempts = k + 1;
     out.solve_time_s += r.solve_time_s;
     out.compute_units += r.compute_units;
@@ -110,8 +109,7 @@ std::optional<PlanningQuery> LocalPlanner::MakeQuery(
 
 PlanOutcome LocalPlanner::Plan(const TrajectoryOptimizer& optimizer, const PlanningQuery& query,
                                const PlannerParams& params) const {
-  return SolveQuery(optimizer, query, params, options_.retry_slowdown,
-                    options_.retry_collision_gain);
+  return SolveQuery(optimizer, query, params, options_);
 }
 
 }  // namespace quadtune::planning

@@ -185,7 +185,7 @@ void MinJerkProblem::BoundaryVectors(const Eigen::VectorXd& z, Eigen::MatrixXd* 
   if (db != nullptr) db->setZero(nb, 3);
   if (ddb != nullptr) ddb->setZero(nb, 3);
   for (int a = 0; a < 3; ++a) {
-    (*b)(0, a) = boundary_.p0_W(a) - origin(a);
+    (*b)(0, a) = 0.0;  // p0, relative to itself
     (*b)(1, a) = tau * boundary_.v0_W(a);
     (*b)(2, a) = tau2 * boundary_.a0_W(a);
     for (int i = 0; i < m; ++i) (*b)(3 + i, a) = z(a * m + i) - origin(a);

@@ -142,26 +142,22 @@ TEST(LocalPlanner, RetriesAfterACollisionWeightTheCollisionCostMore) {
   const TrajectoryOptimizer optimizer;
   PlannerParams p = f.params;
   p.w_col = 0.003;
-  const PlanOutcome off = SolveQuery(optimizer, f.query, p, 0.75, /*retry_collision_gain=*/1.0);
+  LocalPlannerOptions no_gain;
+  no_gain.retry_collision_gain = 1.0;
+  const LocalPlannerOptions gain;  // retry_collision_gain 10
+  const PlanOutcome off = SolveQuery(optimizer, f.query, p, no_gain);
   EXPECT_FALSE(off.Ok());
   EXPECT_EQ(off.failed_attempts, p.max_attempts);
   EXPECT_EQ(off.result.status, PlanStatus::kCollision) << off.result.message;
-  const PlanOutcome on = SolveQuery(optimizer, f.query, p, 0.75, /*retry_collision_gain=*/10.0);
+  const PlanOutcome on = SolveQuery(optimizer, f.query, p, gain);
   ASSERT_TRUE(on.Ok()) << on.result.message;
   EXPECT_GE(on.failed_attempts, 1);
   EXPECT_GE(on.result.min_clearance, p.inflation + optimizer.Options().collision_margin);
   // The first attempt is the same either way (the gain applies only after a failure).
-  const PlanOutcome one_off = SolveQuery(optimizer, f.query, [&] {
-    PlannerParams q = p;
-    q.max_attempts = 1;
-    return q;
-  }(), 0.75, 1.0);
-  const PlanOutcome one_on = SolveQuery(optimizer, f.query, [&] {
-    PlannerParams q = p;
-    q.max_attempts = 1;
-    return q;
-  }(), 0.75, 10.0);
-  ExpectSameOutcome(one_off, one_on);
+  PlannerParams one = p;
+  one.max_attempts = 1;
+  ExpectSameOutcome(SolveQuery(optimizer, f.query, one, no_gain),
+                    SolveQuery(optimizer, f.query, one, gain));
 }
 
 TEST(LocalPlannerOptions, BadValuesNameTheKey) {

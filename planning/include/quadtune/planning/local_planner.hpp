@@ -96,16 +96,16 @@ struct LocalPlannerOptions {
 
 /// Solves a recorded query with short-term parameters θ_s (the rest of `params` is used as
 /// given). Attempt 0 warm-starts from the previous trajectory when there is one; attempt 1 starts
-/// cold; attempt k ≥ 2 also slows the allocation (PlanRequest::speed_scale = retry_slowdown^(k−1),
-/// the limits stay v_des and a_max); after an attempt that failed the clearance check, the next
-/// ones weight the collision cost retry_collision_gain times more (cumulatively). Stops at the
-/// first success or after params.max_attempts. Never throws for solver failures.
+/// cold; attempt k ≥ 2 also slows the allocation (PlanRequest::speed_scale =
+/// options.retry_slowdown^(k−1), the limits stay v_des and a_max); after an attempt that failed
+/// the clearance check, the next ones weight the collision cost options.retry_collision_gain
+/// times more (cumulatively). Only those two fields of `options` are read. Stops at the first
+/// success or after params.max_attempts. Never throws for solver failures.
 ///
 /// Thread safety: safe to call concurrently (TrajectoryOptimizer::Solve is).
 [[nodiscard]] PlanOutcome SolveQuery(const TrajectoryOptimizer& optimizer,
                                      const PlanningQuery& query, const PlannerParams& params,
-                                     double retry_slowdown = 0.75,
-                                     double retry_collision_gain = 10.0);
+                                     const LocalPlannerOptions& options = {});
 
 /// The front end and snapshot maker, with reusable scratch memory.
 ///
