@@ -49,6 +49,7 @@ ObjectiveValue LongTermObjective(const FlightRecord& f, const ObjectiveOptions& 
   v.terms = {{"t_f", f.flight_time}, {"n_c", n_c}, {"n_e", n_e}, {"queries", static_cast<double>(f.queries)},
              {"completed", f.completed ? 1.0 : 0.0}, {"plans", static_cast<double>(f.plans)},
              {"failed_attempts", static_cast<double>(f.failed_attempts)},
+             {"fallback_plans", static_cast<double>(f.fallback_plans)},
              {"compute_units", f.compute_units}, {"jerk_integral", f.jerk_integral},
              {"min_clearance", f.min_clearance}};
   if (f.status != EvalStatus::kOk) {

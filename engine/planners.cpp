@@ -123,6 +123,7 @@ FlightRecord IpoptPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) c
   r.emergency_stops = m.emergency_stops;
   r.plans = m.plans;
   r.failed_plans = m.failed_plans;
+  r.fallback_plans = m.fallback_plans;
   r.failed_attempts = m.failed_attempts;
   r.compute_units = m.compute_units;
   r.jerk_integral = m.jerk_integral;

@@ -110,9 +110,10 @@ int RunFly(const FlyArgs& a) {
   spdlog::info("status {} ({}), flight time t_f {:.2f} s, collisions n_c {}, emergency stops n_e {}",
                planning::ToString(m.status), m.message.empty() ? "ok" : m.message, m.flight_time,
                m.collisions, m.emergency_stops);
-  spdlog::info("plans {} (failed {}, failed attempts n_s {}), solve time t_c mean {:.2f} ms max "
-               "{:.2f} ms, max tracking error {:.3f} m, min clearance {:.2f} m, mean speed {:.2f} m/s",
-               m.plans, m.failed_plans, m.failed_attempts, 1e3 * m.mean_solve_time,
+  spdlog::info("plans {} (failed {}, stop-and-go fallbacks {}, failed attempts n_s {}), solve time "
+               "t_c mean {:.2f} ms max {:.2f} ms, max tracking error {:.3f} m, min clearance "
+               "{:.2f} m, mean speed {:.2f} m/s",
+               m.plans, m.failed_plans, m.fallback_plans, m.failed_attempts, 1e3 * m.mean_solve_time,
                1e3 * m.max_solve_time, m.max_tracking_error, m.min_clearance, m.mean_speed);
   spdlog::info("simulated {:.1f} s in {:.2f} s wall time ({:.0f}x real time)", m.flight_time,
                m.wall_time, m.wall_time > 0 ? m.flight_time / m.wall_time : 0.0);

@@ -223,6 +223,7 @@ FlightResult Fly(physics::World& world, const Mission& mission, const PlannerPar
   for (const auto& r : result.plans) {
     ++m.plans;
     if (!r.ok) ++m.failed_plans;
+    if (r.fallback) ++m.fallback_plans;
     m.failed_attempts += r.failed_attempts;
     solve_sum += r.solve_time_s;
     m.max_solve_time = std::max(m.max_solve_time, r.solve_time_s);
@@ -316,6 +317,7 @@ void WriteFlightFiles(const std::string& directory, const FlightResult& result,
         {"plans", m.plans},
         {"failed_plans", m.failed_plans},
         {"failed_attempts", m.failed_attempts},
+        {"fallback_plans", m.fallback_plans},
         {"mean_solve_time", m.mean_solve_time},
         {"max_solve_time", m.max_solve_time},
         {"compute_units", m.compute_units},

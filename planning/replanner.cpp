@@ -28,6 +28,8 @@ void ReplannerOptions::Validate(const std::string& origin) const {
   CheckInRange(tracking_replan_error, Range::Positive(), origin, "tracking_replan_error");
   CheckInRange(yaw_rate_max, Range::Positive(), origin, "yaw_rate_max");
   CheckInRange(brake_factor, {0.0, 1.0, true, false}, origin, "brake_factor");
+  CheckInRange(fallback_speed, Range::NonNegative(), origin, "fallback_speed");
+  CheckInRange(fallback_start_speed, Range::NonNegative(), origin, "fallback_start_speed");
 }
 
 Trajectory::Coefficients QuinticBoundaryValue(const Eigen::Vector3d& p0, const Eigen::Vector3d& v0,
@@ -64,6 +66,51 @@ Trajectory BrakingTrajectory(const Eigen::Vector3d& p0, const Eigen::Vector3d& v
   const Eigen::Vector3d p1 = p0 + 0.5 * v0 * T + a0 * T * T / 12.0;
   return Trajectory({T}, {QuinticBoundaryValue(p0, v0, a0, p1, Eigen::Vector3d::Zero(),
                                                Eigen::Vector3d::Zero(), T)});
+}
+
+PlanResult StopAndGoAlongPath(const TrajectoryOptimizer& optimizer, const PlanningQuery& query,
+                              const PlannerParams& params, double speed) {
+  QT_DEMAND(speed > 0.0 && std::isfinite(speed), "stop-and-go speed must be positive");
+  const double v_peak = std::min(speed, params.v_des);
+  const std::vector<Eigen::Vector3d>& path = query.initial_path_W;
+  std::vector<double> durations;
+  std::vector<Trajectory::Coefficients> pieces;
+  Eigen::Vector3d p = query.p0_W;
+  Eigen::Vector3d v = query.v0_W;
+  Eigen::Vector3d a = query.a0_W;
+  const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
+  for (std::size_t i = 1; i < path.size(); ++i) {
+    const double length = (path[i] - p).norm();
+    if (length < 1e-6) continue;
+    const double T = std::max({1.875 * length / v_peak,
+                               std::sqrt(10.0 / std::sqrt(3.0) * length / params.a_max), 0.1});
+    pieces.push_back(QuinticBoundaryValue(p, v, a, path[i], zero, zero, T));
+    durations.push_back(T);
+    p = path[i];
+    v = zero;
+    a = zero;
+  }
+  PlanResult result;
+  if (pieces.empty()) {
+    result.status = PlanStatus::kInvalidInput;
+    result.message = "stop-and-go: the front end's path has no length";
+    return result;
+  }
+  result.trajectory = Trajectory(std::move(durations), std::move(pieces));
+  // ∫|jerk|² dt: the jerk of a quintic is quadratic, its square quartic, so 3-point
+  // Gauss–Legendre per piece is exact.
+  const double nodes[3] = {-std::sqrt(0.6), 0.0, std::sqrt(0.6)};
+  const double weights[3] = {5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0};
+  double start = 0.0;
+  for (double T : result.trajectory.Durations()) {
+    for (int k = 0; k < 3; ++k) {
+      const double t = start + 0.5 * T * (1.0 + nodes[k]);
+      result.cost.jerk += 0.5 * T * weights[k] * result.trajectory.Jerk(t).squaredNorm();
+    }
+    start += T;
+  }
+  optimizer.Check(query.p0_W, query.field, params, &result);
+  return result;
 }
 
 Replanner::Replanner(const TrajectoryOptimizer& optimizer, const PlannerParams& params,
@@ -187,6 +234,20 @@ bool Replanner::PlanFrom(double t, const Eigen::Vector3d& p0, const Eigen::Vecto
   rec.min_clearance = outcome.result.min_clearance;
   rec.jerk = outcome.result.cost.jerk;
   rec.duration = outcome.result.duration;
+  if (!rec.ok && options_.fallback_speed > 0.0 && v0.norm() < options_.fallback_start_speed) {
+    PlanResult fallback = StopAndGoAlongPath(optimizer_, *query, params_, options_.fallback_speed);
+    if (fallback.Ok()) {
+      rec.ok = true;
+      rec.fallback = true;
+      rec.status = fallback.status;
+      rec.message = "stop-and-go fallback (the back end's last attempt: " +
+                    outcome.result.message + ")";
+      rec.min_clearance = fallback.min_clearance;
+      rec.jerk = fallback.cost.jerk;
+      rec.duration = fallback.duration;
+      outcome.result = std::move(fallback);
+    }
+  }
   if (!rec.ok) {
     rec.message = outcome.result.message;
     records_.push_back(std::move(rec));

@@ -432,25 +432,8 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
       return result;
     }
     result.trajectory = problem.ToTrajectory(z);
-    result.duration = result.trajectory.Duration();
 
-    // Post-solve check on dense samples. A plan keeps inflation + collision_margin from every
-    // obstacle; one that starts closer than that (after a disturbance, a collision or an
-    // emergency stop) must not come closer than its start, or no plan could ever leave.
-    const double required_clearance = std::min(params.inflation + options_.collision_margin,
-                                               field.Evaluate(request.p0_W, nullptr));
-    result.min_clearance = std::numeric_limits<double>::infinity();
-    const auto check = [&](double t) {
-      result.max_speed = std::max(result.max_speed, result.trajectory.Velocity(t).norm());
-      result.max_acceleration =
-          std::max(result.max_acceleration, result.trajectory.Acceleration(t).norm());
-      result.min_clearance =
-          std::min(result.min_clearance, field.Evaluate(result.trajectory.Position(t), nullptr));
-    };
-    for (long k = 0; static_cast<double>(k) * options_.check_dt < result.duration; ++k) {
-      check(static_cast<double>(k) * options_.check_dt);
-    }
-    check(result.duration);
+    const double required_clearance = Measure(request.p0_W, field, params, &result);
 
     if (!std::isfinite(result.cost.total) || !std::isfinite(result.max_speed) ||
         ipopt_status == Ipopt::Invalid_Number_Detected) {
@@ -463,17 +446,7 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     } else if (!converged) {
       result.status = PlanStatus::kSolverFailure;
       result.message = "Ipopt failed with status " + std::to_string(result.ipopt_status);
-    } else if (result.min_clearance < required_clearance) {
-      result.status = PlanStatus::kCollision;
-      result.message = "trajectory passes " + std::to_string(result.min_clearance) +
-                       " m from an obstacle (needs " + std::to_string(required_clearance) + " m)";
-    } else if (result.max_speed > params.v_des * (1.0 + options_.limit_tolerance) ||
-               result.max_acceleration > params.a_max * (1.0 + options_.limit_tolerance)) {
-      result.status = PlanStatus::kDynamicsViolated;
-      result.message = "max |v| " + std::to_string(result.max_speed) + " m/s, max |a| " +
-                       std::to_string(result.max_acceleration) + " m/s^2 exceed the limits";
-    } else {
-      result.status = PlanStatus::kSuccess;
+    } else if (Judge(required_clearance, params, &result)) {
       result.message =
           ipopt_status == Ipopt::Solve_Succeeded
               ? "converged"
@@ -489,6 +462,64 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     r.solve_time_s = elapsed();
     return r;
   }
+}
+
+double TrajectoryOptimizer::Measure(const Eigen::Vector3d& p0_W, const DistanceField& field,
+                                   const PlannerParams& params, PlanResult* result) const {
+  // Dense samples every check_dt and at the end. A plan keeps inflation + collision_margin from
+  // every obstacle; one that starts closer than that (after a disturbance, a collision or an
+  // emergency stop) must not come closer than its start, or no plan could ever leave.
+  const double required_clearance =
+      std::min(params.inflation + options_.collision_margin, field.Evaluate(p0_W, nullptr));
+  const Trajectory& trajectory = result->trajectory;
+  result->duration = trajectory.Duration();
+  result->max_speed = 0.0;
+  result->max_acceleration = 0.0;
+  result->min_clearance = std::numeric_limits<double>::infinity();
+  const auto check = [&](double t) {
+    result->max_speed = std::max(result->max_speed, trajectory.Velocity(t).norm());
+    result->max_acceleration =
+        std::max(result->max_acceleration, trajectory.Acceleration(t).norm());
+    result->min_clearance =
+        std::min(result->min_clearance, field.Evaluate(trajectory.Position(t), nullptr));
+  };
+  for (long k = 0; static_cast<double>(k) * options_.check_dt < result->duration; ++k) {
+    check(static_cast<double>(k) * options_.check_dt);
+  }
+  check(result->duration);
+  return required_clearance;
+}
+
+bool TrajectoryOptimizer::Judge(double required_clearance, const PlannerParams& params,
+                                PlanResult* result) const {
+  if (result->min_clearance < required_clearance) {
+    result->status = PlanStatus::kCollision;
+    result->message = "trajectory passes " + std::to_string(result->min_clearance) +
+                      " m from an obstacle (needs " + std::to_string(required_clearance) + " m)";
+    return false;
+  }
+  if (result->max_speed > params.v_des * (1.0 + options_.limit_tolerance) ||
+      result->max_acceleration > params.a_max * (1.0 + options_.limit_tolerance)) {
+    result->status = PlanStatus::kDynamicsViolated;
+    result->message = "max |v| " + std::to_string(result->max_speed) + " m/s, max |a| " +
+                      std::to_string(result->max_acceleration) + " m/s^2 exceed the limits";
+    return false;
+  }
+  result->status = PlanStatus::kSuccess;
+  result->message.clear();
+  return true;
+}
+
+void TrajectoryOptimizer::Check(const Eigen::Vector3d& p0_W, const DistanceField& field,
+                                const PlannerParams& params, PlanResult* result) const {
+  QT_DEMAND(result != nullptr && !result->trajectory.Empty(), "Check needs a trajectory");
+  const double required_clearance = Measure(p0_W, field, params, result);
+  if (!std::isfinite(result->max_speed) || !std::isfinite(result->max_acceleration)) {
+    result->status = PlanStatus::kNumericalError;
+    result->message = "non-finite trajectory";
+    return;
+  }
+  (void)Judge(required_clearance, params, result);
 }
 
 }  // namespace quadtune::planning

@@ -43,8 +43,11 @@ TEST(BrakingTrajectory, StopsAheadWithBoundedDeceleration) {
 
 /// Flies the FSM with perfect tracking (the drone is where the reference says).
 struct KinematicFlight {
-  explicit KinematicFlight(const PlannerParams& params)
-      : replanner(optimizer, params),
+  explicit KinematicFlight(const PlannerParams& params,
+                           const TrajectoryOptimizerOptions& optimizer_options = {},
+                           const ReplannerOptions& fsm_options = {})
+      : optimizer(optimizer_options),
+        replanner(optimizer, params, fsm_options),
         map(LocalMapOptions::FromPlannerParams(params), Eigen::Vector3d(3, 0, 1.2)) {}
 
   void Start(const Eigen::Vector3d& start, std::vector<Eigen::Vector3d> waypoints) {
@@ -142,6 +145,111 @@ TEST(Replanner, NoEmergencyStopWhenReplanningSucceeds) {
   EXPECT_GT(pillar.Distance(f.p), 0.0);
 }
 
+/// A query in a 6 × 3 × 1.5 m box at 0.1 m whose only obstacle is a vertical column of cells
+/// around (1.0, 0.0); the front end's path is `path` (its first point is the start).
+PlanningQuery ColumnQuery(std::vector<Eigen::Vector3d> path) {
+  const Eigen::Vector3i dims(60, 30, 15);
+  std::vector<std::uint8_t> occupancy(static_cast<std::size_t>(dims.prod()), 0);
+  for (int z = 0; z < dims.z(); ++z) {
+    occupancy[static_cast<std::size_t>(15 + dims.x() * (5 + dims.y() * z))] = 1;
+  }
+  PlanningQuery q;
+  q.field = Esdf::FromOccupancy(Eigen::Vector3d(-0.5, -0.5, 0.5), 0.1, dims, occupancy);
+  q.p0_W = path.front();
+  q.goal_W = path.back();
+  q.initial_path_W = std::move(path);
+  return q;
+}
+
+/// Distance (m) from p to the segment [a, b].
+double SegmentDistance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                       const Eigen::Vector3d& b) {
+  const Eigen::Vector3d ab = b - a;
+  const double u = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+  return (p - (a + u * ab)).norm();
+}
+
+TEST(StopAndGoAlongPath, FliesEverySegmentFromRestToRestWithinTheLimits) {
+  const std::vector<Eigen::Vector3d> path = {
+      {0, 0, 1.2}, {0, 1, 1.2}, {2.5, 1, 1.2}, {3.5, 2, 1.6}};
+  const PlanningQuery q = ColumnQuery(path);
+  const TrajectoryOptimizer optimizer;
+  const PlannerParams params;
+  const double speed = 0.5;
+  const PlanResult r = StopAndGoAlongPath(optimizer, q, params, speed);
+  ASSERT_TRUE(r.Ok()) << r.message;
+  ASSERT_EQ(r.trajectory.NumPieces(), 3);
+  EXPECT_LE(r.max_speed, speed + 1e-9);
+  EXPECT_LE(r.max_acceleration, params.a_max + 1e-9);
+  EXPECT_GT(r.min_clearance, 0.8);  // the column is 1 m from the path's nearest segment
+  // At rest at every corner, and on the corner's segments in between.
+  double t0 = 0.0;
+  double jerk_integral = 0.0;
+  for (int i = 0; i < 3; ++i) {
+    const double T = r.trajectory.PieceDuration(i);
+    EXPECT_LT((r.trajectory.Position(t0 + T) - path[static_cast<std::size_t>(i) + 1]).norm(), 1e-9);
+    EXPECT_LT(r.trajectory.Velocity(t0 + T).norm(), 1e-9);
+    const int steps = 2000;
+    for (int k = 0; k < steps; ++k) {
+      const double t = t0 + T * (k + 0.5) / steps;
+      EXPECT_LT(SegmentDistance(r.trajectory.Position(t), path[static_cast<std::size_t>(i)],
+                                path[static_cast<std::size_t>(i) + 1]),
+                1e-9);
+      jerk_integral += r.trajectory.Jerk(t).squaredNorm() * T / steps;
+    }
+    t0 += T;
+  }
+  // The slower of the speed and the acceleration limit sets each piece's duration.
+  EXPECT_NEAR(r.trajectory.PieceDuration(0), 1.875 * 1.0 / speed, 1e-12);
+  // The midpoint sum over 2000 steps per piece is itself off by ≈1e-6 (relative).
+  EXPECT_NEAR(r.cost.jerk, jerk_integral, 1e-5 * jerk_integral);
+  EXPECT_EQ(r.iterations, 0);
+}
+
+TEST(StopAndGoAlongPath, FailsTheBackEndsCheckWhereThePathMeetsAnObstacle) {
+  const TrajectoryOptimizer optimizer;
+  const PlanResult r =
+      StopAndGoAlongPath(optimizer, ColumnQuery({{0, 0, 1.2}, {2.5, 0, 1.2}}), PlannerParams{}, 0.5);
+  EXPECT_EQ(r.status, PlanStatus::kCollision) << r.message;
+  EXPECT_LT(r.min_clearance, 0.2);
+  // A path without length is no plan.
+  EXPECT_EQ(StopAndGoAlongPath(optimizer, ColumnQuery({{0, 0, 1.2}, {0, 0, 1.2}}), PlannerParams{},
+                               0.5)
+                .status,
+            PlanStatus::kInvalidInput);
+}
+
+TEST(Replanner, FliesTheFrontEndsPathStopAndGoWhenEveryAttemptFromRestFails) {
+  // A back end allowed one Ipopt iteration never converges: every attempt fails.
+  TrajectoryOptimizerOptions one_iteration;
+  one_iteration.max_iterations = 1;
+  const Eigen::Vector3d start(0, 0, 1.2), goal(5, 0, 1.2);
+  KinematicFlight f{PlannerParams{}, one_iteration};
+  f.Start(start, {goal});
+  while (!f.replanner.Done() && f.t < 60.0) f.Step();
+  ASSERT_TRUE(f.replanner.Done()) << "state " << ToString(f.replanner.state());
+  int fallbacks = 0;
+  for (const auto& r : f.replanner.records()) {
+    EXPECT_EQ(r.failed_attempts, PlannerParams{}.max_attempts) << r.message;  // n_s still counts
+    if (!r.ok) continue;
+    EXPECT_TRUE(r.fallback);
+    EXPECT_NE(r.message.find("stop-and-go"), std::string::npos) << r.message;
+    ++fallbacks;
+  }
+  EXPECT_GE(fallbacks, 1);
+  EXPECT_LE((f.p - goal).norm(), PlannerParams{}.goal_tolerance);
+
+  // Without the fallback the drone never leaves the start.
+  ReplannerOptions off;
+  off.fallback_speed = 0.0;
+  KinematicFlight g{PlannerParams{}, one_iteration, off};
+  g.Start(start, {goal});
+  while (g.t < 10.0) g.Step();
+  EXPECT_FALSE(g.replanner.Done());
+  for (const auto& r : g.replanner.records()) EXPECT_FALSE(r.ok);
+  EXPECT_LT((g.p - start).norm(), 1e-9);
+}
+
 TEST(Replanner, RejectsAnEmptyMission) {
   TrajectoryOptimizer optimizer;
   Replanner replanner(optimizer, PlannerParams{});
@@ -153,6 +261,9 @@ TEST(Replanner, InvalidOptionsNameTheKey) {
   TrajectoryOptimizer optimizer;
   ReplannerOptions options;
   options.brake_factor = 1.5;
+  EXPECT_THROW(Replanner(optimizer, PlannerParams{}, options), ConfigError);
+  options = ReplannerOptions{};
+  options.fallback_speed = -0.5;
   EXPECT_THROW(Replanner(optimizer, PlannerParams{}, options), ConfigError);
   PlannerParams bad;
   bad.t_pl = 0.0;

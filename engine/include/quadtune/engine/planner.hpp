@@ -107,6 +107,7 @@ struct FlightRecord {
   int plans = 0;
   int failed_plans = 0;
   int failed_attempts = 0;       ///< Σ n_s
+  int fallback_plans = 0;        ///< steps that flew the stop-and-go fallback
   double compute_units = 0.0;    ///< Σ deterministic compute units
   double jerk_integral = 0.0;    ///< ∫|jerk|² dt (m²/s⁵)
   double min_clearance = 0.0;    ///< (m)

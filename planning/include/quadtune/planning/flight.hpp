@@ -91,6 +91,7 @@ struct FlightMetrics {
   int plans = 0;                   ///< planning steps
   int failed_plans = 0;            ///< planning steps that produced no trajectory
   int failed_attempts = 0;         ///< Σ n_s over the steps
+  int fallback_plans = 0;          ///< steps that flew the stop-and-go fallback (PlanRecord)
   double mean_solve_time = 0.0;    ///< mean t_c per step (s)
   double max_solve_time = 0.0;     ///< max t_c (s)
   double compute_units = 0.0;      ///< Σ deterministic compute units

@@ -79,6 +79,13 @@ struct ReplannerOptions {
   double tracking_replan_error = 0.6;
   double yaw_rate_max = 2.0;      ///< heading rate limit of the reference (rad/s), > 0
   double brake_factor = 0.8;      ///< emergency braking uses this fraction of a_max, (0, 1]
+  /// Stop-and-go fallback (StopAndGoAlongPath): when every back-end attempt of a plan that
+  /// starts slower than `fallback_start_speed` (m/s, >= 0) fails, the drone flies the front
+  /// end's path instead, at a peak speed of `fallback_speed` (m/s, >= 0, capped at v_des), if
+  /// that passes the back end's acceptance check. The failed attempts still count in n_s.
+  /// fallback_speed = 0 turns it off.
+  double fallback_speed = 0.5;
+  double fallback_start_speed = 0.3;
 
   /// Throws ConfigError(origin, key, ...) for the first bad field.
   void Validate(const std::string& origin = "") const;
@@ -98,6 +105,8 @@ struct PlanRecord {
   double min_clearance = 0.0;    ///< of the planned trajectory (m)
   double jerk = 0.0;             ///< ∫|jerk|² of the planned trajectory
   double duration = 0.0;         ///< duration of the planned trajectory (s)
+  /// The trajectory is the stop-and-go fallback (ok; the back end's attempts all failed).
+  bool fallback = false;
 };
 
 /// The replanning FSM. See the file comment.
@@ -185,6 +194,18 @@ class Replanner {
 /// `decel` (m/s², > 0): duration T = max(2|v0|/decel, 0.2 s). Used for emergency braking.
 [[nodiscard]] Trajectory BrakingTrajectory(const Eigen::Vector3d& p0, const Eigen::Vector3d& v0,
                                            const Eigen::Vector3d& a0, double decel);
+
+/// The front end's path of `query` flown stop-and-go: one quintic per straight segment of
+/// query.initial_path_W, from (p0, v0, a0) for the first and from rest for the others, to rest at
+/// the segment's end, each as slow as the peak speed `speed` (m/s, > 0) and a_max require
+/// (a rest-to-rest quintic over L peaks at 1.875 L/T and 5.77 L/T²). From rest every piece stays
+/// on its segment, and the segments are free in the inflated map, so the path can be flown even
+/// where the back end's optimum is not: a passage that the collision penalty cannot centre the
+/// trajectory in. The result carries optimizer.Check's verdict and the trajectory's ∫|jerk|² dt
+/// (cost.jerk); iterations and evaluations are 0.
+[[nodiscard]] PlanResult StopAndGoAlongPath(const TrajectoryOptimizer& optimizer,
+                                            const PlanningQuery& query,
+                                            const PlannerParams& params, double speed);
 
 /// The quintic of duration T (s) matching position, velocity and acceleration at both ends.
 [[nodiscard]] Trajectory::Coefficients QuinticBoundaryValue(

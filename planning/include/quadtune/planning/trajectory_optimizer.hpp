@@ -170,6 +170,15 @@ class TrajectoryOptimizer {
   [[nodiscard]] PlanResult Solve(const PlanRequest& request, const DistanceField& field,
                                  const PlannerParams& params) const;
 
+  /// Solve()'s acceptance check, for a trajectory made elsewhere (result->trajectory, starting at
+  /// p0_W): samples every check_dt and at the end set result->max_speed, max_acceleration,
+  /// min_clearance and duration; the status becomes kCollision (closer to an obstacle than
+  /// inflation + collision_margin, or than p0_W itself where that is closer), kDynamicsViolated
+  /// (over v_des or a_max by more than limit_tolerance), kNumericalError or kSuccess (empty
+  /// message).
+  void Check(const Eigen::Vector3d& p0_W, const DistanceField& field, const PlannerParams& params,
+             PlanResult* result) const;
+
   /// The options.
   [[nodiscard]] const TrajectoryOptimizerOptions& Options() const { return options_; }
 
@@ -184,6 +193,12 @@ class TrajectoryOptimizer {
                                                         double braking = 0.0);
 
  private:
+  // Check()'s two halves: Measure fills the sampled figures and returns the clearance required;
+  // Judge sets the status from them (true: kSuccess).
+  double Measure(const Eigen::Vector3d& p0_W, const DistanceField& field,
+                 const PlannerParams& params, PlanResult* result) const;
+  bool Judge(double required_clearance, const PlannerParams& params, PlanResult* result) const;
+
   TrajectoryOptimizerOptions options_;
 };
 
