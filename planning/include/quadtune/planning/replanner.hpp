@@ -13,6 +13,10 @@
 ///                                                        to hover) → kGenNewTraj once stopped
 ///   last waypoint reached → kDone
 ///
+/// A re-plan that starts (nearly) at rest and whose every back-end attempt fails flies the front
+/// end's path stop-and-go instead, when that passes the back end's check (StopAndGoAlongPath,
+/// ReplannerOptions::fallback_speed); its failed attempts still count in n_s.
+///
 /// Planning is instantaneous in simulated time (the simulation waits for the planner), so flights
 /// are reproducible; the wall-clock solve time t_c is recorded beside the deterministic compute
 /// units. Every plan is recorded (PlanRecord), and every planning query can be handed to an
