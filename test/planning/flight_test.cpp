@@ -5,7 +5,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <iterator>
 #include <optional>
+#include <string>
 
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
@@ -200,6 +202,31 @@ TEST(Flight, WritesItsFiles) {
   std::size_t lines = 0;
   for (std::string line; std::getline(csv, line);) ++lines;
   EXPECT_EQ(lines, r.log.size() + 1);
+}
+
+// A back end allowed one Ipopt iteration fails every attempt; the drone then flies the front
+// end's paths stop-and-go. The metrics and summary.json count those steps.
+TEST(Flight, CountsStopAndGoFallbacks) {
+  ForestFlight f(3.0, 2);
+  TrajectoryOptimizerOptions one_iteration;
+  one_iteration.max_iterations = 1;
+  const TrajectoryOptimizer failing(one_iteration);
+  FlightOptions options;
+  options.max_time = 20.0;
+  const physics::DroneDescription drone = ResearchDrone();
+  physics::World world(f.forest.obstacles, drone, f.world_options);
+  const FlightResult r = Fly(world, f.mission, PlannerParams{}, options, failing);
+  int fallbacks = 0;
+  for (const auto& p : r.plans) fallbacks += p.fallback ? 1 : 0;
+  EXPECT_GE(fallbacks, 1);
+  EXPECT_EQ(r.metrics.fallback_plans, fallbacks);
+  EXPECT_GT(r.metrics.distance, 2.0);  // it moved
+  const auto dir = std::filesystem::temp_directory_path() / "quadtune_flight_fallback_test";
+  std::filesystem::remove_all(dir);
+  WriteFlightFiles(dir.string(), r, f.forest.obstacles, f.mission);
+  std::ifstream summary(dir / "summary.json");
+  const std::string text((std::istreambuf_iterator<char>(summary)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("\"fallback_plans\": " + std::to_string(fallbacks)), std::string::npos) << text;
 }
 
 TEST(Flight, BadArgumentsThrowConfigError) {
