@@ -97,18 +97,7 @@ PlanResult StopAndGoAlongPath(const TrajectoryOptimizer& optimizer, const Planni
     return result;
   }
   result.trajectory = Trajectory(std::move(durations), std::move(pieces));
-  // ∫|jerk|² dt: the jerk of a quintic is quadratic, its square quartic, so 3-point
-  // Gauss–Legendre per piece is exact.
-  const double nodes[3] = {-std::sqrt(0.6), 0.0, std::sqrt(0.6)};
-  const double weights[3] = {5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0};
-  double start = 0.0;
-  for (double T : result.trajectory.Durations()) {
-    for (int k = 0; k < 3; ++k) {
-      const double t = start + 0.5 * T * (1.0 + nodes[k]);
-      result.cost.jerk += 0.5 * T * weights[k] * result.trajectory.Jerk(t).squaredNorm();
-    }
-    start += T;
-  }
+  result.cost.jerk = result.trajectory.JerkEnergy();
   optimizer.Check(query.p0_W, query.field, params, &result);
   return result;
 }

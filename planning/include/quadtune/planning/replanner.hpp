@@ -206,7 +206,7 @@ class Replanner {
 /// on its segment, and the segments are free in the inflated map, so the path can be flown even
 /// where the back end's optimum is not: a passage that the collision penalty cannot centre the
 /// trajectory in. The result carries optimizer.Check's verdict and the trajectory's ∫|jerk|² dt
-/// (cost.jerk); iterations and evaluations are 0.
+/// (cost.jerk, Trajectory::JerkEnergy); iterations and evaluations are 0.
 [[nodiscard]] PlanResult StopAndGoAlongPath(const TrajectoryOptimizer& optimizer,
                                             const PlanningQuery& query,
                                             const PlannerParams& params, double speed);
