@@ -12,7 +12,7 @@ namespace quadtune::planning {
 namespace {
 
 constexpr std::int32_t kInfSq = std::numeric_limits<std::int32_t>::max() / 4;
-constexpr double kQuantumSteps = 32000.0;
+constexpr double kQuantumSteps = 16000.0;
 constexpr std::size_t kMaxCells = std::size_t{1} << 26;
 // The windowed transform's 16-bit "no site within the truncation": above every kept value, and
 // kInf16 + cap stays below 2^15 for cap ≤ kMaxWindowedCap.

@@ -2,6 +2,7 @@
 
 #include <Eigen/LU>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -239,6 +240,18 @@ EvaluateScratch& Scratch() {
   return scratch;
 }
 
+// The rows of ∂b/∂ρ and ∂²b/∂ρ² that can be nonzero (BoundaryVectors): the velocity and the
+// acceleration of both ends. Every position row is independent of ρ, so products with those
+// matrices need only these rows.
+std::array<int, 4> RateRows(int nb) { return {1, 2, nb - 2, nb - 1}; }
+
+// *out = m · x for an x whose nonzero rows are all in `nz`: four outer products.
+void TimesRate(const Eigen::MatrixXd& m, const Eigen::MatrixXd& x, const std::array<int, 4>& nz,
+               Eigen::MatrixXd* out) {
+  out->noalias() = m.col(nz[0]) * x.row(nz[0]);
+  for (std::size_t k = 1; k < nz.size(); ++k) out->noalias() += m.col(nz[k]) * x.row(nz[k]);
+}
+
 }  // namespace
 
 MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::VectorXd* grad,
@@ -264,6 +277,7 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
   const Eigen::MatrixXd& b = ws.b;
   const Eigen::MatrixXd& db = ws.db;
   const Eigen::MatrixXd& ddb = ws.ddb;
+  const std::array<int, 4> rate_rows = RateRows(BoundarySize());
   MinJerkCostTerms terms;
 
   // ---- jerk energy: τ^-5 Σ_a b_aᵀ H̄ b_a ----
@@ -281,7 +295,7 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
       }
       g(ir) += w_s * e5 * (g1 - 5.0 * g0);
       if (want_hess) {
-        ws.hdb.noalias() = jerk_hess_ * db;
+        TimesRate(jerk_hess_, db, rate_rows, &ws.hdb);
         const Eigen::MatrixXd& hdb = ws.hdb;
         const double g2 =
             2.0 * ((db.array() * hdb.array()).sum() + (ddb.array() * hb.array()).sum());
@@ -312,10 +326,11 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
     const double scale = inv_tau_pow[d];
     const double dd = static_cast<double>(d);
     const double weight = weights[d];
-    // The states of every sample at once: W = S_d b (and S_d b', S_d b'' for the derivatives).
+    // The states of every sample at once: W = S_d b (and S_d b', S_d b'' for the derivatives,
+    // from the few nonzero rows of b' and b'').
     ws.w.noalias() = rows * b;
-    if (want_grad) ws.w1.noalias() = rows * db;
-    if (want_hess) ws.w2.noalias() = rows * ddb;
+    if (want_grad) TimesRate(rows, db, rate_rows, &ws.w1);
+    if (want_hess) TimesRate(rows, ddb, rate_rows, &ws.w2);
     // Per active sample: its row index, the q-gradient coefficients wγ τ^-d, the ρ-row
     // coefficients t τ^-d and the six distinct entries of wΓ τ^-2d (for the q–q blocks).
     ws.active.clear();

@@ -179,6 +179,12 @@ Ipopt::SmartPtr<Ipopt::IpoptApplication> NewPlannerIpoptApplication() {
   // decided by `tol` on the gradient; measured on the recorded 1.3 m queries: the same solutions
   // (mean cost equal to 5 digits), 21–31% fewer objective evaluations (n_pol 3, 6, 8).
   opts->SetNumericValue("tiny_step_tol", 1e-8);
+  // Iterative refinement of a Newton step only when its residual asks for it (Ipopt's default
+  // refines every step at least once: a residual and a back-solve through its vector classes).
+  // The dense LDLᵀ of this small system meets residual_ratio_max (1e-10) without it. Measured
+  // with callgrind on the 1.3 m flights of seeds 2 and 3: 3.8% and 4.1% fewer instructions in
+  // the solves; on the recorded queries the same mean cost to 0.1% and the same iterations.
+  opts->SetIntegerValue("min_refinement_steps", 0);
   // An empty file name: no `ipopt.opt` is read from the working directory.
   a->Initialize("");
   return a;

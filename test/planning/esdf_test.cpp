@@ -82,7 +82,7 @@ double BruteForceStored(const std::vector<std::uint8_t>& occ, const Vector3i& di
   const double d = best_sq < 0 ? max_distance
                                : std::min((std::sqrt(static_cast<double>(best_sq)) - 0.5) * res,
                                           max_distance);
-  const double quantum = max_distance / 32000.0;
+  const double quantum = max_distance / 16000.0;
   const double q = static_cast<double>(std::lround(d * (1.0 / quantum)));
   return (self ? -q : q) * quantum;
 }
@@ -183,7 +183,9 @@ TEST(Esdf, ApproximatesObstacleSetDistanceFromSensedSurfaces) {
   const std::vector<Vector3d> surface = test::SurfaceSamples(scene, 0.03);
   map.Insert(Vector3d(4, 0, 1.5), surface);
   const Eigen::AlignedBox3d box(Vector3d(-1.0, -3.0, 0.0), Vector3d(9.0, 3.0, 3.0));
-  const Esdf esdf = Esdf::Build(map, box);
+  EsdfOptions options;
+  options.max_distance = 2.0;  // above every checked distance
+  const Esdf esdf = Esdf::Build(map, box, options);
   EXPECT_LE(esdf.box().min().z(), -0.1 + 1e-9);  // one ground layer added
   Rng rng(23);
   int checked = 0;
@@ -216,7 +218,9 @@ TEST(Esdf, SignedDistanceOfSolidOccupancyMatchesObstacleSet) {
       }
     }
   }
-  const Esdf esdf = Esdf::FromOccupancy(Vector3d::Zero(), res, dims, occ);
+  EsdfOptions options;
+  options.max_distance = 3.0;  // above every distance in the box
+  const Esdf esdf = Esdf::FromOccupancy(Vector3d::Zero(), res, dims, occ, options);
   Rng rng(29);
   double worst = 0.0;
   for (int i = 0; i < 5000; ++i) {
@@ -234,7 +238,10 @@ TEST(Esdf, SignedDistanceOfSolidOccupancyMatchesObstacleSet) {
 TEST(Esdf, GroundLayerGivesHeightAboveGround) {
   LocalMapOptions mo;
   LocalMap map(mo, Vector3d(0, 0, 1.5));
-  const Esdf esdf = Esdf::Build(map, Eigen::AlignedBox3d(Vector3d(-2, -2, 0), Vector3d(2, 2, 3)));
+  EsdfOptions options;
+  options.max_distance = 2.0;
+  const Esdf esdf =
+      Esdf::Build(map, Eigen::AlignedBox3d(Vector3d(-2, -2, 0), Vector3d(2, 2, 3)), options);
   EXPECT_NEAR(esdf.Evaluate(Vector3d(0.3, 0.2, 0.55), nullptr), 0.55, 1e-3);
   Vector3d grad;
   esdf.Evaluate(Vector3d(0.3, 0.2, 1.23), &grad);

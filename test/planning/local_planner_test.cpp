@@ -160,6 +160,31 @@ TEST(LocalPlanner, RetriesAfterACollisionWeightTheCollisionCostMore) {
                     SolveQuery(optimizer, f.query, one, gain));
 }
 
+TEST(LocalPlanner, RefusesAClearanceBeyondTheDistanceFieldsTruncation) {
+  ForestQuery f;
+  PlannerParams p = f.params;
+  p.clearance = LocalPlannerOptions{}.esdf.max_distance;  // the field cannot tell 1 m from 5 m
+  LocalPlanner planner;
+  try {
+    (void)planner.MakeQuery(f.map, Eigen::Vector3d(0, 0, 1.2), Eigen::Vector3d::Zero(),
+                            Eigen::Vector3d::Zero(), Eigen::Vector3d(10, 0, 1.2), p, nullptr, 0.0,
+                            nullptr);
+    ADD_FAILURE() << "MakeQuery accepted clearance = max_distance";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "clearance");
+    EXPECT_NE(std::string(e.what()).find("max_distance"), std::string::npos) << e.what();
+  }
+  // Below the truncation it plans; a longer truncation admits the larger clearance.
+  p.clearance = 0.9 * LocalPlannerOptions{}.esdf.max_distance;
+  EXPECT_NO_THROW(planner.CheckParams(p));
+  LocalPlannerOptions longer;
+  longer.esdf.max_distance = 2.0;
+  p.clearance = 1.5;
+  EXPECT_NO_THROW(LocalPlanner(longer).CheckParams(p));
+  p.clearance = 2.0;
+  EXPECT_THROW(LocalPlanner(longer).CheckParams(p), ConfigError);
+}
+
 TEST(LocalPlannerOptions, BadValuesNameTheKey) {
   LocalPlannerOptions o;
   o.retry_slowdown = 0.0;

@@ -268,6 +268,10 @@ TEST(Replanner, InvalidOptionsNameTheKey) {
   PlannerParams bad;
   bad.t_pl = 0.0;
   EXPECT_THROW(Replanner(optimizer, bad), ConfigError);
+  // A clearance the distance field does not reach fails at construction, not mid-flight.
+  bad = PlannerParams{};
+  bad.clearance = 1.5;
+  EXPECT_THROW(Replanner(optimizer, bad), ConfigError);
 }
 
 }  // namespace

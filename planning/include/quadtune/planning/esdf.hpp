@@ -15,7 +15,7 @@
 /// stored signed distance puts the surface on the cell faces:
 ///   free cell:      d = (distance to nearest occupied centre − res/2)  > 0
 ///   occupied cell:  d = −(distance to nearest free centre − res/2)     < 0
-/// clamped to ±max_distance and quantised to int16 with a step of max_distance / 32000.
+/// clamped to ±max_distance and quantised to int16 with a step of max_distance / 16000.
 /// Obstacles outside the box are not seen: choose the box with a margin (≥ the clearance) around
 /// the path. When the map's ground is an obstacle, it enters analytically: every stored value is
 /// min(value, signed height of the cell centre above the ground plane), and the box is extended
@@ -53,8 +53,11 @@ namespace quadtune::planning {
 /// Configuration of an ESDF build.
 struct EsdfOptions {
   /// Truncation distance (m), (0, 30]: distances are exact up to it and clamped beyond; keep it
-  /// above PlannerParams::clearance. Smaller values also make the int16 quantum finer.
-  double max_distance = 2.0;
+  /// above PlannerParams::clearance (LocalPlanner refuses a clearance at or above it). Smaller
+  /// values make the int16 quantum finer and the build cheaper (the transform's window is
+  /// ≈ 2 max_distance / resolution cells). The planner uses distances up to the clearance (0.5 m
+  /// by default), so 1 m changes no plan: at the same quantum as 2 m, flights are byte-identical.
+  double max_distance = 1.0;
   /// Build from the inflated occupancy instead of the raw hits (distances then measure from the
   /// inflated obstacles).
   bool use_inflated_occupancy = false;
@@ -130,7 +133,7 @@ class Esdf final : public DistanceField {
   double res_ = 0.1;
   double inv_res_ = 10.0;
   double max_distance_ = 2.0;
-  double quantum_ = 2.0 / 32000.0;
+  double quantum_ = 1.0 / 16000.0;
   std::vector<std::int16_t> values_;  // x fastest
 };
 

@@ -114,6 +114,10 @@ class LocalPlanner {
  public:
   explicit LocalPlanner(const LocalPlannerOptions& options = {});
 
+  /// Throws ConfigError(key "clearance") when params.clearance is not below the distance field's
+  /// truncation (options.esdf.max_distance). MakeQuery calls it.
+  void CheckParams(const PlannerParams& params) const;
+
   /// Front end + distance-field snapshot for a plan from (p0, v0, a0) towards mission_goal_W.
   /// Returns nullopt and fills *front_end when the front end fails (no free local goal, no
   /// path); that failure counts as a failed planning trial.
