@@ -140,7 +140,7 @@ TEST(Esdf, TruncatesAtMaxDistance) {
   grad.setOnes();
   EXPECT_DOUBLE_EQ(esdf.Evaluate(Vector3d(-0.5, 0.2, 0.2), &grad), 1.0);
   EXPECT_EQ(grad, Vector3d::Zero());
-  EXPECT_DOUBLE_EQ(Esdf().Evaluate(Vector3d::Zero(), nullptr), 2.0);
+  EXPECT_DOUBLE_EQ(Esdf().Evaluate(Vector3d::Zero(), nullptr), EsdfOptions{}.max_distance);
 }
 
 TEST(Esdf, GradientMatchesFiniteDifferences) {

@@ -56,7 +56,8 @@ struct EsdfOptions {
   /// above PlannerParams::clearance (LocalPlanner refuses a clearance at or above it). Smaller
   /// values make the int16 quantum finer and the build cheaper (the transform's window is
   /// ≈ 2 max_distance / resolution cells). The planner uses distances up to the clearance (0.5 m
-  /// by default), so 1 m changes no plan: at the same quantum as 2 m, flights are byte-identical.
+  /// by default), so 1 m changes no cost: at the same quantum as 2 m, flights are byte-identical
+  /// but where a box lies 1–2 m above the ground (then it gets no ground layer, see above).
   double max_distance = 1.0;
   /// Build from the inflated occupancy instead of the raw hits (distances then measure from the
   /// inflated obstacles).
@@ -132,7 +133,7 @@ class Esdf final : public DistanceField {
   Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();
   double res_ = 0.1;
   double inv_res_ = 10.0;
-  double max_distance_ = 2.0;
+  double max_distance_ = 1.0;
   double quantum_ = 1.0 / 16000.0;
   std::vector<std::int16_t> values_;  // x fastest
 };
