@@ -112,6 +112,7 @@ Planner BuildPlanner(const YamlMap& p, const std::string& base_dir, std::string*
   o.flight.max_time = p.Number("max_time", 60.0, Range::Positive());
   if (p.Has("fixed")) o.base = planning::PlannerParams::FromYaml(p.Map("fixed"));
   o.base.Validate(p.file());
+  o.flight.planner.CheckParams(o.base, p.file());
   return Planner{IpoptPlanner{std::move(o)}};
 }
 

@@ -375,6 +375,7 @@ AdaptExperiment AdaptExperiment::FromString(const std::string& text, const std::
   e.max_time = map.Number("max_time", e.max_time, Range::Positive());
   if (map.Has("planner")) e.params = planning::PlannerParams::FromYaml(map.Map("planner"));
   e.params.Validate(origin);
+  planning::FlightOptions{}.planner.CheckParams(e.params, origin);  // as the flights plan
   if (map.Has("baselines")) {
     e.baselines = map.Numbers("baselines");
     for (double v : e.baselines) {

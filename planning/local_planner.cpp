@@ -63,12 +63,13 @@ PlanOutcome SolveQuery(const TrajectoryOptimizer& optimizer, const PlanningQuery
   return out;
 }
 
-void LocalPlanner::CheckParams(const PlannerParams& params) const {
-  if (!(params.clearance < options_.esdf.max_distance)) {
-    throw ConfigError("", "clearance",
+void LocalPlannerOptions::CheckParams(const PlannerParams& params,
+                                      const std::string& origin) const {
+  if (!(params.clearance < esdf.max_distance)) {
+    throw ConfigError(origin, "clearance",
                       "clearance = " + std::to_string(params.clearance) +
                           " m must lie below the distance field's truncation esdf.max_distance = " +
-                          std::to_string(options_.esdf.max_distance) +
+                          std::to_string(esdf.max_distance) +
                           " m (the collision cost needs distances up to the clearance)");
   }
 }
@@ -83,7 +84,7 @@ std::optional<PlanningQuery> LocalPlanner::MakeQuery(
     const Eigen::Vector3d& a0_W, const Eigen::Vector3d& mission_goal_W,
     const PlannerParams& params, const Trajectory* previous, double previous_time,
     PathSearchResult* front_end) {
-  CheckParams(params);
+  options_.CheckParams(params);
   PathSearchResult path = searcher_.Plan(map, p0_W, mission_goal_W, params.h_pl);
   const bool ok = path.ok() && path.waypoints.size() >= 2;
   if (front_end != nullptr) *front_end = path;

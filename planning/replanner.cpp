@@ -107,7 +107,7 @@ Replanner::Replanner(const TrajectoryOptimizer& optimizer, const PlannerParams& 
     : optimizer_(optimizer), params_(params), options_(options), planner_(planner_options) {
   params_.Validate();
   options_.Validate();
-  planner_.CheckParams(params_);
+  planner_.options().CheckParams(params_);
 }
 
 void Replanner::SetParams(const PlannerParams& params) {

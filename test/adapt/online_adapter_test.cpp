@@ -192,6 +192,19 @@ TEST(AdaptExperiment, UnknownKeyNamesFileAndKey) {
   }
 }
 
+TEST(AdaptExperiment, ClearanceBeyondTheDistanceFieldsTruncationNamesFileAndKey) {
+  const std::string path =
+      WriteTemp("clearance", std::string(kMinimal) + "planner: {clearance: 1.5}\n");
+  try {
+    (void)AdaptExperiment::LoadFile(path);
+    FAIL() << "expected a ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.file(), path);
+    EXPECT_EQ(e.key(), "clearance");
+    EXPECT_NE(std::string(e.what()).find("max_distance"), std::string::npos) << e.what();
+  }
+}
+
 TEST(AdaptExperiment, OutOfRangeValuesNameKeyAndRange) {
   const std::string path =
       WriteTemp("range", std::string(kMinimal) + "adaptation: {lookahead: -1}\n");

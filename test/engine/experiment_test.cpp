@@ -136,6 +136,13 @@ TEST(ExperimentErrors, MissingLayout) {
                                               "  type: ipopt\n");
   ExpectKeyError(text, "planner.layout");
 }
+TEST(ExperimentErrors, ClearanceBeyondTheDistanceFieldsTruncation) {
+  const std::string text = std::regex_replace(
+      test::ToyYaml(), std::regex("  type: toy\n  toy: \\{[^}]*\\}\n"),
+      "  type: ipopt\n  drone: drones/research_1kg.yaml\n  layout: {spacing: 3.0}\n"
+      "  fixed: {clearance: 1.5}\n");
+  ExpectKeyError(text, "clearance");
+}
 TEST(ExperimentErrors, ResumeWithAnotherConfiguration) {
   const std::string dir = test::TempDir("resume_other");
   const std::string store = dir + "/r.sqlite";

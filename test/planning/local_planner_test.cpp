@@ -176,13 +176,13 @@ TEST(LocalPlanner, RefusesAClearanceBeyondTheDistanceFieldsTruncation) {
   }
   // Below the truncation it plans; a longer truncation admits the larger clearance.
   p.clearance = 0.9 * LocalPlannerOptions{}.esdf.max_distance;
-  EXPECT_NO_THROW(planner.CheckParams(p));
+  EXPECT_NO_THROW(planner.options().CheckParams(p));
   LocalPlannerOptions longer;
   longer.esdf.max_distance = 2.0;
   p.clearance = 1.5;
-  EXPECT_NO_THROW(LocalPlanner(longer).CheckParams(p));
+  EXPECT_NO_THROW(longer.CheckParams(p));
   p.clearance = 2.0;
-  EXPECT_THROW(LocalPlanner(longer).CheckParams(p), ConfigError);
+  EXPECT_THROW(longer.CheckParams(p), ConfigError);
 }
 
 TEST(LocalPlannerOptions, BadValuesNameTheKey) {

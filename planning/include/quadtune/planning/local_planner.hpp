@@ -92,6 +92,10 @@ struct LocalPlannerOptions {
 
   /// Throws ConfigError(origin, key, ...) for the first bad field.
   void Validate(const std::string& origin = "") const;
+  /// Throws ConfigError(origin, key "clearance") when params.clearance is not below the distance
+  /// field's truncation (esdf.max_distance). LocalPlanner::MakeQuery and the Replanner call it;
+  /// experiment readers call it to reject such a file before any flight.
+  void CheckParams(const PlannerParams& params, const std::string& origin = "") const;
 };
 
 /// Solves a recorded query with short-term parameters θ_s (the rest of `params` is used as
@@ -113,10 +117,6 @@ struct LocalPlannerOptions {
 class LocalPlanner {
  public:
   explicit LocalPlanner(const LocalPlannerOptions& options = {});
-
-  /// Throws ConfigError(key "clearance") when params.clearance is not below the distance field's
-  /// truncation (options.esdf.max_distance). MakeQuery calls it.
-  void CheckParams(const PlannerParams& params) const;
 
   /// Front end + distance-field snapshot for a plan from (p0, v0, a0) towards mission_goal_W.
   /// Returns nullopt and fills *front_end when the front end fails (no free local goal, no
