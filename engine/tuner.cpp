@@ -225,8 +225,12 @@ class Trial {
     ++summary_.flights;
     if (o.status != EvalStatus::kOk) ++summary_.failed;
     if (o.replayed) ++summary_.replayed;
-    if (o.status == EvalStatus::kOk && (!have_best_ || o.objective.value < summary_.best_value)) {
-      have_best_ = true;
+    // The best completed evaluation; until there is one, the best failed one (its value is the
+    // failure value), so that a trial whose every flight failed does not report f_l = 0.
+    const bool ok = o.status == EvalStatus::kOk;
+    const bool lower = summary_.flights == 1 || o.objective.value < summary_.best_value;
+    if ((ok && (!have_best_ || lower)) || (!ok && !have_best_ && lower)) {
+      have_best_ = have_best_ || ok;
       summary_.best_value = o.objective.value;
       summary_.best = o.params;
     }

@@ -232,6 +232,25 @@ TEST(Tuner, ThrowingFlightIsRecordedAsFailedAndRunCompletes) {
   EXPECT_EQ(counts.at("bo_pso").first, 8);
 }
 
+TEST(Tuner, TrialWhoseEveryFlightFailedReportsTheFailureValue) {
+  const std::string dir = test::TempDir("all_failed");
+  RunOptions o;
+  o.store_path = dir + "/r.sqlite";
+  // Every speed in the box (0.5–6 m/s) is above 0.1: every flight throws.
+  const Experiment e = Experiment::FromString(
+      test::ToyYaml("[default, random]", ", throw_speed_above: 0.1", 4), "toy.yaml");
+  const RunSummary s = RunExperiment(e, o);
+  ASSERT_EQ(s.status, RunStatus::kCompleted);
+  ASSERT_EQ(s.trials.size(), 2u);
+  for (const TrialSummary& t : s.trials) {
+    EXPECT_EQ(t.failed, t.flights) << t.method;
+    EXPECT_DOUBLE_EQ(t.best_value, e.objective.failure_value) << t.method;
+  }
+  for (const auto& t : ResultStore(o.store_path).Trials()) {
+    EXPECT_DOUBLE_EQ(t.best_value, e.objective.failure_value) << t.method;
+  }
+}
+
 class CancelResume : public ::testing::TestWithParam<std::pair<const char*, int>> {};
 
 /// Cancels a run after N progress reports (i.e. rounds), resumes it, and compares with a run that

@@ -78,7 +78,9 @@ struct TrialSummary {
   std::string method;
   int repeat = 0;
   ParamValues best;         ///< best parameters found (all of θ_s ∪ θ_l)
-  double best_value = 0.0;  ///< best f_l observed
+  /// Best f_l of a completed flight; while none has completed, the best failed one's value
+  /// (objective.failure_value), and `best` its parameters.
+  double best_value = 0.0;
   int flights = 0;
   int short_evals = 0;      ///< θ_s evaluations
   int failed = 0;           ///< failed evaluations
