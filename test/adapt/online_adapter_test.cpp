@@ -179,43 +179,32 @@ const char* kMinimal =
     "layout_file: layouts/changing_density.yaml\n"
     "baselines: [2.0]\n";
 
-TEST(AdaptExperiment, UnknownKeyNamesFileAndKey) {
-  const std::string path =
-      WriteTemp("unknown", std::string(kMinimal) + "adaptation: {trials_per_segmnt: 8}\n");
+/// Loads kMinimal + `extra` from a file; expects a ConfigError naming that file and `key`, whose
+/// message contains `fragment`.
+void ExpectFileKeyError(const std::string& name, const std::string& extra, const std::string& key,
+                        const std::string& fragment) {
+  const std::string path = WriteTemp(name, std::string(kMinimal) + extra);
   try {
     (void)AdaptExperiment::LoadFile(path);
     FAIL() << "expected a ConfigError";
   } catch (const ConfigError& e) {
     EXPECT_EQ(e.file(), path);
-    EXPECT_EQ(e.key(), "adaptation.trials_per_segmnt");
-    EXPECT_NE(std::string(e.what()).find("trials_per_segment"), std::string::npos) << e.what();
+    EXPECT_EQ(e.key(), key);
+    EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
   }
+}
+
+TEST(AdaptExperiment, UnknownKeyNamesFileAndKey) {
+  ExpectFileKeyError("unknown", "adaptation: {trials_per_segmnt: 8}\n",
+                     "adaptation.trials_per_segmnt", "trials_per_segment");
 }
 
 TEST(AdaptExperiment, ClearanceBeyondTheDistanceFieldsTruncationNamesFileAndKey) {
-  const std::string path =
-      WriteTemp("clearance", std::string(kMinimal) + "planner: {clearance: 1.5}\n");
-  try {
-    (void)AdaptExperiment::LoadFile(path);
-    FAIL() << "expected a ConfigError";
-  } catch (const ConfigError& e) {
-    EXPECT_EQ(e.file(), path);
-    EXPECT_EQ(e.key(), "clearance");
-    EXPECT_NE(std::string(e.what()).find("max_distance"), std::string::npos) << e.what();
-  }
+  ExpectFileKeyError("clearance", "planner: {clearance: 1.5}\n", "clearance", "max_distance");
 }
 
 TEST(AdaptExperiment, OutOfRangeValuesNameKeyAndRange) {
-  const std::string path =
-      WriteTemp("range", std::string(kMinimal) + "adaptation: {lookahead: -1}\n");
-  try {
-    (void)AdaptExperiment::LoadFile(path);
-    FAIL() << "expected a ConfigError";
-  } catch (const ConfigError& e) {
-    EXPECT_EQ(e.file(), path);
-    EXPECT_EQ(e.key(), "adaptation.lookahead");
-    EXPECT_NE(std::string(e.what()).find("(0, 20]"), std::string::npos) << e.what();
-  }
+  ExpectFileKeyError("range", "adaptation: {lookahead: -1}\n", "adaptation.lookahead", "(0, 20]");
   EXPECT_THROW((void)AdaptExperiment::FromString(
                    std::string(kMinimal) + "adaptation: {v_des_bounds: [6, 1]}\n", "x.yaml"),
                ConfigError);

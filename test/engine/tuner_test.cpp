@@ -210,14 +210,26 @@ TEST(Tuner, SameSeedSameResultsAt1And2And8Threads) {
   EXPECT_EQ(runs[0], runs[2]);
 }
 
-TEST(Tuner, ThrowingFlightIsRecordedAsFailedAndRunCompletes) {
-  const std::string dir = test::TempDir("throwing");
+/// A toy experiment whose flights throw above `throw_speed` (m/s), run to completion in its own
+/// store.
+struct ThrowingRun {
+  ThrowingRun(const std::string& name, const char* methods, double throw_speed, int flights)
+      : e(Experiment::FromString(
+            test::ToyYaml(methods, ", throw_speed_above: " + std::to_string(throw_speed), flights),
+            "toy.yaml")) {
+    o.store_path = test::TempDir(name) + "/r.sqlite";
+    s = RunExperiment(e, o);
+  }
+  Experiment e;
   RunOptions o;
-  o.store_path = dir + "/r.sqlite";
-  const Experiment e = Experiment::FromString(
-      test::ToyYaml("[random, bo_pso]", ", throw_speed_above: 3.0", 8), "toy.yaml");
-  const RunSummary s = RunExperiment(e, o);
-  ASSERT_EQ(s.status, RunStatus::kCompleted);
+  RunSummary s;
+};
+
+TEST(Tuner, ThrowingFlightIsRecordedAsFailedAndRunCompletes) {
+  const ThrowingRun run("throwing", "[random, bo_pso]", 3.0, 8);
+  const Experiment& e = run.e;
+  const RunOptions& o = run.o;
+  ASSERT_EQ(run.s.status, RunStatus::kCompleted);
   int failed = 0;
   for (const auto& r : ResultStore(o.store_path).Evaluations()) {
     if (r.status == "failed") {
@@ -233,20 +245,17 @@ TEST(Tuner, ThrowingFlightIsRecordedAsFailedAndRunCompletes) {
 }
 
 TEST(Tuner, TrialWhoseEveryFlightFailedReportsTheFailureValue) {
-  const std::string dir = test::TempDir("all_failed");
-  RunOptions o;
-  o.store_path = dir + "/r.sqlite";
   // Every speed in the box (0.5–6 m/s) is above 0.1: every flight throws.
-  const Experiment e = Experiment::FromString(
-      test::ToyYaml("[default, random]", ", throw_speed_above: 0.1", 4), "toy.yaml");
-  const RunSummary s = RunExperiment(e, o);
+  const ThrowingRun run("all_failed", "[default, random]", 0.1, 4);
+  const Experiment& e = run.e;
+  const RunSummary& s = run.s;
   ASSERT_EQ(s.status, RunStatus::kCompleted);
   ASSERT_EQ(s.trials.size(), 2u);
   for (const TrialSummary& t : s.trials) {
     EXPECT_EQ(t.failed, t.flights) << t.method;
     EXPECT_DOUBLE_EQ(t.best_value, e.objective.failure_value) << t.method;
   }
-  for (const auto& t : ResultStore(o.store_path).Trials()) {
+  for (const auto& t : ResultStore(run.o.store_path).Trials()) {
     EXPECT_DOUBLE_EQ(t.best_value, e.objective.failure_value) << t.method;
   }
 }
