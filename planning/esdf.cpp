@@ -6,6 +6,10 @@
 #include <optional>
 #include <stdexcept>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "quadtune/common/error.hpp"
 
 namespace quadtune::planning {
@@ -454,73 +458,122 @@ Eigen::Vector3d Esdf::CellCenter(const Eigen::Vector3i& idx) const {
   return origin_W_ + (idx.cast<double>().array() + 0.5).matrix() * res_;
 }
 
-double Esdf::EvaluateWithHessian(const Eigen::Vector3d& p_W, Eigen::Vector3d* grad_W,
-                                 Eigen::Matrix3d* hess_W) const {
-  if (!Contains(p_W)) {
-    if (grad_W != nullptr) grad_W->setZero();
-    if (hess_W != nullptr) hess_W->setZero();
-    return max_distance_;
-  }
-  // Per axis: the four B-spline basis weights around the point and their first and second
-  // derivatives (cell centre i sits at origin + (i + 1/2)·res; u is the coordinate in cells).
-  const Eigen::Vector3d u = (p_W - origin_W_) * inv_res_ - Eigen::Vector3d::Constant(0.5);
-  double w[3][4], dw[3][4], ddw[3][4];
+namespace {
+
+// The 4×4×4 cell-centre samples that the cubic B-spline blends at a point: per axis the
+// point's fraction t ∈ [0, 1) of a cell past the centre below it, the x indices and the start of
+// every (y, z) row, all clamped to the box (the field continues constant beyond it).
+struct Stencil {
+  double t[3];
+  std::size_t xi[4];
+  const std::int16_t* row[4][4];  // [k (z)][j (y)]
+  bool contiguous;                // xi[i] = xi[0] + i (no clamping in x)
+};
+
+// u: the coordinate in cells relative to the centre of cell 0 (cell centre i sits at
+// origin + (i + 1/2)·res).
+Stencil Locate(const Eigen::Vector3d& u, const Eigen::Vector3i& dims,
+               const std::int16_t* values) {
+  Stencil s;
   int base[3];
   for (int a = 0; a < 3; ++a) {
     const double fl = std::floor(u(a));
-    const double t = u(a) - fl, t2 = t * t, t3 = t2 * t, s = 1.0 - t;
+    s.t[a] = u(a) - fl;
     base[a] = static_cast<int>(fl) - 1;
-    w[a][0] = s * s * s / 6.0;
+  }
+  for (int i = 0; i < 4; ++i) {
+    s.xi[i] = static_cast<std::size_t>(std::clamp(base[0] + i, 0, dims.x() - 1));
+  }
+  s.contiguous = base[0] >= 0 && base[0] + 3 < dims.x();
+  for (int k = 0; k < 4; ++k) {
+    const auto z = static_cast<std::size_t>(std::clamp(base[2] + k, 0, dims.z() - 1));
+    for (int j = 0; j < 4; ++j) {
+      const auto y = static_cast<std::size_t>(std::clamp(base[1] + j, 0, dims.y() - 1));
+      s.row[k][j] =
+          values + static_cast<std::size_t>(dims.x()) * (y + static_cast<std::size_t>(dims.y()) * z);
+    }
+  }
+  return s;
+}
+
+// The smallest of the 64 samples.
+std::int16_t StencilMin(const Stencil& s) {
+#if defined(__SSE2__)
+  if (s.contiguous) {
+    // Four samples of a row are 8 contiguous bytes: two rows per register, eight registers.
+    auto pair = [&s](int k, int j) {
+      return _mm_unpacklo_epi64(
+          _mm_loadl_epi64(reinterpret_cast<const __m128i*>(s.row[k][j] + s.xi[0])),
+          _mm_loadl_epi64(reinterpret_cast<const __m128i*>(s.row[k][j + 1] + s.xi[0])));
+    };
+    __m128i m = pair(0, 0);
+    m = _mm_min_epi16(m, pair(0, 2));
+    for (int k = 1; k < 4; ++k) {
+      m = _mm_min_epi16(m, pair(k, 0));
+      m = _mm_min_epi16(m, pair(k, 2));
+    }
+    m = _mm_min_epi16(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(1, 0, 3, 2)));
+    m = _mm_min_epi16(m, _mm_shuffle_epi32(m, _MM_SHUFFLE(2, 3, 0, 1)));
+    m = _mm_min_epi16(m, _mm_shufflelo_epi16(m, _MM_SHUFFLE(2, 3, 0, 1)));
+    return static_cast<std::int16_t>(_mm_extract_epi16(m, 0));
+  }
+#endif
+  std::int16_t low = std::numeric_limits<std::int16_t>::max();
+  for (int k = 0; k < 4; ++k) {
+    for (int j = 0; j < 4; ++j) {
+      for (int i = 0; i < 4; ++i) low = std::min(low, s.row[k][j][s.xi[i]]);
+    }
+  }
+  return low;
+}
+
+// The spline at the stencil, in quantum units; with derivatives (in quantum units per cell)
+// when `derivatives`: *g and the upper triangle of *h.
+double Blend(const Stencil& s, bool derivatives, Eigen::Vector3d* g, Eigen::Matrix3d* h) {
+  // Per axis: the four B-spline basis weights around the point and their first and second
+  // derivatives.
+  double w[3][4], dw[3][4], ddw[3][4];
+  for (int a = 0; a < 3; ++a) {
+    const double t = s.t[a], t2 = t * t, t3 = t2 * t, r = 1.0 - t;
+    w[a][0] = r * r * r / 6.0;
     w[a][1] = (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0;
     w[a][2] = (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0;
     w[a][3] = t3 / 6.0;
-    dw[a][0] = -0.5 * s * s;
+    dw[a][0] = -0.5 * r * r;
     dw[a][1] = 1.5 * t2 - 2.0 * t;
     dw[a][2] = -1.5 * t2 + t + 0.5;
     dw[a][3] = 0.5 * t2;
-    ddw[a][0] = s;
+    ddw[a][0] = r;
     ddw[a][1] = 3.0 * t - 2.0;
     ddw[a][2] = -3.0 * t + 1.0;
     ddw[a][3] = t;
   }
-  // Indices of the 4×4×4 neighbourhood, clamped at the box (the field continues constant).
-  std::size_t xi[4], row[4][4];
-  for (int i = 0; i < 4; ++i) {
-    xi[i] = static_cast<std::size_t>(std::clamp(base[0] + i, 0, dims_.x() - 1));
-  }
-  for (int k = 0; k < 4; ++k) {
-    const auto z = static_cast<std::size_t>(std::clamp(base[2] + k, 0, dims_.z() - 1));
-    for (int j = 0; j < 4; ++j) {
-      const auto y = static_cast<std::size_t>(std::clamp(base[1] + j, 0, dims_.y() - 1));
-      row[k][j] = static_cast<std::size_t>(dims_.x()) * (y + static_cast<std::size_t>(dims_.y()) * z);
-    }
-  }
+  const std::size_t* xi = s.xi;
   // The tensor-product spline contracted one axis at a time: x, then y, then z. Value only
   // (line-search trial points): 16 + 4 + 1 dot products of length 4; with derivatives, the
   // contractions keep the derivative orders each output needs (≈330 multiply-adds in all).
-  const bool derivatives = grad_W != nullptr || hess_W != nullptr;
   double value = 0.0;
   if (!derivatives) {
     for (int k = 0; k < 4; ++k) {
       double zk = 0.0;
       for (int j = 0; j < 4; ++j) {
-        const std::int16_t* v = values_.data() + row[k][j];
+        const std::int16_t* v = s.row[k][j];
         const double cx = v[xi[0]] * w[0][0] + v[xi[1]] * w[0][1] + v[xi[2]] * w[0][2] +
                           v[xi[3]] * w[0][3];
         zk += cx * w[1][j];
       }
       value += zk * w[2][k];
     }
-    return value * quantum_;
+    return value;
   }
   // After x: per (k, j) the row contracted with w, dw, ddw in x.
   // After y: per k, b[ox][oy] = Σ_j a[ox] · (w, dw, ddw)[oy] for ox + oy <= 2.
-  Eigen::Vector3d g = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
+  g->setZero();
+  h->setZero();
   for (int k = 0; k < 4; ++k) {
     double b00 = 0.0, b01 = 0.0, b02 = 0.0, b10 = 0.0, b11 = 0.0, b20 = 0.0;
     for (int j = 0; j < 4; ++j) {
-      const std::int16_t* v = values_.data() + row[k][j];
+      const std::int16_t* v = s.row[k][j];
       double a0 = 0.0, a1 = 0.0, a2 = 0.0;
       for (int i = 0; i < 4; ++i) {
         const double c = v[xi[i]];
@@ -536,15 +589,56 @@ double Esdf::EvaluateWithHessian(const Eigen::Vector3d& p_W, Eigen::Vector3d* gr
       b20 += a2 * w[1][j];
     }
     value += b00 * w[2][k];
-    g(0) += b10 * w[2][k];
-    g(1) += b01 * w[2][k];
-    g(2) += b00 * dw[2][k];
-    h(0, 0) += b20 * w[2][k];
-    h(1, 1) += b02 * w[2][k];
-    h(2, 2) += b00 * ddw[2][k];
-    h(0, 1) += b11 * w[2][k];
-    h(0, 2) += b10 * dw[2][k];
-    h(1, 2) += b01 * dw[2][k];
+    (*g)(0) += b10 * w[2][k];
+    (*g)(1) += b01 * w[2][k];
+    (*g)(2) += b00 * dw[2][k];
+    (*h)(0, 0) += b20 * w[2][k];
+    (*h)(1, 1) += b02 * w[2][k];
+    (*h)(2, 2) += b00 * ddw[2][k];
+    (*h)(0, 1) += b11 * w[2][k];
+    (*h)(0, 2) += b10 * dw[2][k];
+    (*h)(1, 2) += b01 * dw[2][k];
+  }
+  return value;
+}
+
+}  // namespace
+
+double Esdf::EvaluateWithHessian(const Eigen::Vector3d& p_W, Eigen::Vector3d* grad_W,
+                                 Eigen::Matrix3d* hess_W) const {
+  double distance = 0.0;
+  EvaluateWithHessianBelow(p_W, std::numeric_limits<double>::infinity(), &distance, grad_W,
+                           hess_W);
+  return distance;
+}
+
+bool Esdf::EvaluateWithHessianBelow(const Eigen::Vector3d& p_W, double threshold,
+                                    double* distance, Eigen::Vector3d* grad_W,
+                                    Eigen::Matrix3d* hess_W) const {
+  const Eigen::Vector3d uc = (p_W - origin_W_) * inv_res_;
+  bool inside = !values_.empty();
+  for (int k = 0; k < 3; ++k) inside = inside && uc[k] >= 0.0 && uc[k] <= dims_[k];
+  if (!inside) {  // as Contains(p_W) == false
+    if (!(max_distance_ < threshold)) return false;
+    if (grad_W != nullptr) grad_W->setZero();
+    if (hess_W != nullptr) hess_W->setZero();
+    *distance = max_distance_;
+    return true;
+  }
+  const Stencil s = Locate(uc - Eigen::Vector3d::Constant(0.5), dims_, values_.data());
+  // The weights are nonnegative and sum to one, so the spline is at least its smallest sample;
+  // the relative margin covers the rounding of the weights and the sums (≈ 10⁻¹⁵).
+  if (threshold < std::numeric_limits<double>::infinity() &&
+      static_cast<double>(StencilMin(s)) * quantum_ * (1.0 - 1e-12) >= threshold) {
+    return false;
+  }
+  const bool derivatives = grad_W != nullptr || hess_W != nullptr;
+  Eigen::Vector3d g;
+  Eigen::Matrix3d h;
+  double value = Blend(s, derivatives, &g, &h);
+  if (!derivatives) {
+    *distance = value * quantum_;
+    return true;
   }
   value *= quantum_;
   g *= quantum_;
@@ -554,7 +648,8 @@ double Esdf::EvaluateWithHessian(const Eigen::Vector3d& p_W, Eigen::Vector3d* gr
   h(2, 1) = h(1, 2);
   if (grad_W != nullptr) *grad_W = g * inv_res_;
   if (hess_W != nullptr) *hess_W = h * (inv_res_ * inv_res_);
-  return value;
+  *distance = value;
+  return true;
 }
 
 double Esdf::Evaluate(const Eigen::Vector3d& p_W, Eigen::Vector3d* grad_W) const {

@@ -228,6 +228,7 @@ struct EvaluateScratch {
   Eigen::MatrixXd hb;
   Eigen::MatrixXd hdb;
   Eigen::MatrixXd w, w1, w2;       // S_d b, S_d b', S_d b'' (samples × 3)
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rows;  // S_d by rows
   std::vector<ActiveSample> active;
   Eigen::MatrixXd v;               // active rows of S_d, inner-waypoint columns (active × m)
   Eigen::MatrixXd coef;            // per active sample, 3 coefficients
@@ -245,11 +246,66 @@ EvaluateScratch& Scratch() {
 // matrices need only these rows.
 std::array<int, 4> RateRows(int nb) { return {1, 2, nb - 2, nb - 1}; }
 
-// *out = m · x for an x whose nonzero rows are all in `nz`: four outer products.
+// *out = m · x for an x whose nonzero rows are all in `nz`: the sum of four outer products,
+// added in that order, in one pass per column.
 void TimesRate(const Eigen::MatrixXd& m, const Eigen::MatrixXd& x, const std::array<int, 4>& nz,
                Eigen::MatrixXd* out) {
-  out->noalias() = m.col(nz[0]) * x.row(nz[0]);
-  for (std::size_t k = 1; k < nz.size(); ++k) out->noalias() += m.col(nz[k]) * x.row(nz[k]);
+  out->resize(m.rows(), x.cols());
+  for (Eigen::Index a = 0; a < x.cols(); ++a) {
+    out->col(a) = m.col(nz[0]) * x(nz[0], a) + m.col(nz[1]) * x(nz[1], a) +
+                  m.col(nz[2]) * x(nz[2], a) + m.col(nz[3]) * x(nz[3], a);
+  }
+}
+
+// *w = s · b for a b of three columns (the states of every sample at once). Each entry sums its
+// nb products in index order from zero, as Eigen's blocked matrix product does, without that
+// product's packing of the constant s on every call (s is stored by column, and four samples
+// are summed at a time). Below Eigen's size threshold for its coefficient-wise product, whose sums run in
+// another order, that product is used (on s by rows, as it was stored before); either way the
+// values are those of Eigen's `s * b`.
+void SamplesTimes(const Eigen::MatrixXd& s, const Eigen::MatrixXd& b, Eigen::MatrixXd* w,
+                  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>* rows) {
+  const Eigen::Index ns = s.rows();
+  const Eigen::Index nb = s.cols();
+  if (nb + ns + b.cols() < EIGEN_GEMM_TO_COEFFBASED_THRESHOLD || b.cols() != 3) {
+    *rows = s;
+    w->noalias() = *rows * b;
+    return;
+  }
+  w->resize(ns, 3);
+  double* w0 = w->col(0).data();
+  double* w1 = w->col(1).data();
+  double* w2 = w->col(2).data();
+  const double* bk = b.data();  // column a at bk + a·nb
+  // Blocks of four samples, their twelve running sums in registers.
+  constexpr Eigen::Index kBlock = 4;
+  Eigen::Index j0 = 0;
+  for (; j0 + kBlock <= ns; j0 += kBlock) {
+    Eigen::Array4d a0 = Eigen::Array4d::Zero();
+    Eigen::Array4d a1 = Eigen::Array4d::Zero();
+    Eigen::Array4d a2 = Eigen::Array4d::Zero();
+    for (Eigen::Index k = 0; k < nb; ++k) {
+      const Eigen::Map<const Eigen::Array4d> sk(s.data() + k * ns + j0);
+      a0 += sk * bk[k];
+      a1 += sk * bk[nb + k];
+      a2 += sk * bk[2 * nb + k];
+    }
+    Eigen::Map<Eigen::Array4d>(w0 + j0) = a0;
+    Eigen::Map<Eigen::Array4d>(w1 + j0) = a1;
+    Eigen::Map<Eigen::Array4d>(w2 + j0) = a2;
+  }
+  for (; j0 < ns; ++j0) {
+    double a0 = 0.0, a1 = 0.0, a2 = 0.0;
+    for (Eigen::Index k = 0; k < nb; ++k) {
+      const double sk = s(j0, k);
+      a0 += sk * bk[k];
+      a1 += sk * bk[nb + k];
+      a2 += sk * bk[2 * nb + k];
+    }
+    w0[j0] = a0;
+    w1[j0] = a1;
+    w2[j0] = a2;
+  }
 }
 
 }  // namespace
@@ -328,7 +384,7 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
     const double weight = weights[d];
     // The states of every sample at once: W = S_d b (and S_d b', S_d b'' for the derivatives,
     // from the few nonzero rows of b' and b'').
-    ws.w.noalias() = rows * b;
+    SamplesTimes(rows, b, &ws.w, &ws.rows);
     if (want_grad) TimesRate(rows, db, rate_rows, &ws.w1);
     if (want_hess) TimesRate(rows, ddb, rate_rows, &ws.w2);
     // Per active sample: its row index, the q-gradient coefficients wγ τ^-d, the ρ-row
@@ -342,8 +398,13 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
       if (d == 0) {
         Eigen::Vector3d grad_d;
         Eigen::Matrix3d hess_d;
-        const double dist = field_->EvaluateWithHessian(r, want_grad ? &grad_d : nullptr,
-                                                        want_hess ? &hess_d : nullptr);
+        // Samples certainly beyond the clearance add nothing: the field may skip them.
+        double dist = 0.0;
+        if (!field_->EvaluateWithHessianBelow(r, params_.clearance, &dist,
+                                              want_grad ? &grad_d : nullptr,
+                                              want_hess ? &hess_d : nullptr)) {
+          continue;
+        }
         const double e = (params_.clearance - dist) * inv_c;
         if (!(e > 0.0)) {
           if (!std::isfinite(dist)) terms.collision = std::numeric_limits<double>::quiet_NaN();

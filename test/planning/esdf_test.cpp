@@ -351,6 +351,65 @@ TEST(Esdf, CurvatureIsExactDerivativeOfASmoothFieldCloseToTheSamples) {
   }
 }
 
+// The collision cost skips samples through EvaluateWithHessianBelow: a skip must be a point
+// whose smooth distance is at least the threshold, and an evaluation must give the same bits as
+// EvaluateWithHessian. Points on a grid over the box (its border cells included, where the
+// stencil is clamped) and just outside it, thresholds around the clearance.
+TEST(Esdf, EvaluateBelowSkipsOnlyPointsAtOrAboveTheThresholdAndOtherwiseMatchesBitwise) {
+  physics::CylinderObstacle c1;
+  c1.center_W = Eigen::Vector2d(1.0, 0.0);
+  c1.radius = 0.25;
+  physics::CylinderObstacle c2;
+  c2.center_W = Eigen::Vector2d(1.9, 0.5);
+  c2.radius = 0.15;
+  const Esdf esdf = testing::VoxelisedCylinders({c1, c2}, 0.0, 3.0, -1.0, 1.5, 0.0, 2.0);
+  const DistanceField& field = esdf;
+  int skipped = 0;
+  int evaluated = 0;
+  for (double threshold : {0.2, 0.5, 0.9, 2.0}) {
+    for (double x = -0.07; x <= 3.1; x += 0.0731) {
+      for (double y = -1.07; y <= 1.6; y += 0.0893) {
+        for (double z = -0.05; z <= 2.1; z += 0.217) {
+          const Eigen::Vector3d p(x, y, z);
+          Eigen::Vector3d g_ref;
+          Eigen::Matrix3d h_ref;
+          const double ref = field.EvaluateWithHessian(p, &g_ref, &h_ref);
+          double d = -1.0;
+          Eigen::Vector3d g = Eigen::Vector3d::Constant(7.0);
+          Eigen::Matrix3d h = Eigen::Matrix3d::Constant(7.0);
+          if (!field.EvaluateWithHessianBelow(p, threshold, &d, &g, &h)) {
+            ++skipped;
+            EXPECT_GE(ref, threshold) << p.transpose();
+            EXPECT_EQ(d, -1.0);  // nothing written
+            continue;
+          }
+          ++evaluated;
+          EXPECT_EQ(d, ref) << p.transpose();
+          EXPECT_EQ(g, g_ref) << p.transpose();
+          EXPECT_EQ(h, h_ref) << p.transpose();
+          // The value-only form makes the same decision and the same value.
+          double v = -1.0;
+          EXPECT_TRUE(field.EvaluateWithHessianBelow(p, threshold, &v, nullptr, nullptr));
+          EXPECT_EQ(v, field.EvaluateWithHessian(p, nullptr, nullptr)) << p.transpose();
+        }
+      }
+    }
+  }
+  // Both outcomes occur, and a point next to an obstacle is never skipped at the clearance.
+  EXPECT_GT(skipped, 1000);
+  EXPECT_GT(evaluated, 1000);
+  double d = 0.0;
+  EXPECT_TRUE(field.EvaluateWithHessianBelow(Eigen::Vector3d(1.3, 0.0, 1.0), 0.5, &d, nullptr,
+                                             nullptr));
+  EXPECT_LT(d, 0.5);
+  // Outside the box the field reads max_distance: skipped below it, evaluated above it.
+  EXPECT_FALSE(field.EvaluateWithHessianBelow(Eigen::Vector3d(9, 9, 9), 0.5, &d, nullptr,
+                                              nullptr));
+  EXPECT_TRUE(field.EvaluateWithHessianBelow(Eigen::Vector3d(9, 9, 9), 2.0, &d, nullptr,
+                                             nullptr));
+  EXPECT_EQ(d, esdf.max_distance());
+}
+
 TEST(Esdf, CurvatureOutsideTheBoxIsFlat) {
   const Esdf esdf = testing::VoxelisedCylinders({}, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0);
   Eigen::Vector3d g;

@@ -43,6 +43,19 @@ class DistanceField {
     return Evaluate(p_W, grad_W);
   }
 
+  /// EvaluateWithHessian(p_W, grad_W, hess_W) into *distance, returning true, unless a bound
+  /// cheaper than the evaluation shows that the distance is at least `threshold` (m): then it
+  /// returns false and writes nothing. A caller whose cost vanishes above a threshold (the
+  /// collision penalty beyond the clearance) skips such points without changing its result.
+  /// Default: always evaluates.
+  /// Thread safety: as Evaluate().
+  virtual bool EvaluateWithHessianBelow(const Eigen::Vector3d& p_W, double /*threshold*/,
+                                        double* distance, Eigen::Vector3d* grad_W,
+                                        Eigen::Matrix3d* hess_W) const {
+    *distance = EvaluateWithHessian(p_W, grad_W, hess_W);
+    return true;
+  }
+
   /// True when EvaluateWithHessian() returns a C² distance with its exact Hessian (an override as
   /// described there); false (the default) for a field that only offers Evaluate(). The
   /// optimiser then knows that its Newton model is exact, and arms its stagnation safeguard

@@ -97,6 +97,13 @@ class Esdf final : public DistanceField {
   /// 0.2 m pillar). Outside the box: max_distance with zero derivatives.
   double EvaluateWithHessian(const Eigen::Vector3d& p_W, Eigen::Vector3d* grad_W,
                              Eigen::Matrix3d* hess_W) const override;
+  /// As EvaluateWithHessian, skipped (false) when every one of the 64 samples it blends is at
+  /// least `threshold` (outside the box: when max_distance is): the spline's weights are
+  /// nonnegative and sum to one, so it is then at least `threshold` too. The test reads the
+  /// samples once (an eighth of an evaluation with derivatives).
+  bool EvaluateWithHessianBelow(const Eigen::Vector3d& p_W, double threshold, double* distance,
+                                Eigen::Vector3d* grad_W,
+                                Eigen::Matrix3d* hess_W) const override;
   /// True: EvaluateWithHessian gives exact curvature of a C² field.
   [[nodiscard]] bool ProvidesCurvature() const override { return true; }
 

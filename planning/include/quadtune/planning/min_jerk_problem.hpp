@@ -161,7 +161,7 @@ class MinJerkProblem {
   Eigen::MatrixXd jerk_hess_;  // H̄: nb × nb
   double sum_nominal_ = 0.0;   // Σ T̄ (s)
   // Per-sample rows (nb) for position, normalised velocity and acceleration: S_d (ns × nb).
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> sample_rows_[3];
+  Eigen::MatrixXd sample_rows_[3];
   std::vector<int> sample_piece_;
   // Per-sample 1/limit² of the speed penalty under a braking envelope; empty: 1/v_max² for all.
   std::vector<double> inv_speed_limit_sq_;
