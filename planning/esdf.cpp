@@ -91,12 +91,23 @@ void RowPass(const std::uint8_t* occupancy, std::size_t nx, std::size_t rows, bo
 /// `in` (rows nx apart) and written to `dst` (rows `stride` apart); out_row(q) = min over
 /// |k| ≤ t_cells of in_row(q + k) + k², then values above cap become kInf16. kChunk values of a
 /// row at a time are held over the whole window; the loops over them vectorise (16-bit min and
-/// add), with an AVX2 clone picked at load time where the processor has it.
+/// add), with an AVX2 clone picked at load time where the processor has it. A chunk of a row
+/// that holds only kInf16 cannot lower a minimum (kInf16 + k² ≥ kInf16 ≥ every running minimum),
+/// so such chunks are skipped: `live` (rows · ⌊nx / kChunk⌋ entries) records the others.
 #if defined(__x86_64__) && defined(__GNUC__)
 __attribute__((target_clones("avx2", "default")))
 #endif
 void WindowedPass(const std::int16_t* in, std::int16_t* dst, std::size_t nx, int rows,
-                  std::size_t stride, int t_cells, std::int16_t cap) {
+                  std::size_t stride, int t_cells, std::int16_t cap, std::uint8_t* live) {
+  const std::size_t chunks = nx / kChunk;
+  for (int r = 0; r < rows; ++r) {
+    for (std::size_t ci = 0; ci < chunks; ++ci) {
+      const std::int16_t* src = in + nx * static_cast<std::size_t>(r) + ci * kChunk;
+      std::int16_t low = kInf16;
+      for (std::size_t c = 0; c < kChunk; ++c) low = std::min(low, src[c]);
+      live[static_cast<std::size_t>(r) * chunks + ci] = low < kInf16 ? 1 : 0;
+    }
+  }
   for (int q = 0; q < rows; ++q) {
     std::int16_t* o = dst + stride * static_cast<std::size_t>(q);
     const int k_lo = std::max(-t_cells, -q);
@@ -106,6 +117,7 @@ void WindowedPass(const std::int16_t* in, std::int16_t* dst, std::size_t nx, int
       std::int16_t acc[kChunk];
       std::fill(acc, acc + kChunk, kInf16);
       for (int k = k_lo; k <= k_hi; ++k) {
+        if (live[static_cast<std::size_t>(q + k) * chunks + x0 / kChunk] == 0) continue;
         const std::int16_t* src = in + nx * static_cast<std::size_t>(q + k) + x0;
         const auto kk = static_cast<std::int16_t>(k * k);
         for (std::size_t c = 0; c < kChunk; ++c) {
@@ -341,11 +353,12 @@ void EsdfBuilder::SquaredEdtWindowed(const std::uint8_t* occupancy, const Eigen:
           t_cells, kInf16, g);
 
   plane16_.resize(nx * static_cast<std::size_t>(std::max(ny, nz)));
+  live_.resize(nx / kChunk * static_cast<std::size_t>(std::max(ny, nz)));
   if (ny > 1) {
     for (int z = 0; z < nz; ++z) {
       std::int16_t* slab = g + nxy * static_cast<std::size_t>(z);
       std::copy(slab, slab + nxy, plane16_.data());
-      WindowedPass(plane16_.data(), slab, nx, ny, nx, t_cells, cap);
+      WindowedPass(plane16_.data(), slab, nx, ny, nx, t_cells, cap, live_.data());
     }
   }
   if (nz > 1) {
@@ -355,7 +368,7 @@ void EsdfBuilder::SquaredEdtWindowed(const std::uint8_t* occupancy, const Eigen:
         const std::int16_t* row = base + nxy * static_cast<std::size_t>(z);
         std::copy(row, row + nx, plane16_.data() + nx * static_cast<std::size_t>(z));
       }
-      WindowedPass(plane16_.data(), base, nx, nz, nxy, t_cells, cap);
+      WindowedPass(plane16_.data(), base, nx, nz, nxy, t_cells, cap, live_.data());
     }
   }
   out->resize(n);

@@ -17,8 +17,11 @@ constexpr std::uint8_t kClosed = 4;    // expanded
 
 /// 3-D octile distance (cells) for a 26-connected lattice with costs 1, √2, √3.
 double Octile(int dx, int dy, int dz) {
+  // a[0] ≤ a[1] ≤ a[2]: the three magnitudes sorted by three compare-exchanges.
   std::array<int, 3> a{std::abs(dx), std::abs(dy), std::abs(dz)};
-  std::sort(a.begin(), a.end());  // a[0] ≤ a[1] ≤ a[2]
+  if (a[0] > a[1]) std::swap(a[0], a[1]);
+  if (a[1] > a[2]) std::swap(a[1], a[2]);
+  if (a[0] > a[1]) std::swap(a[0], a[1]);
   constexpr double kS2 = 1.4142135623730951;
   constexpr double kS3 = 1.7320508075688772;
   return kS3 * a[0] + kS2 * (a[1] - a[0]) + (a[2] - a[1]);
@@ -45,6 +48,7 @@ struct Move {
   float cost;
   int n_sub;                        // intermediate cells that must be free (corner cutting)
   std::array<Eigen::Vector3i, 6> sub;
+  std::uint32_t sub_mask = 0;       // the sub cells as bits of the moves' order (Moves())
 };
 
 const std::vector<Move>& Moves() {
@@ -73,6 +77,13 @@ const std::vector<Move>& Moves() {
             if (ok && count < nonzero) m.sub[static_cast<std::size_t>(m.n_sub++)] = s;
           }
           out.push_back(m);
+        }
+      }
+    }
+    for (Move& m : out) {
+      for (int s = 0; s < m.n_sub; ++s) {
+        for (std::size_t k = 0; k < out.size(); ++k) {
+          if (out[k].d == m.sub[static_cast<std::size_t>(s)]) m.sub_mask |= 1u << k;
         }
       }
     }
@@ -352,6 +363,14 @@ PathSearchResult PathSearcher::Search(const LocalMap& map, const Eigen::Vector3d
     open.push({w * h, h, 0.0f, first_idx});
   }
   const std::vector<Move>& moves = Moves();
+  // Per move, the offset of its target in the box's cell index: a neighbour's index is then
+  // one addition (its coordinates are only range-checked).
+  QT_DEMAND(moves.size() == 26, "26-connected moves");
+  std::array<int, 26> move_offset{};
+  for (std::size_t k = 0; k < moves.size(); ++k) {
+    const Eigen::Vector3i& d = moves[k].d;
+    move_offset[k] = d.x() + nx * d.y() + nxy * d.z();
+  }
   bool reached = false;
   int expansions = 0;
   while (!open.empty()) {
@@ -372,19 +391,26 @@ PathSearchResult PathSearcher::Search(const LocalMap& map, const Eigen::Vector3d
     flags_[ti] |= kClosed;
     ++expansions;
     const CellIndex c = cell_of(top.idx);
-    for (const Move& m : moves) {
-      const CellIndex nb = c + m.d;
-      if (!inside(nb)) continue;
-      const int ni = local_index(nb);
-      if (occupied(nb, ni)) continue;
+    // The occupancy of the 26 neighbours inside the box, one bit per move. A move's corner
+    // cells are neighbours too, and inside the box whenever its target is.
+    std::uint32_t outside = 0;
+    std::uint32_t occupied_mask = 0;
+    for (std::size_t k = 0; k < moves.size(); ++k) {
+      const CellIndex nb = c + moves[k].d;
+      if (!inside(nb)) {
+        outside |= 1u << k;
+      } else if (occupied(nb, top.idx + move_offset[k])) {
+        occupied_mask |= 1u << k;
+      }
+    }
+    for (std::size_t k = 0; k < moves.size(); ++k) {
+      if (((outside | occupied_mask) >> k) & 1u) continue;
+      const Move& m = moves[k];
+      const int ni = top.idx + move_offset[k];
       const auto nu = static_cast<std::size_t>(ni);
       if ((flags_[nu] & kClosed) != 0) continue;
-      bool blocked = false;
-      for (int s = 0; s < m.n_sub && !blocked; ++s) {
-        const CellIndex sc = c + m.sub[static_cast<std::size_t>(s)];
-        blocked = occupied(sc, local_index(sc));
-      }
-      if (blocked) continue;
+      if ((occupied_mask & m.sub_mask) != 0) continue;  // cuts an occupied corner
+      const CellIndex nb = c + m.d;
       const float g_new = top.g + m.cost;
       if (g_new < g_[nu]) {
         g_[nu] = g_new;

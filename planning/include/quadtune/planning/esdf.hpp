@@ -180,6 +180,7 @@ class EsdfBuilder {
   std::vector<std::int32_t> slab_;     // a transposed slab
   std::vector<std::int16_t> grid16_;   // the windowed transform's values
   std::vector<std::int16_t> plane16_;  // the windowed transform's input rows of one pass
+  std::vector<std::uint8_t> live_;     // its chunks of input rows that hold a value below kInf16
   std::vector<std::int32_t> line_d_;
   std::vector<int> hull_v_;
   std::vector<float> hull_fv_;
