@@ -24,6 +24,8 @@ constexpr std::int16_t kInf16 = 16384;
 constexpr std::int32_t kMaxWindowedCap = 8191;
 // Values of a row the windowed transform carries through the window at once.
 constexpr std::size_t kChunk = 32;
+// The truncation (cells) of the first try at the inside transform (EsdfBuilder::Compute).
+constexpr int kInsideProbeCells = 6;
 
 /// 1-D squared distance transform of f (kInfSq = no site) by the lower envelope of parabolas
 /// (Felzenszwalb & Huttenlocher). Writes d; values above `cap` become kInfSq. Scratch: v, fv
@@ -313,7 +315,33 @@ Esdf EsdfBuilder::Compute(const Eigen::Vector3d& origin_W, double resolution,
                     sub_nxy * static_cast<std::size_t>(z));
     }
   }
-  SquaredEdt(sub_occupancy_.data(), sub_dims, false, cap, &inside_);
+  // Obstacles are a few cells thick, so the inside distances are short: a transform truncated
+  // at kInsideProbeCells reads the same free centres and gives the same squared distances up to
+  // its own cap, and only where a deep cell finds no free centre within it does the transform
+  // run again to the full truncation. (A cell with a free face neighbour keeps its one-cell value
+  // whatever the transform says, below.)
+  const int t_probe = std::min(t_cells, kInsideProbeCells);
+  SquaredEdt(sub_occupancy_.data(), sub_dims, false, t_probe * t_probe, &inside_);
+  if (t_probe < t_cells) {
+    bool complete = true;
+    for (int z = 0; z < sub_dims.z() && complete; ++z) {
+      for (int y = 0; y < sub_dims.y() && complete; ++y) {
+        for (int x = 0; x < sub_dims.x(); ++x) {
+          const std::size_t si = static_cast<std::size_t>(x) +
+                                 sub_nx * static_cast<std::size_t>(y) +
+                                 sub_nxy * static_cast<std::size_t>(z);
+          if (sub_occupancy_[si] == 0 || inside_[si] <= t_probe * t_probe) continue;
+          const int fx = sub_lo.x() + x;
+          const int fy = sub_lo.y() + y;
+          const int fz = sub_lo.z() + z;
+          if (free_neighbour(fx, fy, fz, full_index(fx, fy, fz))) continue;
+          complete = false;
+          break;
+        }
+      }
+    }
+    if (!complete) SquaredEdt(sub_occupancy_.data(), sub_dims, false, cap, &inside_);
+  }
   for (int z = 0; z < sub_dims.z(); ++z) {
     for (int y = 0; y < sub_dims.y(); ++y) {
       for (int x = 0; x < sub_dims.x(); ++x) {
