@@ -53,12 +53,10 @@ int Trajectory::LocatePiece(double t, double* local_t) const {
   return i;
 }
 
-Eigen::Vector3d Trajectory::Evaluate(double t, int order) const {
-  QT_DEMAND(order >= 0 && order <= 5, "derivative order must be in [0, 5]");
-  double tau = 0.0;
-  const int i = LocatePiece(t, &tau);
-  const Coefficients& c = coefficients_[static_cast<std::size_t>(i)];
-  // Horner on the order-th derivative: sum_k k!/(k-order)! c_k tau^(k-order).
+namespace {
+
+// Horner on the order-th derivative of a piece: sum_k k!/(k-order)! c_k tau^(k-order).
+Eigen::Vector3d Derivative(const Trajectory::Coefficients& c, double tau, int order) {
   Eigen::Vector3d r = Eigen::Vector3d::Zero();
   for (int k = 5; k >= order; --k) {
     double factor = 1.0;
@@ -66,6 +64,25 @@ Eigen::Vector3d Trajectory::Evaluate(double t, int order) const {
     r = r * tau + factor * c.col(k);
   }
   return r;
+}
+
+}  // namespace
+
+Eigen::Vector3d Trajectory::Evaluate(double t, int order) const {
+  QT_DEMAND(order >= 0 && order <= 5, "derivative order must be in [0, 5]");
+  double tau = 0.0;
+  const int i = LocatePiece(t, &tau);
+  return Derivative(coefficients_[static_cast<std::size_t>(i)], tau, order);
+}
+
+void Trajectory::State(double t, Eigen::Vector3d* p_W, Eigen::Vector3d* v_W,
+                       Eigen::Vector3d* a_W) const {
+  double tau = 0.0;
+  const int i = LocatePiece(t, &tau);
+  const Coefficients& c = coefficients_[static_cast<std::size_t>(i)];
+  *p_W = Derivative(c, tau, 0);
+  *v_W = Derivative(c, tau, 1);
+  *a_W = Derivative(c, tau, 2);
 }
 
 double Trajectory::JerkEnergy() const {
@@ -98,10 +115,13 @@ std::vector<TrajectorySample> Trajectory::Sample(double dt) const {
   for (std::size_t k = 0; k <= count; ++k) {
     const double t = static_cast<double>(k) * dt;
     if (t >= total_duration_) break;
-    samples.push_back({t, Position(t), Velocity(t), Acceleration(t)});
+    TrajectorySample& sample = samples.emplace_back();
+    sample.t = t;
+    State(t, &sample.p_W, &sample.v_W, &sample.a_W);
   }
-  samples.push_back({total_duration_, Position(total_duration_), Velocity(total_duration_),
-                     Acceleration(total_duration_)});
+  TrajectorySample& last = samples.emplace_back();
+  last.t = total_duration_;
+  State(total_duration_, &last.p_W, &last.v_W, &last.a_W);
   return samples;
 }
 

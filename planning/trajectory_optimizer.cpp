@@ -483,11 +483,13 @@ double TrajectoryOptimizer::Measure(const Eigen::Vector3d& p0_W, const DistanceF
   result->max_acceleration = 0.0;
   result->min_clearance = std::numeric_limits<double>::infinity();
   const auto check = [&](double t) {
-    result->max_speed = std::max(result->max_speed, trajectory.Velocity(t).norm());
-    result->max_acceleration =
-        std::max(result->max_acceleration, trajectory.Acceleration(t).norm());
-    result->min_clearance =
-        std::min(result->min_clearance, field.Evaluate(trajectory.Position(t), nullptr));
+    Eigen::Vector3d p;
+    Eigen::Vector3d v;
+    Eigen::Vector3d a;
+    trajectory.State(t, &p, &v, &a);
+    result->max_speed = std::max(result->max_speed, v.norm());
+    result->max_acceleration = std::max(result->max_acceleration, a.norm());
+    result->min_clearance = std::min(result->min_clearance, field.Evaluate(p, nullptr));
   };
   for (long k = 0; static_cast<double>(k) * options_.check_dt < result->duration; ++k) {
     check(static_cast<double>(k) * options_.check_dt);

@@ -58,6 +58,9 @@ class Trajectory {
   [[nodiscard]] Eigen::Vector3d Acceleration(double t) const { return Evaluate(t, 2); }
   /// Jerk j_W(t) (m/s^3).
   [[nodiscard]] Eigen::Vector3d Jerk(double t) const { return Evaluate(t, 3); }
+  /// Position, velocity and acceleration at t (s) with one piece lookup: the same values as
+  /// Position(t), Velocity(t) and Acceleration(t).
+  void State(double t, Eigen::Vector3d* p_W, Eigen::Vector3d* v_W, Eigen::Vector3d* a_W) const;
 
   /// Index of the piece containing t (clamped) and the local time in it (s).
   [[nodiscard]] int LocatePiece(double t, double* local_t) const;
