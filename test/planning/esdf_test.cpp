@@ -318,14 +318,19 @@ TEST(EsdfOptions, ValidateRejectsEachBadValue) {
                std::invalid_argument);
 }
 
-TEST(Esdf, CurvatureIsExactDerivativeOfASmoothFieldCloseToTheSamples) {
+// Two voxelised pillars, 0.25 and 0.15 m in radius, in a 3 × 2.5 × 2 m box.
+Esdf TwoPillars() {
   physics::CylinderObstacle c1;
   c1.center_W = Eigen::Vector2d(1.0, 0.0);
   c1.radius = 0.25;
   physics::CylinderObstacle c2;
   c2.center_W = Eigen::Vector2d(1.9, 0.5);
   c2.radius = 0.15;
-  const Esdf esdf = testing::VoxelisedCylinders({c1, c2}, 0.0, 3.0, -1.0, 1.5, 0.0, 2.0);
+  return testing::VoxelisedCylinders({c1, c2}, 0.0, 3.0, -1.0, 1.5, 0.0, 2.0);
+}
+
+TEST(Esdf, CurvatureIsExactDerivativeOfASmoothFieldCloseToTheSamples) {
+  const Esdf esdf = TwoPillars();
   const Esdf& field = esdf;
   ASSERT_TRUE(field.ProvidesCurvature());
   const double h = 1e-6;
@@ -358,13 +363,7 @@ TEST(Esdf, CurvatureIsExactDerivativeOfASmoothFieldCloseToTheSamples) {
 // EvaluateWithHessian. Points on a grid over the box (its border cells included, where the
 // stencil is clamped) and just outside it, thresholds around the clearance.
 TEST(Esdf, EvaluateBelowSkipsOnlyPointsAtOrAboveTheThresholdAndOtherwiseMatchesBitwise) {
-  physics::CylinderObstacle c1;
-  c1.center_W = Eigen::Vector2d(1.0, 0.0);
-  c1.radius = 0.25;
-  physics::CylinderObstacle c2;
-  c2.center_W = Eigen::Vector2d(1.9, 0.5);
-  c2.radius = 0.15;
-  const Esdf esdf = testing::VoxelisedCylinders({c1, c2}, 0.0, 3.0, -1.0, 1.5, 0.0, 2.0);
+  const Esdf esdf = TwoPillars();
   const DistanceField& field = esdf;
   int skipped = 0;
   int evaluated = 0;
