@@ -96,7 +96,9 @@ void RowPass(const std::uint8_t* occupancy, std::size_t nx, std::size_t rows, bo
 /// add), with an AVX2 clone picked at load time where the processor has it. A chunk of a row
 /// that holds only kInf16 cannot lower a minimum (kInf16 + k² ≥ kInf16 ≥ every running minimum),
 /// so such chunks are skipped: `live` (rows · ⌊nx / kChunk⌋ entries) records the others.
-#if defined(__x86_64__) && defined(__GNUC__)
+// Not under ThreadSanitizer: the clone's resolver runs while the program is being loaded, before
+// the TSan runtime is up, and GCC instruments it (the program then crashes before main).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__SANITIZE_THREAD__)
 __attribute__((target_clones("avx2", "default")))
 #endif
 void WindowedPass(const std::int16_t* in, std::int16_t* dst, std::size_t nx, int rows,
