@@ -670,10 +670,11 @@ bool Esdf::EvaluateWithHessianBelow(const Eigen::Vector3d& p_W, double threshold
   }
   const Stencil s = Locate(uc - Eigen::Vector3d::Constant(0.5), dims_, values_.data());
   // The weights are nonnegative and sum to one, so the spline is at least its smallest sample;
-  // the relative margin covers the rounding of the weights and the sums (≈ 10⁻¹⁵).
-  if (threshold < std::numeric_limits<double>::infinity() &&
-      static_cast<double>(StencilMin(s)) * quantum_ * (1.0 - 1e-12) >= threshold) {
-    return false;
+  // the margin of 10⁻¹² of its size (either sign) covers the rounding of the weights and the
+  // sums (≈ 10⁻¹⁵).
+  if (threshold < std::numeric_limits<double>::infinity()) {
+    const double low = static_cast<double>(StencilMin(s)) * quantum_;
+    if (low - std::abs(low) * 1e-12 >= threshold) return false;
   }
   const bool derivatives = grad_W != nullptr || hess_W != nullptr;
   Eigen::Vector3d g;

@@ -367,7 +367,7 @@ TEST(Esdf, EvaluateBelowSkipsOnlyPointsAtOrAboveTheThresholdAndOtherwiseMatchesB
   const DistanceField& field = esdf;
   int skipped = 0;
   int evaluated = 0;
-  for (double threshold : {0.2, 0.5, 0.9, 2.0}) {
+  for (double threshold : {-0.1, 0.2, 0.5, 0.9, 2.0}) {
     for (double x = -0.07; x <= 3.1; x += 0.0731) {
       for (double y = -1.07; y <= 1.6; y += 0.0893) {
         for (double z = -0.05; z <= 2.1; z += 0.217) {
