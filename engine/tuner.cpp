@@ -229,7 +229,7 @@ class Trial {
     // failure value), so that a trial whose every flight failed does not report f_l = 0.
     const bool ok = o.status == EvalStatus::kOk;
     const bool lower = summary_.flights == 1 || o.objective.value < summary_.best_value;
-    if ((ok && (!have_best_ || lower)) || (!ok && !have_best_ && lower)) {
+    if (have_best_ ? ok && lower : ok || lower) {
       have_best_ = have_best_ || ok;
       summary_.best_value = o.objective.value;
       summary_.best = o.params;

@@ -322,49 +322,42 @@ Esdf EsdfBuilder::Compute(const Eigen::Vector3d& origin_W, double resolution,
   // its own cap, and only where a deep cell finds no free centre within it does the transform
   // run again to the full truncation. (A cell with a free face neighbour keeps its one-cell value
   // whatever the transform says, below.)
-  const int t_probe = std::min(t_cells, kInsideProbeCells);
-  SquaredEdt(sub_occupancy_.data(), sub_dims, false, t_probe * t_probe, &inside_);
-  if (t_probe < t_cells) {
-    bool complete = true;
-    for (int z = 0; z < sub_dims.z() && complete; ++z) {
-      for (int y = 0; y < sub_dims.y() && complete; ++y) {
+  // Visits the occupied cells of the sub-box with their squared inside distance, their full-box
+  // coordinates and index, until fn returns false.
+  auto for_each_occupied = [&](auto&& fn) {
+    for (int z = 0; z < sub_dims.z(); ++z) {
+      for (int y = 0; y < sub_dims.y(); ++y) {
         for (int x = 0; x < sub_dims.x(); ++x) {
           const std::size_t si = static_cast<std::size_t>(x) +
                                  sub_nx * static_cast<std::size_t>(y) +
                                  sub_nxy * static_cast<std::size_t>(z);
-          if (sub_occupancy_[si] == 0 || inside_[si] <= t_probe * t_probe) continue;
+          if (sub_occupancy_[si] == 0) continue;
           const int fx = sub_lo.x() + x;
           const int fy = sub_lo.y() + y;
           const int fz = sub_lo.z() + z;
-          if (free_neighbour(fx, fy, fz, full_index(fx, fy, fz))) continue;
-          complete = false;
-          break;
+          if (!fn(inside_[si], fx, fy, fz, full_index(fx, fy, fz))) return;
         }
       }
     }
+  };
+  const int t_probe = std::min(t_cells, kInsideProbeCells);
+  SquaredEdt(sub_occupancy_.data(), sub_dims, false, t_probe * t_probe, &inside_);
+  if (t_probe < t_cells) {
+    bool complete = true;
+    for_each_occupied([&](std::int32_t sq, int fx, int fy, int fz, std::size_t fi) {
+      complete = sq <= t_probe * t_probe || free_neighbour(fx, fy, fz, fi);
+      return complete;
+    });
     if (!complete) SquaredEdt(sub_occupancy_.data(), sub_dims, false, cap, &inside_);
   }
-  for (int z = 0; z < sub_dims.z(); ++z) {
-    for (int y = 0; y < sub_dims.y(); ++y) {
-      for (int x = 0; x < sub_dims.x(); ++x) {
-        const std::size_t si = static_cast<std::size_t>(x) +
-                               sub_nx * static_cast<std::size_t>(y) +
-                               sub_nxy * static_cast<std::size_t>(z);
-        if (sub_occupancy_[si] == 0) continue;
-        const std::int32_t sq = inside_[si];
-        const int fx = sub_lo.x() + x;
-        const int fy = sub_lo.y() + y;
-        const int fz = sub_lo.z() + z;
-        const std::size_t fi = full_index(fx, fy, fz);
-        // Cells with a free face neighbour keep their exact one-cell value (that neighbour may
-        // lie outside the sub-box).
-        if (sq > 1 && free_neighbour(fx, fy, fz, fi)) continue;
-        esdf.values_[fi] =
-            sq > cap ? static_cast<std::int16_t>(-q_max)
-                     : static_cast<std::int16_t>(-table[static_cast<std::size_t>(sq)]);
-      }
-    }
-  }
+  for_each_occupied([&](std::int32_t sq, int fx, int fy, int fz, std::size_t fi) {
+    // Cells with a free face neighbour keep their exact one-cell value (that neighbour may
+    // lie outside the sub-box).
+    if (sq > 1 && free_neighbour(fx, fy, fz, fi)) return true;
+    esdf.values_[fi] = sq > cap ? static_cast<std::int16_t>(-q_max)
+                                : static_cast<std::int16_t>(-table[static_cast<std::size_t>(sq)]);
+    return true;
+  });
   return finish();
 }
 
@@ -479,8 +472,11 @@ Esdf Esdf::FromOccupancy(const Eigen::Vector3d& origin_W, double resolution,
 }
 
 bool Esdf::Contains(const Eigen::Vector3d& p_W) const {
+  return CoversCells((p_W - origin_W_) * inv_res_);
+}
+
+bool Esdf::CoversCells(const Eigen::Vector3d& u) const {
   if (values_.empty()) return false;
-  const Eigen::Vector3d u = (p_W - origin_W_) * inv_res_;
   for (int k = 0; k < 3; ++k) {
     if (!(u[k] >= 0.0 && u[k] <= dims_[k])) return false;
   }
@@ -659,9 +655,7 @@ bool Esdf::EvaluateWithHessianBelow(const Eigen::Vector3d& p_W, double threshold
                                     double* distance, Eigen::Vector3d* grad_W,
                                     Eigen::Matrix3d* hess_W) const {
   const Eigen::Vector3d uc = (p_W - origin_W_) * inv_res_;
-  bool inside = !values_.empty();
-  for (int k = 0; k < 3; ++k) inside = inside && uc[k] >= 0.0 && uc[k] <= dims_[k];
-  if (!inside) {  // as Contains(p_W) == false
+  if (!CoversCells(uc)) {
     if (!(max_distance_ < threshold)) return false;
     if (grad_W != nullptr) grad_W->setZero();
     if (hess_W != nullptr) hess_W->setZero();

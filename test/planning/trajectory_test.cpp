@@ -93,6 +93,27 @@ TEST(Trajectory, SamplesIncludeBothEnds) {
   EXPECT_GE(traj.MaxSpeed(0.01), traj.Velocity(0.0).norm());
 }
 
+// State() is one piece lookup for the three derivatives the post-solve check reads: the same
+// bits as the separate calls, at joints, inside pieces and clamped outside the duration.
+TEST(Trajectory, StateEqualsPositionVelocityAcceleration) {
+  const Trajectory traj = TwoPieces();
+  for (double t : {-0.5, 0.0, 0.37, traj.Duration() * 0.5, traj.Durations()[0], 1.91,
+                   traj.Duration(), traj.Duration() + 2.0}) {
+    Eigen::Vector3d p;
+    Eigen::Vector3d v;
+    Eigen::Vector3d a;
+    traj.State(t, &p, &v, &a);
+    EXPECT_EQ(p, traj.Position(t)) << t;
+    EXPECT_EQ(v, traj.Velocity(t)) << t;
+    EXPECT_EQ(a, traj.Acceleration(t)) << t;
+  }
+  const auto samples = traj.Sample(0.3);
+  for (const auto& s : samples) {
+    EXPECT_EQ(s.p_W, traj.Position(s.t));
+    EXPECT_EQ(s.a_W, traj.Acceleration(s.t));
+  }
+}
+
 TEST(Trajectory, RejectsBadPieces) {
   const Trajectory::Coefficients c = Trajectory::Coefficients::Zero();
   EXPECT_THROW(Trajectory({}, {}), std::invalid_argument);

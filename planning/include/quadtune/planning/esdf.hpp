@@ -136,6 +136,9 @@ class Esdf final : public DistanceField {
  private:
   friend class EsdfBuilder;
 
+  // Contains() for u = (p_W − origin) / resolution, the position in cells.
+  [[nodiscard]] bool CoversCells(const Eigen::Vector3d& u) const;
+
   Eigen::Vector3d origin_W_ = Eigen::Vector3d::Zero();
   Eigen::Vector3i dims_ = Eigen::Vector3i::Zero();
   double res_ = 0.1;
