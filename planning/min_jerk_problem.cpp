@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -227,13 +228,13 @@ struct EvaluateScratch {
   Eigen::MatrixXd ddb;
   Eigen::MatrixXd hb;
   Eigen::MatrixXd hdb;
-  Eigen::MatrixXd w, w1, w2;       // S_d b, S_d b', S_d b'' (samples × 3)
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rows;  // S_d by rows
   std::vector<ActiveSample> active;
   Eigen::MatrixXd v;               // active rows of S_d, inner-waypoint columns (active × m)
   Eigen::MatrixXd coef;            // per active sample, 3 coefficients
   Eigen::MatrixXd vt_coef;         // vᵀ coef (m × 3)
   Eigen::MatrixXd weighted;        // diag(c) v
+  MinJerkProblem::ValueCache value;  // Evaluate's value pass when the caller gives no cache
 };
 
 EvaluateScratch& Scratch() {
@@ -255,6 +256,21 @@ void TimesRate(const Eigen::MatrixXd& m, const Eigen::MatrixXd& x, const std::ar
     out->col(a) = m.col(nz[0]) * x(nz[0], a) + m.col(nz[1]) * x(nz[1], a) +
                   m.col(nz[2]) * x(nz[2], a) + m.col(nz[3]) * x(nz[3], a);
   }
+}
+
+// Row j of m · x for an x whose nonzero rows are all in `nz`: that row of TimesRate's result
+// (the same four products, added in the same order).
+inline Eigen::Vector3d RateRow(const Eigen::MatrixXd& m, int j, const Eigen::MatrixXd& x,
+                               const std::array<int, 4>& nz) {
+  const double* mj = m.data() + j;
+  const Eigen::Index ld = m.rows();
+  const double m0 = mj[nz[0] * ld], m1 = mj[nz[1] * ld], m2 = mj[nz[2] * ld], m3 = mj[nz[3] * ld];
+  Eigen::Vector3d out;
+  for (int a = 0; a < 3; ++a) {
+    const double* xa = x.data() + a * x.rows();
+    out(a) = m0 * xa[nz[0]] + m1 * xa[nz[1]] + m2 * xa[nz[2]] + m3 * xa[nz[3]];
+  }
+  return out;
 }
 
 // *w = s · b for a b of three columns (the states of every sample at once). Each entry sums its
@@ -310,99 +326,51 @@ void SamplesTimes(const Eigen::MatrixXd& s, const Eigen::MatrixXd& b, Eigen::Mat
 
 }  // namespace
 
-MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::VectorXd* grad,
-                                          Eigen::MatrixXd* hess) const {
-  const int n = NumVariables();
-  const int m = num_pieces_ - 1;
-  const int ir = n - 1;  // index of ρ
-  QT_DEMAND(z.size() == n, "wrong number of variables");
-  const bool want_grad = grad != nullptr || hess != nullptr;
-  const bool want_hess = hess != nullptr;
-  EvaluateScratch& ws = Scratch();
-  Eigen::VectorXd g_local;
-  Eigen::VectorXd& g = grad != nullptr ? *grad : g_local;
-  if (want_grad) g.setZero(n);
-  // The Hessian is accumulated in its lower triangle and mirrored at the end.
-  if (want_hess) hess->setZero(n, n);
+bool MinJerkProblem::ValueCache::Holds(const MinJerkProblem* problem,
+                                      const Eigen::VectorXd& z) const {
+  return valid_ && owner_ == problem && z_.size() == z.size() &&
+         std::memcmp(z_.data(), z.data(), sizeof(double) * static_cast<std::size_t>(z.size())) == 0;
+}
 
-  const double rho = z(ir);
+void MinJerkProblem::EvaluateValue(const Eigen::VectorXd& z, ValueCache* vc) const {
+  vc->valid_ = false;
+  vc->owner_ = this;
+  vc->z_ = z;
+  const double rho = z(NumVariables() - 1);
   const double tau = std::exp(rho);
-  // Positions in b are relative to the start (see the file comment, "Numerics").
   const Eigen::Vector3d& origin = boundary_.p0_W;
-  BoundaryVectors(z, &ws.b, want_grad ? &ws.db : nullptr, want_hess ? &ws.ddb : nullptr);
-  const Eigen::MatrixXd& b = ws.b;
-  const Eigen::MatrixXd& db = ws.db;
-  const Eigen::MatrixXd& ddb = ws.ddb;
-  const std::array<int, 4> rate_rows = RateRows(BoundarySize());
-  MinJerkCostTerms terms;
+  BoundaryVectors(z, &vc->b_, nullptr, nullptr);
+  const Eigen::MatrixXd& b = vc->b_;
+  MinJerkCostTerms& terms = vc->terms_;
+  terms = MinJerkCostTerms{};
 
   // ---- jerk energy: τ^-5 Σ_a b_aᵀ H̄ b_a ----
-  {
-    const double w_s = params_.w_smooth;
-    const double e5 = std::exp(-5.0 * rho);
-    ws.hb.noalias() = jerk_hess_ * b;
-    const Eigen::MatrixXd& hb = ws.hb;
-    const double g0 = (b.array() * hb.array()).sum();
-    terms.jerk = e5 * g0;
-    if (want_grad) {
-      const double g1 = 2.0 * (db.array() * hb.array()).sum();
-      for (int a = 0; a < 3; ++a) {
-        for (int i = 0; i < m; ++i) g(a * m + i) += w_s * e5 * 2.0 * hb(3 + i, a);
-      }
-      g(ir) += w_s * e5 * (g1 - 5.0 * g0);
-      if (want_hess) {
-        TimesRate(jerk_hess_, db, rate_rows, &ws.hdb);
-        const Eigen::MatrixXd& hdb = ws.hdb;
-        const double g2 =
-            2.0 * ((db.array() * hdb.array()).sum() + (ddb.array() * hb.array()).sum());
-        for (int a = 0; a < 3; ++a) {
-          hess->block(a * m, a * m, m, m) += (w_s * e5 * 2.0) * jerk_hess_.block(3, 3, m, m);
-          for (int i = 0; i < m; ++i) {
-            (*hess)(ir, a * m + i) += w_s * e5 * (2.0 * hdb(3 + i, a) - 10.0 * hb(3 + i, a));
-          }
-        }
-        (*hess)(ir, ir) += w_s * e5 * (g2 - 10.0 * g1 + 25.0 * g0);
-      }
-    }
-  }
+  vc->hb_.noalias() = jerk_hess_ * b;
+  vc->g0_ = (b.array() * vc->hb_.array()).sum();
+  terms.jerk = std::exp(-5.0 * rho) * vc->g0_;
 
   // ---- time stretch: ΣT̄ ρ² (ρ = ln τ; zero at the nominal allocation) ----
   terms.time = sum_nominal_ * rho * rho;
-  if (want_grad) g(ir) += params_.w_time * 2.0 * sum_nominal_ * rho;
-  if (want_hess) (*hess)(ir, ir) += params_.w_time * 2.0 * sum_nominal_;
 
-  // ---- sampled penalties ----
+  // ---- sampled penalties: the states of every sample at once (W = S_d b), then the samples
+  // whose penalty is active ----
   const double inv_c = 1.0 / params_.clearance;
   const double limits_sq[3] = {0.0, params_.v_max * params_.v_max, params_.a_max * params_.a_max};
   const double inv_tau_pow[3] = {1.0, 1.0 / tau, 1.0 / (tau * tau)};
-  const double weights[3] = {params_.w_col, params_.w_dyn, params_.w_dyn};
   const int ns = NumSamples();
   for (int d = 0; d < 3; ++d) {
-    const auto& rows = sample_rows_[d];
+    SamplesTimes(sample_rows_[d], b, &vc->w_[d], &Scratch().rows);
+    const Eigen::MatrixXd& ws = vc->w_[d];
+    std::vector<int>& active = vc->active_[d];
+    active.clear();
     const double scale = inv_tau_pow[d];
-    const double dd = static_cast<double>(d);
-    const double weight = weights[d];
-    // The states of every sample at once: W = S_d b (and S_d b', S_d b'' for the derivatives,
-    // from the few nonzero rows of b' and b'').
-    SamplesTimes(rows, b, &ws.w, &ws.rows);
-    if (want_grad) TimesRate(rows, db, rate_rows, &ws.w1);
-    if (want_hess) TimesRate(rows, ddb, rate_rows, &ws.w2);
-    // Per active sample: its row index, the q-gradient coefficients wγ τ^-d, the ρ-row
-    // coefficients t τ^-d and the six distinct entries of wΓ τ^-2d (for the q–q blocks).
-    ws.active.clear();
     for (int j = 0; j < ns; ++j) {
-      const Eigen::Vector3d w = ws.w.row(j).transpose();
+      const Eigen::Vector3d w = ws.row(j).transpose();
       const Eigen::Vector3d r = d == 0 ? Eigen::Vector3d(w + origin) : Eigen::Vector3d(scale * w);
-      Eigen::Vector3d gamma;      // ∂ψ/∂r
-      Eigen::Matrix3d big_gamma;  // ∂²ψ/∂r²
       if (d == 0) {
-        Eigen::Vector3d grad_d;
-        Eigen::Matrix3d hess_d;
         // Samples certainly beyond the clearance add nothing: the field may skip them.
         double dist = 0.0;
-        if (!field_->EvaluateWithHessianBelow(r, params_.clearance, &dist,
-                                              want_grad ? &grad_d : nullptr,
-                                              want_hess ? &hess_d : nullptr)) {
+        if (!field_->EvaluateWithHessianBelow(r, params_.clearance, &dist, nullptr, nullptr)) {
           continue;
         }
         const double e = (params_.clearance - dist) * inv_c;
@@ -410,10 +378,116 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
           if (!std::isfinite(dist)) terms.collision = std::numeric_limits<double>::quiet_NaN();
           continue;
         }
-        // ψ = κ e³, e = (C − d)/C: ∂ψ/∂r = −3κe²/C ∇d, ∂²ψ/∂r² = 6κe/C² ∇d∇dᵀ − 3κe²/C ∇²d.
+        // ψ = κ e³, e = (C − d)/C.
+        terms.collision += params_.collision_scale * e * e * e;
+      } else {
+        const double inv_l = d == 1 && !inv_speed_limit_sq_.empty()
+                                 ? inv_speed_limit_sq_[static_cast<std::size_t>(j)]
+                                 : 1.0 / limits_sq[d];
+        const double viol = r.squaredNorm() * inv_l - 1.0;
+        if (!(viol > 0.0)) continue;
+        terms.feasibility += params_.feasibility_scale * viol * viol * viol;
+      }
+      active.push_back(j);
+    }
+  }
+  terms.total = params_.w_smooth * terms.jerk + params_.w_col * terms.collision +
+                params_.w_dyn * terms.feasibility + params_.w_time * terms.time;
+  vc->valid_ = true;
+}
+
+MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::VectorXd* grad,
+                                          Eigen::MatrixXd* hess, ValueCache* cache) const {
+  const int n = NumVariables();
+  const int m = num_pieces_ - 1;
+  const int ir = n - 1;  // index of ρ
+  QT_DEMAND(z.size() == n, "wrong number of variables");
+  const bool want_grad = grad != nullptr || hess != nullptr;
+  const bool want_hess = hess != nullptr;
+  EvaluateScratch& ws = Scratch();
+  // The value and the active samples: from the cache when it holds this z, else computed (into
+  // the cache, or into scratch).
+  ValueCache& vc = cache != nullptr ? *cache : ws.value;
+  if (cache == nullptr || !vc.Holds(this, z)) EvaluateValue(z, &vc);
+  const MinJerkCostTerms terms = vc.terms_;
+  if (!want_grad) return terms;
+
+  Eigen::VectorXd g_local;
+  Eigen::VectorXd& g = grad != nullptr ? *grad : g_local;
+  g.setZero(n);
+  // The Hessian is accumulated in its lower triangle and mirrored at the end.
+  if (want_hess) hess->setZero(n, n);
+
+  const double rho = z(ir);
+  const double tau = std::exp(rho);
+  BoundaryVectors(z, &ws.b, &ws.db, want_hess ? &ws.ddb : nullptr);
+  const Eigen::MatrixXd& db = ws.db;
+  const Eigen::MatrixXd& ddb = ws.ddb;
+  const std::array<int, 4> rate_rows = RateRows(BoundarySize());
+
+  // ---- jerk energy: τ^-5 Σ_a b_aᵀ H̄ b_a ----
+  {
+    const double w_s = params_.w_smooth;
+    const double e5 = std::exp(-5.0 * rho);
+    const Eigen::MatrixXd& hb = vc.hb_;
+    const double g0 = vc.g0_;
+    const double g1 = 2.0 * (db.array() * hb.array()).sum();
+    for (int a = 0; a < 3; ++a) {
+      for (int i = 0; i < m; ++i) g(a * m + i) += w_s * e5 * 2.0 * hb(3 + i, a);
+    }
+    g(ir) += w_s * e5 * (g1 - 5.0 * g0);
+    if (want_hess) {
+      TimesRate(jerk_hess_, db, rate_rows, &ws.hdb);
+      const Eigen::MatrixXd& hdb = ws.hdb;
+      const double g2 =
+          2.0 * ((db.array() * hdb.array()).sum() + (ddb.array() * hb.array()).sum());
+      for (int a = 0; a < 3; ++a) {
+        hess->block(a * m, a * m, m, m) += (w_s * e5 * 2.0) * jerk_hess_.block(3, 3, m, m);
+        for (int i = 0; i < m; ++i) {
+          (*hess)(ir, a * m + i) += w_s * e5 * (2.0 * hdb(3 + i, a) - 10.0 * hb(3 + i, a));
+        }
+      }
+      (*hess)(ir, ir) += w_s * e5 * (g2 - 10.0 * g1 + 25.0 * g0);
+    }
+  }
+
+  // ---- time stretch ----
+  g(ir) += params_.w_time * 2.0 * sum_nominal_ * rho;
+  if (want_hess) (*hess)(ir, ir) += params_.w_time * 2.0 * sum_nominal_;
+
+  // ---- sampled penalties, active samples only ----
+  const double inv_c = 1.0 / params_.clearance;
+  const double limits_sq[3] = {0.0, params_.v_max * params_.v_max, params_.a_max * params_.a_max};
+  const double inv_tau_pow[3] = {1.0, 1.0 / tau, 1.0 / (tau * tau)};
+  const double weights[3] = {params_.w_col, params_.w_dyn, params_.w_dyn};
+  for (int d = 0; d < 3; ++d) {
+    const double weight = weights[d];
+    if (weight == 0.0) continue;
+    const auto& rows = sample_rows_[d];
+    const Eigen::MatrixXd& wd = vc.w_[d];
+    const double scale = inv_tau_pow[d];
+    const double dd = static_cast<double>(d);
+    // Per active sample: its row index, the q-gradient coefficients wγ τ^-d, the ρ-row
+    // coefficients t τ^-d and the six distinct entries of wΓ τ^-2d (for the q–q blocks).
+    ws.active.clear();
+    for (const int j : vc.active_[d]) {
+      const Eigen::Vector3d w = wd.row(j).transpose();
+      const Eigen::Vector3d r = d == 0 ? Eigen::Vector3d(w + boundary_.p0_W) : Eigen::Vector3d(scale * w);
+      Eigen::Vector3d gamma;      // ∂ψ/∂r
+      Eigen::Matrix3d big_gamma;  // ∂²ψ/∂r²
+      if (d == 0) {
+        Eigen::Vector3d grad_d;
+        Eigen::Matrix3d hess_d;
+        double dist = 0.0;
+        // Active at this z: the field evaluates it (the same distance as EvaluateValue's).
+        if (!field_->EvaluateWithHessianBelow(r, params_.clearance, &dist, &grad_d,
+                                              want_hess ? &hess_d : nullptr)) {
+          continue;
+        }
+        const double e = (params_.clearance - dist) * inv_c;
+        if (!(e > 0.0)) continue;
+        // ∂ψ/∂r = −3κe²/C ∇d, ∂²ψ/∂r² = 6κe/C² ∇d∇dᵀ − 3κe²/C ∇²d.
         const double k = params_.collision_scale;
-        terms.collision += k * e * e * e;
-        if (!want_grad) continue;
         gamma = (-3.0 * k * e * e * inv_c) * grad_d;
         if (want_hess) {
           big_gamma = (6.0 * k * e * inv_c * inv_c) * (grad_d * grad_d.transpose()) -
@@ -426,8 +500,6 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
         const double viol = r.squaredNorm() * inv_l - 1.0;
         if (!(viol > 0.0)) continue;
         const double k = params_.feasibility_scale;
-        terms.feasibility += k * viol * viol * viol;
-        if (!want_grad) continue;
         const Eigen::Vector3d dviol = 2.0 * inv_l * r;
         gamma = (3.0 * k * viol * viol) * dviol;
         if (want_hess) {
@@ -435,10 +507,9 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
                       (6.0 * k * viol * viol * inv_l) * Eigen::Matrix3d::Identity();
         }
       }
-      if (weight == 0.0) continue;
 
       // r = τ^-d S_j b: ∂r/∂q_a(i) = τ^-d row(3+i) e_a, ∂r/∂ρ = τ^-d (S_j b' − d S_j b).
-      const Eigen::Vector3d w1 = ws.w1.row(j).transpose();
+      const Eigen::Vector3d w1 = RateRow(rows, j, db, rate_rows);
       const Eigen::Vector3d r_rho = scale * (w1 - dd * w);
       const Eigen::Vector3d wg = weight * gamma;
       g(ir) += wg.dot(r_rho);
@@ -449,7 +520,7 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
         const Eigen::Matrix3d wgg = weight * big_gamma;
         // ρ row: ∂²ψ/∂ρ∂q = (wΓ r_ρ)_a v_i + wγ_a ∂²r_a/∂ρ∂q_a(i), the latter = −d v_i.
         sample.rho = scale * (wgg * r_rho - dd * wg);
-        const Eigen::Vector3d w2 = ws.w2.row(j).transpose();
+        const Eigen::Vector3d w2 = RateRow(rows, j, ddb, rate_rows);
         const Eigen::Vector3d r_rhorho = scale * (w2 - 2.0 * dd * w1 + dd * dd * w);
         (*hess)(ir, ir) += r_rho.dot(wgg * r_rho) + wg.dot(r_rhorho);
         sample.hess = (scale * scale) * wgg;
@@ -457,7 +528,7 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
       ws.active.push_back(sample);
     }
     const auto na = static_cast<Eigen::Index>(ws.active.size());
-    if (na == 0 || !want_grad) continue;
+    if (na == 0) continue;
     // v_j = τ^-d S_j(3..3+m): gather the active rows, then the q-gradient, the ρ row and the
     // q–q blocks are small matrix products: g_qa += Vᵀ c_a, H_ρq_a += Vᵀ t_a,
     // H_qa,qb += Vᵀ diag(wΓ_ab) V (lower block triangle; the mirror fills the rest).
@@ -487,9 +558,6 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
     }
   }
   if (want_hess) hess->triangularView<Eigen::StrictlyUpper>() = hess->transpose();
-
-  terms.total = params_.w_smooth * terms.jerk + params_.w_col * terms.collision +
-                params_.w_dyn * terms.feasibility + params_.w_time * terms.time;
   return terms;
 }
 

@@ -119,14 +119,15 @@ class MinJerkTnlp final : public UnconstrainedDenseTnlp {
     }
     if (cached_level_ >= level) return true;
     distance_queries_ += problem_.NumSamples();
-    const MinJerkCostTerms terms = level >= 2 ? problem_.Evaluate(z_, &grad_, &hess_)
-                                              : problem_.Evaluate(z_, nullptr, nullptr);
+    const MinJerkCostTerms terms = level >= 2 ? problem_.Evaluate(z_, &grad_, &hess_, &cache_)
+                                              : problem_.Evaluate(z_, nullptr, nullptr, &cache_);
     value_ = terms.total;
     cached_level_ = level;
     return true;
   }
 
   const MinJerkProblem& problem_;
+  MinJerkProblem::ValueCache cache_;
   Eigen::VectorXd z0_;
   Eigen::VectorXd z_;
   int cached_level_ = 0;

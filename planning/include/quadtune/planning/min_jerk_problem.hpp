@@ -136,11 +136,37 @@ class MinJerkProblem {
   /// Time scale τ = exp(z.back()).
   [[nodiscard]] static double TimeScale(const Eigen::VectorXd& z);
 
+  /// What an evaluation at z keeps for the next one at the same z: the cost, the states of all
+  /// samples and which samples' penalties are active. Ipopt asks for the gradient and Hessian at
+  /// every accepted trial point right after its value; with a cache, that evaluation differentiates
+  /// only the active samples and repeats no state. The results are the same bits with or without
+  /// one. A cache belongs to one caller (one thread); it may serve several problems and points
+  /// (it recognises the problem and the exact z it holds), and must not outlive the problem.
+  class ValueCache {
+   public:
+    ValueCache() = default;
+
+   private:
+    friend class MinJerkProblem;
+    [[nodiscard]] bool Holds(const MinJerkProblem* problem, const Eigen::VectorXd& z) const;
+
+    bool valid_ = false;
+    const MinJerkProblem* owner_ = nullptr;
+    Eigen::VectorXd z_;
+    MinJerkCostTerms terms_;
+    Eigen::MatrixXd b_;           // boundary vectors at z_
+    Eigen::MatrixXd hb_;          // H̄ b
+    double g0_ = 0.0;             // Σ_a b_aᵀ H̄ b_a
+    Eigen::MatrixXd w_[3];        // S_d b: every sample's (unscaled) state, d = 0, 1, 2
+    std::vector<int> active_[3];  // samples whose penalty is positive, in order
+  };
+
   /// Cost terms at z; writes ∇f into *grad (resized) and the full symmetric Hessian ∇²f into
   /// *hess (resized) when non-null. The collision term uses DistanceField::EvaluateWithHessian
-  /// (value and derivatives of the same C² function).
+  /// (value and derivatives of the same C² function). `cache` (optional): reused when it holds
+  /// this problem at this z, else refilled (see ValueCache).
   MinJerkCostTerms Evaluate(const Eigen::VectorXd& z, Eigen::VectorXd* grad,
-                            Eigen::MatrixXd* hess) const;
+                            Eigen::MatrixXd* hess, ValueCache* cache = nullptr) const;
 
   /// The trajectory (real time) for z.
   [[nodiscard]] Trajectory ToTrajectory(const Eigen::VectorXd& z) const;
@@ -151,6 +177,8 @@ class MinJerkProblem {
   // first/second derivative with respect to ρ (db, ddb may be null).
   void BoundaryVectors(const Eigen::VectorXd& z, Eigen::MatrixXd* b, Eigen::MatrixXd* db,
                        Eigen::MatrixXd* ddb) const;
+  // The cost at z and its active samples, into *cache.
+  void EvaluateValue(const Eigen::VectorXd& z, ValueCache* cache) const;
 
   MinJerkBoundary boundary_;
   std::vector<double> nominal_;
