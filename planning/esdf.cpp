@@ -520,16 +520,28 @@ Stencil Locate(const Eigen::Vector3d& u, const Eigen::Vector3i& dims,
     s.t[a] = u(a) - fl;
     base[a] = static_cast<int>(fl) - 1;
   }
+  const auto sy = static_cast<std::size_t>(dims.x());
+  const std::size_t sz = sy * static_cast<std::size_t>(dims.y());
+  s.contiguous = base[0] >= 0 && base[0] + 3 < dims.x();
+  if (s.contiguous && base[1] >= 0 && base[1] + 3 < dims.y() && base[2] >= 0 &&
+      base[2] + 3 < dims.z()) {
+    // Inside the box on every axis (the common case): no clamping, rows a fixed stride apart.
+    for (int i = 0; i < 4; ++i) s.xi[i] = static_cast<std::size_t>(base[0] + i);
+    const std::int16_t* plane =
+        values + sy * static_cast<std::size_t>(base[1]) + sz * static_cast<std::size_t>(base[2]);
+    for (int k = 0; k < 4; ++k, plane += sz) {
+      for (int j = 0; j < 4; ++j) s.row[k][j] = plane + sy * static_cast<std::size_t>(j);
+    }
+    return s;
+  }
   for (int i = 0; i < 4; ++i) {
     s.xi[i] = static_cast<std::size_t>(std::clamp(base[0] + i, 0, dims.x() - 1));
   }
-  s.contiguous = base[0] >= 0 && base[0] + 3 < dims.x();
   for (int k = 0; k < 4; ++k) {
     const auto z = static_cast<std::size_t>(std::clamp(base[2] + k, 0, dims.z() - 1));
     for (int j = 0; j < 4; ++j) {
       const auto y = static_cast<std::size_t>(std::clamp(base[1] + j, 0, dims.y() - 1));
-      s.row[k][j] =
-          values + static_cast<std::size_t>(dims.x()) * (y + static_cast<std::size_t>(dims.y()) * z);
+      s.row[k][j] = values + sy * y + sz * z;
     }
   }
   return s;

@@ -2,7 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdint>
+#include <cstring>
+#include <vector>
+
 #include "analytic_fields.hpp"
+#include "quadtune/planning/esdf.hpp"
 
 namespace quadtune::planning {
 namespace {
@@ -350,6 +355,75 @@ TEST(MinJerkProblem, HessianOfJerkAndTimeTermsIsExact) {
   Eigen::MatrixXd hess;
   problem.Evaluate(z, &grad, &hess);
   EXPECT_LT((hess - FdHessian(problem, z, 1e-6)).norm(), 1e-6 * (1.0 + hess.norm()));
+}
+
+// Same bits: two doubles (or all entries of two matrices) are equal as stored, NaN and −0 apart.
+template <typename Matrix>
+bool SameBits(const Matrix& a, const Matrix& b) {
+  return a.rows() == b.rows() && a.cols() == b.cols() &&
+         std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
+}
+
+TEST(MinJerkProblem, ValueCacheGivesTheSameBitsAndIsUsedOnlyForItsProblemAndPoint) {
+  // A distance field with skipped samples (beyond the clearance), active ones and samples in
+  // the obstacles: two pillars across the straight line from start to goal.
+  const Eigen::Vector3i dims(90, 40, 30);
+  const Eigen::Vector3d origin(-0.5, -2.0, 0.0);
+  const double res = 0.1;
+  std::vector<std::uint8_t> occ(static_cast<std::size_t>(dims.prod()), 0);
+  for (int z = 0; z < dims.z(); ++z) {
+    for (int y = 0; y < dims.y(); ++y) {
+      for (int x = 0; x < dims.x(); ++x) {
+        const Eigen::Vector3d c = origin + res * (Eigen::Vector3d(x, y, z).array() + 0.5).matrix();
+        const bool pillar = (c.head<2>() - Eigen::Vector2d(2.5, 0.4)).norm() < 0.35 ||
+                            (c.head<2>() - Eigen::Vector2d(5.0, 0.7)).norm() < 0.3;
+        occ[static_cast<std::size_t>(x + dims.x() * (y + dims.y() * z))] = pillar ? 1 : 0;
+      }
+    }
+  }
+  const Esdf field = Esdf::FromOccupancy(origin, res, dims, occ);
+  const MinJerkProblem a(Boundary(), {1.5, 1.7, 1.9, 2.1}, {9, 9, 9, 9}, field, TightParams());
+  MinJerkCostParams other_params = TightParams();
+  other_params.w_col = 7.0;
+  const MinJerkProblem b(Boundary(), {1.5, 1.7, 1.9, 2.1}, {9, 9, 9, 9}, field, other_params);
+
+  for (const double wiggle : {0.0, 1.0, -2.0}) {
+    const Eigen::VectorXd z = PointNear(a, wiggle);
+    Eigen::VectorXd z2 = z;
+    z2(1) += 0.05;
+    Eigen::VectorXd g_ref, g;
+    Eigen::MatrixXd h_ref, h;
+    const MinJerkCostTerms ref = a.Evaluate(z, &g_ref, &h_ref);
+    ASSERT_GT(ref.collision, 0.0) << "wiggle " << wiggle;
+    // Value first, then derivatives at the same z from the cache, as Ipopt asks for them.
+    MinJerkProblem::ValueCache cache;
+    const MinJerkCostTerms value = a.Evaluate(z, nullptr, nullptr, &cache);
+    const MinJerkCostTerms with_derivatives = a.Evaluate(z, &g, &h, &cache);
+    EXPECT_EQ(std::memcmp(&value, &ref, sizeof ref), 0) << "wiggle " << wiggle;
+    EXPECT_EQ(std::memcmp(&with_derivatives, &ref, sizeof ref), 0) << "wiggle " << wiggle;
+    EXPECT_TRUE(SameBits(g, g_ref) && SameBits(h, h_ref)) << "wiggle " << wiggle;
+    // Gradient only.
+    Eigen::VectorXd g_only;
+    a.Evaluate(z, &g_only, nullptr, &cache);
+    EXPECT_TRUE(SameBits(g_only, g_ref)) << "wiggle " << wiggle;
+
+    // The cache holds z for problem a: another point, or another problem at z, is evaluated
+    // afresh (and refills the cache).
+    Eigen::VectorXd g2_ref, g2;
+    Eigen::MatrixXd h2_ref, h2;
+    const MinJerkCostTerms ref2 = a.Evaluate(z2, &g2_ref, &h2_ref);
+    const MinJerkCostTerms at_z2 = a.Evaluate(z2, &g2, &h2, &cache);
+    EXPECT_EQ(std::memcmp(&at_z2, &ref2, sizeof ref2), 0) << "wiggle " << wiggle;
+    EXPECT_TRUE(SameBits(g2, g2_ref) && SameBits(h2, h2_ref)) << "wiggle " << wiggle;
+    a.Evaluate(z, nullptr, nullptr, &cache);
+    Eigen::VectorXd gb_ref, gb;
+    Eigen::MatrixXd hb_ref, hb;
+    const MinJerkCostTerms ref_b = b.Evaluate(z, &gb_ref, &hb_ref);
+    const MinJerkCostTerms at_b = b.Evaluate(z, &gb, &hb, &cache);
+    EXPECT_NE(ref_b.total, ref.total);
+    EXPECT_EQ(std::memcmp(&at_b, &ref_b, sizeof ref_b), 0) << "wiggle " << wiggle;
+    EXPECT_TRUE(SameBits(gb, gb_ref) && SameBits(hb, hb_ref)) << "wiggle " << wiggle;
+  }
 }
 
 TEST(MinJerkProblem, RejectsBadInput) {
