@@ -580,6 +580,9 @@ std::int16_t StencilMin(const Stencil& s) {
 
 // The spline at the stencil, in quantum units; with derivatives (in quantum units per cell)
 // when `derivatives`: *g and the upper triangle of *h.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__SANITIZE_THREAD__)
+__attribute__((target_clones("avx2", "default")))
+#endif
 double Blend(const Stencil& s, bool derivatives, Eigen::Vector3d* g, Eigen::Matrix3d* h) {
   // Per axis: the four B-spline basis weights around the point and their first and second
   // derivatives.

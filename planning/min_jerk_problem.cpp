@@ -279,6 +279,9 @@ inline Eigen::Vector3d RateRow(const Eigen::MatrixXd& m, int j, const Eigen::Mat
 // are summed at a time). Below Eigen's size threshold for its coefficient-wise product, whose sums run in
 // another order, that product is used (on s by rows, as it was stored before); either way the
 // values are those of Eigen's `s * b`.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__SANITIZE_THREAD__)
+__attribute__((target_clones("avx2", "default")))
+#endif
 void SamplesTimes(const Eigen::MatrixXd& s, const Eigen::MatrixXd& b, Eigen::MatrixXd* w,
                   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>* rows) {
   const Eigen::Index ns = s.rows();
@@ -293,22 +296,25 @@ void SamplesTimes(const Eigen::MatrixXd& s, const Eigen::MatrixXd& b, Eigen::Mat
   double* w1 = w->col(1).data();
   double* w2 = w->col(2).data();
   const double* bk = b.data();  // column a at bk + a·nb
-  // Blocks of four samples, their twelve running sums in registers.
+  // Blocks of four samples, their twelve running sums in registers (GCC vectors: two SSE2
+  // registers each, one AVX register in the AVX2 clone; lane-wise products and sums either way).
+  typedef double Lanes4 __attribute__((vector_size(32)));
   constexpr Eigen::Index kBlock = 4;
   Eigen::Index j0 = 0;
   for (; j0 + kBlock <= ns; j0 += kBlock) {
-    Eigen::Array4d a0 = Eigen::Array4d::Zero();
-    Eigen::Array4d a1 = Eigen::Array4d::Zero();
-    Eigen::Array4d a2 = Eigen::Array4d::Zero();
+    Lanes4 a0 = {0.0, 0.0, 0.0, 0.0};
+    Lanes4 a1 = a0;
+    Lanes4 a2 = a0;
     for (Eigen::Index k = 0; k < nb; ++k) {
-      const Eigen::Map<const Eigen::Array4d> sk(s.data() + k * ns + j0);
+      Lanes4 sk;
+      std::memcpy(&sk, s.data() + k * ns + j0, sizeof sk);
       a0 += sk * bk[k];
       a1 += sk * bk[nb + k];
       a2 += sk * bk[2 * nb + k];
     }
-    Eigen::Map<Eigen::Array4d>(w0 + j0) = a0;
-    Eigen::Map<Eigen::Array4d>(w1 + j0) = a1;
-    Eigen::Map<Eigen::Array4d>(w2 + j0) = a2;
+    std::memcpy(w0 + j0, &a0, sizeof a0);
+    std::memcpy(w1 + j0, &a1, sizeof a1);
+    std::memcpy(w2 + j0, &a2, sizeof a2);
   }
   for (; j0 < ns; ++j0) {
     double a0 = 0.0, a1 = 0.0, a2 = 0.0;
