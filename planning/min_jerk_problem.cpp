@@ -332,6 +332,13 @@ void SamplesTimes(const Eigen::MatrixXd& s, const Eigen::MatrixXd& b, Eigen::Mat
 
 }  // namespace
 
+double MinJerkProblem::RateViolation(int d, int j, const Eigen::Vector3d& r, double* inv_l) const {
+  const double limit = d == 1 ? params_.v_max : params_.a_max;
+  *inv_l = d == 1 && !inv_speed_limit_sq_.empty() ? inv_speed_limit_sq_[static_cast<std::size_t>(j)]
+                                                  : 1.0 / (limit * limit);
+  return r.squaredNorm() * *inv_l - 1.0;
+}
+
 bool MinJerkProblem::ValueCache::Holds(const MinJerkProblem* problem,
                                       const Eigen::VectorXd& z) const {
   return valid_ && owner_ == problem && z_.size() == z.size() &&
@@ -361,7 +368,6 @@ void MinJerkProblem::EvaluateValue(const Eigen::VectorXd& z, ValueCache* vc) con
   // ---- sampled penalties: the states of every sample at once (W = S_d b), then the samples
   // whose penalty is active ----
   const double inv_c = 1.0 / params_.clearance;
-  const double limits_sq[3] = {0.0, params_.v_max * params_.v_max, params_.a_max * params_.a_max};
   const double inv_tau_pow[3] = {1.0, 1.0 / tau, 1.0 / (tau * tau)};
   const int ns = NumSamples();
   for (int d = 0; d < 3; ++d) {
@@ -387,10 +393,8 @@ void MinJerkProblem::EvaluateValue(const Eigen::VectorXd& z, ValueCache* vc) con
         // ψ = κ e³, e = (C − d)/C.
         terms.collision += params_.collision_scale * e * e * e;
       } else {
-        const double inv_l = d == 1 && !inv_speed_limit_sq_.empty()
-                                 ? inv_speed_limit_sq_[static_cast<std::size_t>(j)]
-                                 : 1.0 / limits_sq[d];
-        const double viol = r.squaredNorm() * inv_l - 1.0;
+        double inv_l = 0.0;
+        const double viol = RateViolation(d, j, r, &inv_l);
         if (!(viol > 0.0)) continue;
         terms.feasibility += params_.feasibility_scale * viol * viol * viol;
       }
@@ -463,7 +467,6 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
 
   // ---- sampled penalties, active samples only ----
   const double inv_c = 1.0 / params_.clearance;
-  const double limits_sq[3] = {0.0, params_.v_max * params_.v_max, params_.a_max * params_.a_max};
   const double inv_tau_pow[3] = {1.0, 1.0 / tau, 1.0 / (tau * tau)};
   const double weights[3] = {params_.w_col, params_.w_dyn, params_.w_dyn};
   for (int d = 0; d < 3; ++d) {
@@ -500,10 +503,8 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
                       (3.0 * k * e * e * inv_c) * hess_d;
         }
       } else {
-        const double inv_l = d == 1 && !inv_speed_limit_sq_.empty()
-                                 ? inv_speed_limit_sq_[static_cast<std::size_t>(j)]
-                                 : 1.0 / limits_sq[d];
-        const double viol = r.squaredNorm() * inv_l - 1.0;
+        double inv_l = 0.0;
+        const double viol = RateViolation(d, j, r, &inv_l);
         if (!(viol > 0.0)) continue;
         const double k = params_.feasibility_scale;
         const Eigen::Vector3d dviol = 2.0 * inv_l * r;

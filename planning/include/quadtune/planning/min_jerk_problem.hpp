@@ -179,6 +179,9 @@ class MinJerkProblem {
                        Eigen::MatrixXd* ddb) const;
   // The cost at z and its active samples, into *cache.
   void EvaluateValue(const Eigen::VectorXd& z, ValueCache* cache) const;
+  // The feasibility penalty's violation |r|²/limit² − 1 at sample j (d = 1: r its velocity, the
+  // limit v_max or the braking envelope's; d = 2: its acceleration, a_max), 1/limit² into *inv_l.
+  double RateViolation(int d, int j, const Eigen::Vector3d& r, double* inv_l) const;
 
   MinJerkBoundary boundary_;
   std::vector<double> nominal_;
