@@ -115,6 +115,8 @@ MinJerkProblem::MinJerkProblem(const MinJerkBoundary& boundary,
   }
   coeff_map_ = m.partialPivLu().solve(e);
   for (double t : nominal_) sum_nominal_ += t;
+  inv_limit_sq_[1] = 1.0 / (params_.v_max * params_.v_max);
+  inv_limit_sq_[2] = 1.0 / (params_.a_max * params_.a_max);
 
   jerk_hess_ = Eigen::MatrixXd::Zero(nb, nb);
   for (int i = 0; i < n; ++i) {
@@ -331,13 +333,6 @@ void SamplesTimes(const Eigen::MatrixXd& s, const Eigen::MatrixXd& b, Eigen::Mat
 }
 
 }  // namespace
-
-double MinJerkProblem::RateViolation(int d, int j, const Eigen::Vector3d& r, double* inv_l) const {
-  const double limit = d == 1 ? params_.v_max : params_.a_max;
-  *inv_l = d == 1 && !inv_speed_limit_sq_.empty() ? inv_speed_limit_sq_[static_cast<std::size_t>(j)]
-                                                  : 1.0 / (limit * limit);
-  return r.squaredNorm() * *inv_l - 1.0;
-}
 
 bool MinJerkProblem::ValueCache::Holds(const MinJerkProblem* problem,
                                       const Eigen::VectorXd& z) const {

@@ -181,7 +181,12 @@ class MinJerkProblem {
   void EvaluateValue(const Eigen::VectorXd& z, ValueCache* cache) const;
   // The feasibility penalty's violation |r|²/limit² − 1 at sample j (d = 1: r its velocity, the
   // limit v_max or the braking envelope's; d = 2: its acceleration, a_max), 1/limit² into *inv_l.
-  double RateViolation(int d, int j, const Eigen::Vector3d& r, double* inv_l) const;
+  double RateViolation(int d, int j, const Eigen::Vector3d& r, double* inv_l) const {
+    *inv_l = d == 1 && !inv_speed_limit_sq_.empty()
+                 ? inv_speed_limit_sq_[static_cast<std::size_t>(j)]
+                 : inv_limit_sq_[d];
+    return r.squaredNorm() * *inv_l - 1.0;
+  }
 
   MinJerkBoundary boundary_;
   std::vector<double> nominal_;
@@ -194,6 +199,8 @@ class MinJerkProblem {
   // Per-sample rows (nb) for position, normalised velocity and acceleration: S_d (ns × nb).
   Eigen::MatrixXd sample_rows_[3];
   std::vector<int> sample_piece_;
+  // 1/v_max², 1/a_max² at [1], [2] (of the feasibility penalty; [0] unused).
+  double inv_limit_sq_[3] = {0.0, 0.0, 0.0};
   // Per-sample 1/limit² of the speed penalty under a braking envelope; empty: 1/v_max² for all.
   std::vector<double> inv_speed_limit_sq_;
 };
