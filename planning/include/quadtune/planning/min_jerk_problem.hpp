@@ -53,9 +53,10 @@
 ///    ∇²d = 0, and the collision Hessian degrades to Gauss–Newton (correct, linearly convergent).
 ///
 /// Thread safety: immutable after construction; Evaluate() is const and works in per-thread
-/// scratch memory (no allocation once warm), so concurrent calls on one object are safe if the
-/// DistanceField allows concurrent Evaluate() (its documented contract). The problem holds a
-/// reference to the field: the field must outlive it.
+/// scratch memory (no allocation once warm; a ValueCache allocates on its first use), so
+/// concurrent calls on one object are safe if the DistanceField allows concurrent Evaluate() (its
+/// documented contract) and each thread passes its own ValueCache. The problem holds a reference
+/// to the field: the field must outlive it.
 
 #include <Eigen/Core>
 #include <vector>
