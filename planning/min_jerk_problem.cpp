@@ -178,16 +178,13 @@ std::vector<Eigen::Vector3d> MinJerkProblem::InnerWaypoints(const Eigen::VectorX
 
 double MinJerkProblem::TimeScale(const Eigen::VectorXd& z) { return std::exp(z(z.size() - 1)); }
 
-void MinJerkProblem::BoundaryVectors(const Eigen::VectorXd& z, Eigen::MatrixXd* b,
-                                     Eigen::MatrixXd* db, Eigen::MatrixXd* ddb) const {
+void MinJerkProblem::BoundaryVectors(const Eigen::VectorXd& z, Eigen::MatrixXd* b) const {
   const Eigen::Vector3d& origin = boundary_.p0_W;
   const int m = num_pieces_ - 1;
   const int nb = BoundarySize();
   const double tau = std::exp(z(NumVariables() - 1));
   const double tau2 = tau * tau;
   b->setZero(nb, 3);
-  if (db != nullptr) db->setZero(nb, 3);
-  if (ddb != nullptr) ddb->setZero(nb, 3);
   for (int a = 0; a < 3; ++a) {
     (*b)(0, a) = 0.0;  // p0, relative to itself
     (*b)(1, a) = tau * boundary_.v0_W(a);
@@ -196,19 +193,6 @@ void MinJerkProblem::BoundaryVectors(const Eigen::VectorXd& z, Eigen::MatrixXd* 
     (*b)(nb - 3, a) = boundary_.pf_W(a) - origin(a);
     (*b)(nb - 2, a) = tau * boundary_.vf_W(a);
     (*b)(nb - 1, a) = tau2 * boundary_.af_W(a);
-    // d/dρ of τ^k x is k τ^k x; second derivative k² τ^k x.
-    if (db != nullptr) {
-      (*db)(1, a) = (*b)(1, a);
-      (*db)(2, a) = 2.0 * (*b)(2, a);
-      (*db)(nb - 2, a) = (*b)(nb - 2, a);
-      (*db)(nb - 1, a) = 2.0 * (*b)(nb - 1, a);
-    }
-    if (ddb != nullptr) {
-      (*ddb)(1, a) = (*b)(1, a);
-      (*ddb)(2, a) = 4.0 * (*b)(2, a);
-      (*ddb)(nb - 2, a) = (*b)(nb - 2, a);
-      (*ddb)(nb - 1, a) = 4.0 * (*b)(nb - 1, a);
-    }
   }
 }
 
@@ -225,17 +209,16 @@ struct ActiveSample {
 };
 
 struct EvaluateScratch {
-  Eigen::MatrixXd b;
   Eigen::MatrixXd db;
   Eigen::MatrixXd ddb;
   Eigen::MatrixXd hb;
   Eigen::MatrixXd hdb;
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rows;  // S_d by rows
   std::vector<ActiveSample> active;
-  Eigen::MatrixXd v;               // active rows of S_d, inner-waypoint columns (active × m)
-  Eigen::MatrixXd coef;            // per active sample, 3 coefficients
-  Eigen::MatrixXd vt_coef;         // vᵀ coef (m × 3)
-  Eigen::MatrixXd weighted;        // diag(c) v
+  Eigen::MatrixXd v;                 // active rows of S_d, inner-waypoint columns (active × m)
+  Eigen::MatrixXd coef;              // per active sample, 3 coefficients
+  Eigen::MatrixXd vt_coef;           // vᵀ coef (m × 3)
+  Eigen::MatrixXd weighted;          // diag(c) v
   MinJerkProblem::ValueCache value;  // Evaluate's value pass when the caller gives no cache
 };
 
@@ -244,10 +227,30 @@ EvaluateScratch& Scratch() {
   return scratch;
 }
 
-// The rows of ∂b/∂ρ and ∂²b/∂ρ² that can be nonzero (BoundaryVectors): the velocity and the
+// The rows of ∂b/∂ρ and ∂²b/∂ρ² that can be nonzero (RateDerivatives): the velocity and the
 // acceleration of both ends. Every position row is independent of ρ, so products with those
 // matrices need only these rows.
 std::array<int, 4> RateRows(int nb) { return {1, 2, nb - 2, nb - 1}; }
+
+// ∂b/∂ρ and ∂²b/∂ρ² (ddb may be null) from the boundary vectors b: d/dρ of τ^k x is k τ^k x,
+// the second derivative k² τ^k x, in the rows RateRows; every other row is zero.
+void RateDerivatives(const Eigen::MatrixXd& b, Eigen::MatrixXd* db, Eigen::MatrixXd* ddb) {
+  const Eigen::Index nb = b.rows();
+  db->setZero(nb, 3);
+  if (ddb != nullptr) ddb->setZero(nb, 3);
+  for (int a = 0; a < 3; ++a) {
+    (*db)(1, a) = b(1, a);
+    (*db)(2, a) = 2.0 * b(2, a);
+    (*db)(nb - 2, a) = b(nb - 2, a);
+    (*db)(nb - 1, a) = 2.0 * b(nb - 1, a);
+    if (ddb != nullptr) {
+      (*ddb)(1, a) = b(1, a);
+      (*ddb)(2, a) = 4.0 * b(2, a);
+      (*ddb)(nb - 2, a) = b(nb - 2, a);
+      (*ddb)(nb - 1, a) = 4.0 * b(nb - 1, a);
+    }
+  }
+}
 
 // *out = m · x for an x whose nonzero rows are all in `nz`: the sum of four outer products,
 // added in that order, in one pass per column.
@@ -278,9 +281,9 @@ inline Eigen::Vector3d RateRow(const Eigen::MatrixXd& m, int j, const Eigen::Mat
 // *w = s · b for a b of three columns (the states of every sample at once). Each entry sums its
 // nb products in index order from zero, as Eigen's blocked matrix product does, without that
 // product's packing of the constant s on every call (s is stored by column, and four samples
-// are summed at a time). Below Eigen's size threshold for its coefficient-wise product, whose sums run in
-// another order, that product is used (on s by rows, as it was stored before); either way the
-// values are those of Eigen's `s * b`.
+// are summed at a time). Below Eigen's size threshold for its coefficient-wise product, whose sums
+// run in another order, that product is used (on s by rows, as it was stored before); either way
+// the values are those of Eigen's `s * b`.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__SANITIZE_THREAD__)
 __attribute__((target_clones("avx2", "default")))
 #endif
@@ -335,7 +338,7 @@ void SamplesTimes(const Eigen::MatrixXd& s, const Eigen::MatrixXd& b, Eigen::Mat
 }  // namespace
 
 bool MinJerkProblem::ValueCache::Holds(const MinJerkProblem* problem,
-                                      const Eigen::VectorXd& z) const {
+                                       const Eigen::VectorXd& z) const {
   return valid_ && owner_ == problem && z_.size() == z.size() &&
          std::memcmp(z_.data(), z.data(), sizeof(double) * static_cast<std::size_t>(z.size())) == 0;
 }
@@ -347,7 +350,7 @@ void MinJerkProblem::EvaluateValue(const Eigen::VectorXd& z, ValueCache* vc) con
   const double rho = z(NumVariables() - 1);
   const double tau = std::exp(rho);
   const Eigen::Vector3d& origin = boundary_.p0_W;
-  BoundaryVectors(z, &vc->b_, nullptr, nullptr);
+  BoundaryVectors(z, &vc->b_);
   const Eigen::MatrixXd& b = vc->b_;
   MinJerkCostTerms& terms = vc->terms_;
   terms = MinJerkCostTerms{};
@@ -425,7 +428,7 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
 
   const double rho = z(ir);
   const double tau = std::exp(rho);
-  BoundaryVectors(z, &ws.b, &ws.db, want_hess ? &ws.ddb : nullptr);
+  RateDerivatives(vc.b_, &ws.db, want_hess ? &ws.ddb : nullptr);
   const Eigen::MatrixXd& db = ws.db;
   const Eigen::MatrixXd& ddb = ws.ddb;
   const std::array<int, 4> rate_rows = RateRows(BoundarySize());
@@ -444,8 +447,7 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
     if (want_hess) {
       TimesRate(jerk_hess_, db, rate_rows, &ws.hdb);
       const Eigen::MatrixXd& hdb = ws.hdb;
-      const double g2 =
-          2.0 * ((db.array() * hdb.array()).sum() + (ddb.array() * hb.array()).sum());
+      const double g2 = 2.0 * ((db.array() * hdb.array()).sum() + (ddb.array() * hb.array()).sum());
       for (int a = 0; a < 3; ++a) {
         hess->block(a * m, a * m, m, m) += (w_s * e5 * 2.0) * jerk_hess_.block(3, 3, m, m);
         for (int i = 0; i < m; ++i) {
@@ -476,7 +478,8 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
     ws.active.clear();
     for (const int j : vc.active_[d]) {
       const Eigen::Vector3d w = wd.row(j).transpose();
-      const Eigen::Vector3d r = d == 0 ? Eigen::Vector3d(w + boundary_.p0_W) : Eigen::Vector3d(scale * w);
+      const Eigen::Vector3d r =
+          d == 0 ? Eigen::Vector3d(w + boundary_.p0_W) : Eigen::Vector3d(scale * w);
       Eigen::Vector3d gamma;      // ∂ψ/∂r
       Eigen::Matrix3d big_gamma;  // ∂²ψ/∂r²
       if (d == 0) {
@@ -565,7 +568,7 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
 
 Trajectory MinJerkProblem::ToTrajectory(const Eigen::VectorXd& z) const {
   Eigen::MatrixXd b;
-  BoundaryVectors(z, &b, nullptr, nullptr);
+  BoundaryVectors(z, &b);
   const double tau = TimeScale(z);
   Eigen::MatrixXd c = coeff_map_ * b;  // 6N × 3, normalised time, positions relative to p0
   for (int i = 0; i < num_pieces_; ++i) c.row(6 * i) += boundary_.p0_W.transpose();

@@ -103,8 +103,8 @@ struct MinJerkCostTerms {
   double jerk = 0.0;         ///< J_jerk, ∫|jerk|² dt (m^2/s^5)
   double collision = 0.0;    ///< J_col (dimensionless)
   double feasibility = 0.0;  ///< J_dyn (dimensionless)
-  double time = 0.0;         ///< J_time = ΣT̄ (ln τ)², time stretch (s); the duration is τ ΣT̄
-  double total = 0.0;        ///< weighted sum f
+  double time = 0.0;   ///< J_time = ΣT̄ (ln τ)², time stretch (s); the duration is τ ΣT̄
+  double total = 0.0;  ///< weighted sum f
 };
 
 /// The unconstrained problem min_z f(z); see the file comment.
@@ -166,18 +166,16 @@ class MinJerkProblem {
   /// *hess (resized) when non-null. The collision term uses DistanceField::EvaluateWithHessian
   /// (value and derivatives of the same C² function). `cache` (optional): reused when it holds
   /// this problem at this z, else refilled (see ValueCache).
-  MinJerkCostTerms Evaluate(const Eigen::VectorXd& z, Eigen::VectorXd* grad,
-                            Eigen::MatrixXd* hess, ValueCache* cache = nullptr) const;
+  MinJerkCostTerms Evaluate(const Eigen::VectorXd& z, Eigen::VectorXd* grad, Eigen::MatrixXd* hess,
+                            ValueCache* cache = nullptr) const;
 
   /// The trajectory (real time) for z.
   [[nodiscard]] Trajectory ToTrajectory(const Eigen::VectorXd& z) const;
 
  private:
   int BoundarySize() const { return num_pieces_ + 5; }
-  // Boundary vector per axis (nb), positions relative to p0 (see "Numerics"), and its
-  // first/second derivative with respect to ρ (db, ddb may be null).
-  void BoundaryVectors(const Eigen::VectorXd& z, Eigen::MatrixXd* b, Eigen::MatrixXd* db,
-                       Eigen::MatrixXd* ddb) const;
+  // Boundary vector per axis (nb × 3), positions relative to p0 (see "Numerics").
+  void BoundaryVectors(const Eigen::VectorXd& z, Eigen::MatrixXd* b) const;
   // The cost at z and its active samples, into *cache.
   void EvaluateValue(const Eigen::VectorXd& z, ValueCache* cache) const;
   // The feasibility penalty's violation |r|²/limit² − 1 at sample j (d = 1: r its velocity, the
