@@ -117,14 +117,18 @@ void Ma27Bd(int* n, int* nz, const int* irn, const int* icn, double* a, int* la,
   *maxfrt = dim;
 
   // Scatter the triplets into the lower triangle of a dense column-major matrix placed after
-  // the input values.
+  // the input values (LAPACK's "L" routines never read the strict upper triangle).
   double* dense = a + nnz;
-  std::fill(dense, dense + static_cast<std::ptrdiff_t>(dim) * dim, 0.0);
+  for (int c = 0; c < dim; ++c) {
+    double* column = dense + static_cast<std::ptrdiff_t>(c) * dim;
+    std::fill(column + c, column + dim, 0.0);
+  }
   int out_of_range = 0;
   for (int k = 0; k < nnz; ++k) {
     const int i = irn[k];
     const int j = icn[k];
-    if (i < 1 || i > dim || j < 1 || j > dim) {
+    if (static_cast<unsigned>(i - 1) >= static_cast<unsigned>(dim) ||
+        static_cast<unsigned>(j - 1) >= static_cast<unsigned>(dim)) {
       ++out_of_range;
       continue;
     }
@@ -132,15 +136,19 @@ void Ma27Bd(int* n, int* nz, const int* irn, const int* icn, double* a, int* la,
     const int c = std::min(i, j) - 1;
     dense[r + static_cast<std::ptrdiff_t>(c) * dim] += a[k];
   }
+  // The largest magnitude, and whether every entry is finite: 0·v is 0 for finite v, NaN for
+  // an infinity or NaN.
   double max_abs = 0.0;
-  bool finite = true;
+  double nonfinite = 0.0;
   for (int c = 0; c < dim; ++c) {
+    const double* column = dense + static_cast<std::ptrdiff_t>(c) * dim;
     for (int r = c; r < dim; ++r) {
-      const double v = dense[r + static_cast<std::ptrdiff_t>(c) * dim];
-      if (!std::isfinite(v)) finite = false;
+      const double v = column[r];
+      nonfinite += 0.0 * v;
       max_abs = std::max(max_abs, std::abs(v));
     }
   }
+  const bool finite = nonfinite == 0.0;
   iw[0] = kMagic;
   iw[1] = dim;
   iw[2] = nnz;

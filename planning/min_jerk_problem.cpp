@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "quadtune/common/error.hpp"
+#include "quadtune/planning/transposed_product.hpp"
 
 namespace quadtune::planning {
 namespace {
@@ -124,6 +125,15 @@ MinJerkProblem::MinJerkProblem(const MinJerkBoundary& boundary,
     jerk_hess_ += ki.transpose() * JerkGram(nominal_[static_cast<std::size_t>(i)]) * ki;
   }
   jerk_hess_ = 0.5 * (jerk_hess_ + jerk_hess_.transpose()).eval();
+  if (detail::TransposedProductApplies(nb, nb, 3)) {
+    const int stride = detail::TransposedProductStride(nb);
+    jerk_hess_rows_.assign(static_cast<std::size_t>(nb) * static_cast<std::size_t>(stride), 0.0);
+    for (int k = 0; k < nb; ++k) {  // row k of l = column k of H̄ (l(k, i) = H̄(i, k))
+      for (int i = 0; i < nb; ++i) {
+        jerk_hess_rows_[static_cast<std::size_t>(k * stride + i)] = jerk_hess_(i, k);
+      }
+    }
+  }
 
   int total_samples = 0;
   for (int k : samples_per_piece) total_samples += k;
@@ -219,6 +229,10 @@ struct EvaluateScratch {
   Eigen::MatrixXd coef;              // per active sample, 3 coefficients
   Eigen::MatrixXd vt_coef;           // vᵀ coef (m × 3)
   Eigen::MatrixXd weighted;          // diag(c) v
+  std::vector<double> vr;            // v by rows, padded (AddTransposedProduct)
+  std::vector<double> wr;            // diag(c) v by rows, padded
+  std::vector<double> cr;            // coef by rows
+  std::vector<double> b_rows;        // b by rows (EvaluateValue)
   MinJerkProblem::ValueCache value;  // Evaluate's value pass when the caller gives no cache
 };
 
@@ -356,7 +370,20 @@ void MinJerkProblem::EvaluateValue(const Eigen::VectorXd& z, ValueCache* vc) con
   terms = MinJerkCostTerms{};
 
   // ---- jerk energy: τ^-5 Σ_a b_aᵀ H̄ b_a ----
-  vc->hb_.noalias() = jerk_hess_ * b;
+  if (!jerk_hess_rows_.empty()) {  // H̄ b = lᵀ b with the bits of Eigen's product
+    const int nb = BoundarySize();
+    std::vector<double>& b_rows = Scratch().b_rows;
+    b_rows.resize(static_cast<std::size_t>(nb) * 3);
+    for (int k = 0; k < nb; ++k) {
+      for (int a = 0; a < 3; ++a) b_rows[static_cast<std::size_t>(3 * k + a)] = b(k, a);
+    }
+    vc->hb_.setZero(nb, 3);
+    detail::AddTransposedProduct(nb, nb, 3, jerk_hess_rows_.data(),
+                                 detail::TransposedProductStride(nb), b_rows.data(), 3,
+                                 vc->hb_.data(), nb, /*lower_only=*/false);
+  } else {
+    vc->hb_.noalias() = jerk_hess_ * b;
+  }
   vc->g0_ = (b.array() * vc->hb_.array()).sum();
   terms.jerk = std::exp(-5.0 * rho) * vc->g0_;
 
@@ -532,33 +559,72 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
       }
       ws.active.push_back(sample);
     }
-    const auto na = static_cast<Eigen::Index>(ws.active.size());
+    const int na = static_cast<int>(ws.active.size());
     if (na == 0) continue;
     // v_j = τ^-d S_j(3..3+m): gather the active rows, then the q-gradient, the ρ row and the
     // q–q blocks are small matrix products: g_qa += Vᵀ c_a, H_ρq_a += Vᵀ t_a,
-    // H_qa,qb += Vᵀ diag(wΓ_ab) V (lower block triangle; the mirror fills the rest).
-    ws.v.resize(na, m);
-    ws.coef.resize(na, 3);
-    for (Eigen::Index i = 0; i < na; ++i) {
-      const ActiveSample& sample = ws.active[static_cast<std::size_t>(i)];
-      ws.v.row(i) = rows.row(sample.row).segment(3, m);
-      ws.coef.row(i) = sample.grad.transpose();
+    // H_qa,qb += Vᵀ diag(wΓ_ab) V (lower block triangle; the mirror fills the rest). Each runs in
+    // AddTransposedProduct where that gives the bits of Eigen's product, else in Eigen's.
+    const bool own_3 = detail::TransposedProductApplies(na, m, 3);
+    const bool own_m = want_hess && detail::TransposedProductApplies(na, m, m);
+    const int mp = detail::TransposedProductStride(m);
+    if (own_3 || own_m) {  // V by rows, padded to mp columns
+      ws.vr.assign(static_cast<std::size_t>(na) * static_cast<std::size_t>(mp), 0.0);
+      for (int i = 0; i < na; ++i) {
+        const int row = ws.active[static_cast<std::size_t>(i)].row;
+        for (int c = 0; c < m; ++c) ws.vr[static_cast<std::size_t>(i * mp + c)] = rows(row, 3 + c);
+      }
     }
-    ws.vt_coef.noalias() = ws.v.transpose() * ws.coef;  // m × 3
+    if (!own_3 || (want_hess && !own_m)) {  // V by columns, for Eigen's products
+      ws.v.resize(na, m);
+      for (int i = 0; i < na; ++i) {
+        ws.v.row(i) = rows.row(ws.active[static_cast<std::size_t>(i)].row).segment(3, m);
+      }
+    }
+    // ws.vt_coef = Vᵀ C (m × 3), C's row i the coefficients `coef(active[i])`.
+    const auto v_transpose_times = [&](auto coef) {
+      if (own_3) {
+        ws.cr.resize(static_cast<std::size_t>(na) * 3);
+        for (int i = 0; i < na; ++i) {
+          const Eigen::Vector3d& c = coef(ws.active[static_cast<std::size_t>(i)]);
+          for (int a = 0; a < 3; ++a) ws.cr[static_cast<std::size_t>(3 * i + a)] = c(a);
+        }
+        ws.vt_coef.setZero(m, 3);  // as Eigen's product: zero, then add
+        detail::AddTransposedProduct(na, m, 3, ws.vr.data(), mp, ws.cr.data(), 3, ws.vt_coef.data(),
+                                     m, /*lower_only=*/false);
+      } else {
+        ws.coef.resize(na, 3);
+        for (int i = 0; i < na; ++i) {
+          ws.coef.row(i) = coef(ws.active[static_cast<std::size_t>(i)]).transpose();
+        }
+        ws.vt_coef.noalias() = ws.v.transpose() * ws.coef;
+      }
+    };
+    v_transpose_times([](const ActiveSample& s) -> const Eigen::Vector3d& { return s.grad; });
     for (int a = 0; a < 3; ++a) g.segment(a * m, m) += ws.vt_coef.col(a);
     if (!want_hess) continue;
-    for (Eigen::Index i = 0; i < na; ++i) {
-      ws.coef.row(i) = ws.active[static_cast<std::size_t>(i)].rho.transpose();
-    }
-    ws.vt_coef.noalias() = ws.v.transpose() * ws.coef;
+    v_transpose_times([](const ActiveSample& s) -> const Eigen::Vector3d& { return s.rho; });
     for (int a = 0; a < 3; ++a) hess->row(ir).segment(a * m, m) += ws.vt_coef.col(a).transpose();
     for (int a = 0; a < 3; ++a) {
       for (int bb = 0; bb <= a; ++bb) {
-        ws.weighted.resize(na, m);
-        for (Eigen::Index i = 0; i < na; ++i) {
-          ws.weighted.row(i) = ws.active[static_cast<std::size_t>(i)].hess(a, bb) * ws.v.row(i);
+        if (own_m) {
+          ws.wr.resize(ws.vr.size());
+          for (int i = 0; i < na; ++i) {
+            const double h = ws.active[static_cast<std::size_t>(i)].hess(a, bb);
+            for (int c = 0; c < mp; ++c) {
+              const auto k = static_cast<std::size_t>(i * mp + c);
+              ws.wr[k] = h * ws.vr[k];
+            }
+          }
+          detail::AddTransposedProduct(na, m, m, ws.wr.data(), mp, ws.vr.data(), mp,
+                                       &(*hess)(a * m, bb * m), n, /*lower_only=*/a == bb);
+        } else {
+          ws.weighted.resize(na, m);
+          for (int i = 0; i < na; ++i) {
+            ws.weighted.row(i) = ws.active[static_cast<std::size_t>(i)].hess(a, bb) * ws.v.row(i);
+          }
+          hess->block(a * m, bb * m, m, m).noalias() += ws.weighted.transpose() * ws.v;
         }
-        hess->block(a * m, bb * m, m, m).noalias() += ws.weighted.transpose() * ws.v;
       }
     }
   }

@@ -7,6 +7,7 @@
 #include <coin/IpSolveStatistics.hpp>
 #include <coin/IpTNLP.hpp>
 #include <coin/IpUtils.hpp>
+#include <cstring>
 #include <ctime>
 #include <exception>
 #include <limits>
@@ -106,22 +107,44 @@ class MinJerkTnlp final : public UnconstrainedDenseTnlp {
   [[nodiscard]] int GradientEvaluations() const { return grad_evals_; }
   [[nodiscard]] int HessianEvaluations() const { return hess_evals_; }
   [[nodiscard]] long DistanceQueries() const { return distance_queries_; }
+  /// The cost terms at z when the last evaluation was at exactly z (the final iterate usually
+  /// is), else null.
+  [[nodiscard]] const MinJerkCostTerms* TermsAt(const Eigen::VectorXd& z) const {
+    const bool same =
+        cached_level_ > 0 && z_.size() == z.size() &&
+        std::memcmp(z_.data(), z.data(), sizeof(double) * static_cast<std::size_t>(z.size())) == 0;
+    return same ? &terms_ : nullptr;
+  }
 
  private:
   // Evaluates the cost at x up to `level` (1: value; 2: value, gradient and Hessian), reusing
   // the evaluation at the same point. The Hessian is computed with the gradient because Ipopt
-  // asks for it at every accepted iterate right after the gradient.
+  // asks for it at every accepted iterate right after the gradient. Ipopt flags `new_x` by the
+  // identity of its vector, not by the values: its gradient-based scaling evaluates the starting
+  // point in a vector of its own, and the first iterate holds the same bits in another. The
+  // values are compared, so that point is evaluated once.
   bool Prepare(Index n, const Number* x, bool new_x, int level) {
+    const bool same_point =
+        cached_level_ > 0 && z_.size() == n &&
+        std::memcmp(z_.data(), x, sizeof(Number) * static_cast<std::size_t>(n)) == 0;
     if (new_x || cached_level_ == 0) {
-      cached_level_ = 0;
-      z_.resize(n);
-      std::copy(x, x + n, z_.data());
+      // The query count (PlanResult::distance_queries) follows Ipopt's requests: a point Ipopt
+      // flags as new counts again, whether or not its evaluation is reused.
+      counted_level_ = 0;
+      if (!same_point) {
+        cached_level_ = 0;
+        z_.resize(n);
+        std::copy(x, x + n, z_.data());
+      }
+    }
+    if (counted_level_ < level) {
+      distance_queries_ += problem_.NumSamples();
+      counted_level_ = level;
     }
     if (cached_level_ >= level) return true;
-    distance_queries_ += problem_.NumSamples();
-    const MinJerkCostTerms terms = level >= 2 ? problem_.Evaluate(z_, &grad_, &hess_, &cache_)
-                                              : problem_.Evaluate(z_, nullptr, nullptr, &cache_);
-    value_ = terms.total;
+    terms_ = level >= 2 ? problem_.Evaluate(z_, &grad_, &hess_, &cache_)
+                        : problem_.Evaluate(z_, nullptr, nullptr, &cache_);
+    value_ = terms_.total;
     cached_level_ = level;
     return true;
   }
@@ -130,7 +153,9 @@ class MinJerkTnlp final : public UnconstrainedDenseTnlp {
   MinJerkProblem::ValueCache cache_;
   Eigen::VectorXd z0_;
   Eigen::VectorXd z_;
-  int cached_level_ = 0;
+  int cached_level_ = 0;   // evaluated at z_: 0 nothing, 1 value, 2 also the derivatives
+  int counted_level_ = 0;  // the same, as Ipopt has requested it since it last flagged new_x
+  MinJerkCostTerms terms_;
   double value_ = 0.0;
   Eigen::VectorXd grad_;
   Eigen::MatrixXd hess_;
@@ -425,7 +450,8 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
       return result;
     }
     const Eigen::VectorXd& z = tnlp->Final();
-    result.cost = problem.Evaluate(z, nullptr, nullptr);
+    const MinJerkCostTerms* final_terms = tnlp->TermsAt(z);
+    result.cost = final_terms != nullptr ? *final_terms : problem.Evaluate(z, nullptr, nullptr);
     // A diverged time scale (the last iterate of a failed solve) is reported, not sampled: a
     // trajectory stretched 10^6 times would take gigabytes of check samples.
     const double time_scale = MinJerkProblem::TimeScale(z);

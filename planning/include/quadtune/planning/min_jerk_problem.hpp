@@ -194,7 +194,10 @@ class MinJerkProblem {
   int num_pieces_ = 0;
   Eigen::MatrixXd coeff_map_;  // K: 6N × nb
   Eigen::MatrixXd jerk_hess_;  // H̄: nb × nb
-  double sum_nominal_ = 0.0;   // Σ T̄ (s)
+  // H̄ᵀ by rows (H̄'s columns) with a row stride of nb rounded up to 4, zero-padded: the l of
+  // AddTransposedProduct for H̄ b (empty where that does not apply).
+  std::vector<double> jerk_hess_rows_;
+  double sum_nominal_ = 0.0;  // Σ T̄ (s)
   // Per-sample rows (nb) for position, normalised velocity and acceleration: S_d (ns × nb).
   Eigen::MatrixXd sample_rows_[3];
   std::vector<int> sample_piece_;
