@@ -4,19 +4,22 @@
 /// product and without its per-call packing.
 ///
 /// The derivative pass of `MinJerkProblem::Evaluate` multiplies the few active samples' rows of
-/// S_d (K of them, K ≈ 12) into m × m and m × 3 blocks (m ≤ 11 inner waypoints). Eigen evaluates
-/// each such product through its general blocked kernel, whose packing and dispatch cost more
-/// than the arithmetic at these sizes. `AddTransposedProduct` computes the same sums, each in the
+/// S_d (K of them, K ≈ 12) into m × m and m × 3 blocks (m ≤ 11 inner waypoints), and its value
+/// pass computes H̄ b (nb × nb times nb × 3, nb ≤ 17). Eigen evaluates each such product through
+/// its general blocked kernel, whose packing and dispatch cost more than the arithmetic at these
+/// sizes. `AddTransposedProduct` computes the same sums, each in the
 /// order Eigen 3.4's kernel (`gebp_kernel`, SSE2 doubles, no FMA) adds them, so every result keeps
 /// its bits. That order, per entry (i, j) of the m × n result:
 ///  - products k = 0…K−1 summed one after the other from +0, then added to dst(i, j);
-///  - except in the kernel's single two-row panel (rows [mc2, mc1), see the source) for the
-///    columns of its four-column panels: there the first K & ~7 products go alternately to two
-///    sums (even k, odd k), which are added, and the rest follow one by one.
+///  - except in the kernel's single two-row panel (rows 4⌊m/4⌋ and the next, when m mod 4 ≥ 2)
+///    for the columns of its four-column panels (j < 4⌊n/4⌋): there the first K & ~7 products go
+///    alternately to two sums (even k, odd k), which are added, and the rest follow one by one.
 /// `TransposedProductApplies` says for which sizes this holds: where Eigen itself runs the blocked
 /// kernel (K + m + n ≥ EIGEN_GEMM_TO_COEFFBASED_THRESHOLD, m, n ≥ 2), with K below the size at
-/// which Eigen would split the depth into cache blocks. Elsewhere the caller keeps Eigen's
-/// product. `planning_tests` compares the bits against Eigen's product over all these sizes.
+/// which Eigen would split the depth into cache blocks, in a build whose Eigen kernel is the one
+/// described (SSE2, no AVX or FMA: x86-64's baseline, as this project builds). Elsewhere the caller
+/// keeps Eigen's product. `planning_tests` compares the bits against Eigen's product over all these
+/// sizes.
 ///
 /// Thread safety: pure functions.
 
