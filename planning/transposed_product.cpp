@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <cstring>
+#include <utility>
 
 #include "quadtune/common/error.hpp"
 
@@ -98,34 +99,21 @@ inline __attribute__((always_inline)) void KernelBody(int k, int m, int n, const
   }
 }
 
-// One function per lane-group count, each with an AVX2 clone picked at load time (left out
-// under TSan, whose runtime is not up when the clones' resolvers run).
+// The body for the lane-group count of m, inlined into each clone: an AVX2 clone picked at load
+// time (left out under TSan, whose runtime is not up when the clones' resolvers run).
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__SANITIZE_THREAD__)
-#define QT_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define QT_CLONES
+__attribute__((target_clones("avx2", "default")))
 #endif
-QT_CLONES void Kernel1(int k, int m, int n, const double* l, int ldl, const double* r, int ldr,
-                       double* dst, int ldd, bool lower_only) {
-  KernelBody<1>(k, m, n, l, ldl, r, ldr, dst, ldd, lower_only);
+void Kernel(int k, int m, int n, const double* l, int ldl, const double* r, int ldr, double* dst,
+            int ldd, bool lower_only) {
+  // KernelBody<G> for G = ⌈m / 4⌉ lane groups, each body inlined into this clone.
+  const int groups = TransposedProductStride(m) / 4;
+  [&]<int... G>(std::integer_sequence<int, G...>) __attribute__((always_inline)) {
+    ((groups == G + 1 ? KernelBody<G + 1>(k, m, n, l, ldl, r, ldr, dst, ldd, lower_only) : void()),
+     ...);
+  }
+  (std::make_integer_sequence<int, kTransposedProductMaxRows / 4>{});
 }
-QT_CLONES void Kernel2(int k, int m, int n, const double* l, int ldl, const double* r, int ldr,
-                       double* dst, int ldd, bool lower_only) {
-  KernelBody<2>(k, m, n, l, ldl, r, ldr, dst, ldd, lower_only);
-}
-QT_CLONES void Kernel3(int k, int m, int n, const double* l, int ldl, const double* r, int ldr,
-                       double* dst, int ldd, bool lower_only) {
-  KernelBody<3>(k, m, n, l, ldl, r, ldr, dst, ldd, lower_only);
-}
-QT_CLONES void Kernel4(int k, int m, int n, const double* l, int ldl, const double* r, int ldr,
-                       double* dst, int ldd, bool lower_only) {
-  KernelBody<4>(k, m, n, l, ldl, r, ldr, dst, ldd, lower_only);
-}
-QT_CLONES void Kernel5(int k, int m, int n, const double* l, int ldl, const double* r, int ldr,
-                       double* dst, int ldd, bool lower_only) {
-  KernelBody<5>(k, m, n, l, ldl, r, ldr, dst, ldd, lower_only);
-}
-#undef QT_CLONES
 
 }  // namespace
 
@@ -138,23 +126,7 @@ void AddTransposedProduct(int k, int m, int n, const double* l, int ldl, const d
                           double* dst, int ldd, bool lower_only) {
   QT_DEMAND(TransposedProductApplies(k, m, n), "AddTransposedProduct: size out of its range");
   QT_DEMAND(ldl % 4 == 0 && ldl >= TransposedProductStride(m), "AddTransposedProduct: bad ldl");
-  switch (TransposedProductStride(m) / 4) {
-    case 1:
-      Kernel1(k, m, n, l, ldl, r, ldr, dst, ldd, lower_only);
-      break;
-    case 2:
-      Kernel2(k, m, n, l, ldl, r, ldr, dst, ldd, lower_only);
-      break;
-    case 3:
-      Kernel3(k, m, n, l, ldl, r, ldr, dst, ldd, lower_only);
-      break;
-    case 4:
-      Kernel4(k, m, n, l, ldl, r, ldr, dst, ldd, lower_only);
-      break;
-    default:
-      Kernel5(k, m, n, l, ldl, r, ldr, dst, ldd, lower_only);
-      break;
-  }
+  Kernel(k, m, n, l, ldl, r, ldr, dst, ldd, lower_only);
 }
 
 }  // namespace quadtune::planning::detail
