@@ -110,10 +110,7 @@ class MinJerkTnlp final : public UnconstrainedDenseTnlp {
   /// The cost terms at z when the last evaluation was at exactly z (the final iterate usually
   /// is), else null.
   [[nodiscard]] const MinJerkCostTerms* TermsAt(const Eigen::VectorXd& z) const {
-    const bool same =
-        cached_level_ > 0 && z_.size() == z.size() &&
-        std::memcmp(z_.data(), z.data(), sizeof(double) * static_cast<std::size_t>(z.size())) == 0;
-    return same ? &terms_ : nullptr;
+    return EvaluatedAt(z.data(), static_cast<Index>(z.size())) ? &terms_ : nullptr;
   }
 
  private:
@@ -123,10 +120,14 @@ class MinJerkTnlp final : public UnconstrainedDenseTnlp {
   // identity of its vector, not by the values: its gradient-based scaling evaluates the starting
   // point in a vector of its own, and the first iterate holds the same bits in another. The
   // values are compared, so that point is evaluated once.
+  // True when an evaluation is held at exactly these bits of x.
+  [[nodiscard]] bool EvaluatedAt(const Number* x, Index n) const {
+    return cached_level_ > 0 && z_.size() == n &&
+           std::memcmp(z_.data(), x, sizeof(Number) * static_cast<std::size_t>(n)) == 0;
+  }
+
   bool Prepare(Index n, const Number* x, bool new_x, int level) {
-    const bool same_point =
-        cached_level_ > 0 && z_.size() == n &&
-        std::memcmp(z_.data(), x, sizeof(Number) * static_cast<std::size_t>(n)) == 0;
+    const bool same_point = EvaluatedAt(x, n);
     if (new_x || cached_level_ == 0) {
       // The query count (PlanResult::distance_queries) follows Ipopt's requests: a point Ipopt
       // flags as new counts again, whether or not its evaluation is reused.
