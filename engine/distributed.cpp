@@ -164,7 +164,9 @@ Json ToJson(const EvaluationRow& r) {
               {"message", r.message},
               {"wall_s", Bits(r.wall_s)},
               {"started", Bits(r.started)},
-              {"finished", Bits(r.finished)}};
+              {"finished", Bits(r.finished)},
+              {"map_seed", r.map_seed},
+              {"flight_seed", r.flight_seed}};
 }
 
 EvaluationRow RowFromJson(const Json& j) {
@@ -182,6 +184,8 @@ EvaluationRow RowFromJson(const Json& j) {
   r.wall_s = FromBits(j.at("wall_s"));
   r.started = FromBits(j.at("started"));
   r.finished = FromBits(j.at("finished"));
+  r.map_seed = j.at("map_seed").get<std::uint64_t>();
+  r.flight_seed = j.at("flight_seed").get<std::uint64_t>();
   return r;
 }
 

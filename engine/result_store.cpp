@@ -71,8 +71,15 @@ CREATE TABLE IF NOT EXISTS trial(id INTEGER PRIMARY KEY, experiment_id INTEGER, 
   UNIQUE(experiment_id, method, repeat));
 CREATE TABLE IF NOT EXISTS evaluation(id INTEGER PRIMARY KEY, trial_id INTEGER, method TEXT,
   kind TEXT, iteration INTEGER, idx INTEGER, params TEXT, terms TEXT, value REAL, status TEXT,
-  message TEXT, wall_s REAL, started REAL, finished REAL, UNIQUE(trial_id, kind, iteration, idx));
+  message TEXT, wall_s REAL, started REAL, finished REAL, map_seed TEXT, flight_seed TEXT,
+  UNIQUE(trial_id, kind, iteration, idx));
 )";
+
+/// Seeds are stored as decimal text (SQLite integers are signed); "" reads as 0.
+std::string SeedText(std::uint64_t seed) { return seed == 0 ? std::string() : std::to_string(seed); }
+std::uint64_t SeedOf(const std::string& text) {
+  return text.empty() ? 0 : std::stoull(text);
+}
 
 EvaluationRow ReadRow(Statement& s) {
   EvaluationRow r;
@@ -89,12 +96,14 @@ EvaluationRow ReadRow(Statement& s) {
   r.wall_s = s.Double(10);
   r.started = s.Double(11);
   r.finished = s.Double(12);
+  r.map_seed = SeedOf(s.Text(13));
+  r.flight_seed = SeedOf(s.Text(14));
   return r;
 }
 
 const char* kSelectEval =
     "SELECT trial_id, method, kind, iteration, idx, params, terms, value, status, message, wall_s, "
-    "started, finished FROM evaluation";
+    "started, finished, map_seed, flight_seed FROM evaluation";
 
 std::string CsvField(const std::string& s) {
   if (s.find_first_of(",\"\n") == std::string::npos) return s;
@@ -221,8 +230,8 @@ void ResultStore::Insert(const EvaluationRow& r) {
   try {
     Statement s(db_,
                 "INSERT OR IGNORE INTO evaluation(trial_id, method, kind, iteration, idx, params, "
-                "terms, value, status, message, wall_s, started, finished) "
-                "VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?)");
+                "terms, value, status, message, wall_s, started, finished, map_seed, flight_seed) "
+                "VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
     s.Bind(1, r.trial_id);
     s.Bind(2, r.method);
     s.Bind(3, r.kind);
@@ -236,6 +245,8 @@ void ResultStore::Insert(const EvaluationRow& r) {
     s.Bind(11, r.wall_s);
     s.Bind(12, r.started);
     s.Bind(13, r.finished);
+    s.Bind(14, SeedText(r.map_seed));
+    s.Bind(15, SeedText(r.flight_seed));
     s.Step();
     Exec("COMMIT");
   } catch (...) {
@@ -301,12 +312,13 @@ void ResultStore::ExportCsv(const std::string& directory) const {
   }
   std::ofstream out(fs::path(directory) / "evaluations.csv");
   out << "trial_id,method,kind,iteration,index,params,terms,value,status,message,wall_s,started,"
-         "finished\n";
+         "finished,map_seed,flight_seed\n";
   for (const auto& r : Evaluations()) {
     out << r.trial_id << ',' << r.method << ',' << r.kind << ',' << r.iteration << ',' << r.index
         << ',' << CsvField(r.params) << ',' << CsvField(r.terms) << ',' << Num(r.value) << ','
         << r.status << ',' << CsvField(r.message) << ',' << Num(r.wall_s) << ','
-        << Num(r.started) << ',' << Num(r.finished) << '\n';
+        << Num(r.started) << ',' << Num(r.finished) << ',' << SeedText(r.map_seed) << ','
+        << SeedText(r.flight_seed) << '\n';
   }
 }
 

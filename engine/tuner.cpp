@@ -44,6 +44,8 @@ struct Outcome {
   std::vector<Opaque> queries;  // flights that record
   bool replayed = false;
   int query_count = 0;
+  std::uint64_t map_seed = 0;     // flights
+  std::uint64_t flight_seed = 0;  // flights
 };
 
 /// State shared by every trial of a run.
@@ -69,6 +71,7 @@ struct Context {
 void FlyInto(Context& c, const Opaque& map, const ParamValues& params, std::uint64_t seed,
              bool record, std::function<void(double, ParamValues&)> provider, Outcome& out) {
   out.params = params;
+  out.flight_seed = seed;
   out.started = Now();
   const auto t0 = Clock::now();
   WorkerSlot* slot = c.pool.Acquire();
@@ -130,6 +133,8 @@ Outcome Replay(const Context& c, const EvaluationRow& row, const ParamValues& as
   o.started = row.started;
   o.finished = row.finished;
   o.replayed = true;
+  o.map_seed = row.map_seed;
+  o.flight_seed = row.flight_seed;
   auto q = o.objective.terms.find("queries");
   o.query_count = q == o.objective.terms.end() ? 0 : static_cast<int>(q->second);
   return o;
@@ -152,6 +157,8 @@ void Store(Context& c, std::int64_t trial_id, Method method, const char* kind, i
   r.wall_s = o.wall_s;
   r.started = o.started;
   r.finished = o.finished;
+  r.map_seed = o.map_seed;
+  r.flight_seed = o.flight_seed;
   c.store->Insert(r);
 }
 

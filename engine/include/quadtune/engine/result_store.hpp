@@ -5,9 +5,11 @@
 /// Tables:
 ///   experiment(id, name, config TEXT, seed, version, machine, threads, mode, started)
 ///   trial(id, experiment_id, method, repeat, map_seed, status, best_params, best_value, finished)
-///   evaluation(id, trial_id, method, kind 'short'|'long', iteration, idx, params JSON,
-///              terms JSON (every objective term), value, status, message, wall_s, started,
-///              finished) — UNIQUE(trial_id, kind, iteration, idx)
+///   evaluation(id, trial_id, method, kind 'short'|'long'|'validation', iteration, idx,
+///              params JSON, terms JSON (every objective term), value, status, message, wall_s,
+///              started, finished, map_seed, flight_seed) — UNIQUE(trial_id, kind, iteration, idx)
+///   (map_seed and flight_seed: decimal text of the 64-bit seeds a flight flew with, so that any
+///   stored flight can be flown again; empty for short-term rows)
 ///
 /// Resume: Open(resume = true) checks that the stored configuration text equals the experiment's
 /// and loads the stored evaluations; the tuner replays them (same order, same values) instead of
@@ -38,8 +40,8 @@ struct Experiment;
 struct EvaluationRow {
   std::int64_t trial_id = 0;
   std::string method;
-  std::string kind;            ///< "short" | "long"
-  int iteration = 0;           ///< round (long) or PSO generation (short)
+  std::string kind;            ///< "short" | "long" | "validation"
+  int iteration = 0;           ///< round (long), PSO generation (short), held-out map (validation)
   int index = 0;               ///< position inside the iteration
   std::string params;          ///< JSON object name → value
   std::string terms;           ///< JSON object of objective terms
@@ -49,6 +51,8 @@ struct EvaluationRow {
   double wall_s = 0.0;         ///< wall-clock duration (s)
   double started = 0.0;        ///< unix time (s)
   double finished = 0.0;       ///< unix time (s)
+  std::uint64_t map_seed = 0;     ///< flights: seed of the map flown (PrepareMap); else 0
+  std::uint64_t flight_seed = 0;  ///< flights: seed of the flight's random streams; else 0
 };
 
 /// A trial as stored.
