@@ -438,6 +438,10 @@ def plot_validation(directory):
     for tid, values in sorted(n_d.items()):
         ax_b.step(range(1, len(values) + 1), values, where="post", color=COLORS.get("bo_pso"),
                   alpha=0.7, lw=1.2)
+    from matplotlib.ticker import MaxNLocator
+    ax_a.set_ylim(-0.6, len(ranked) - 0.4)
+    ax_b.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax_b.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax_b.set_xlabel("long-term evaluation (flight)")
     ax_b.set_ylabel("n_d (θ_s changes so far)")
     ax_b.set_title("(B) BO+PSO: discount count n_d per trial")
