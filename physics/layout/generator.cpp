@@ -102,8 +102,8 @@ ZoneResult GenerateZone(const LayoutOptions& o, const ZoneOptions& zone, std::ui
           "", spacing_key,
           "cannot place the " + std::to_string(target_count) + " obstacles that spacing " +
               Num(target) + " m asks for in the zone x in [" + Num(zone.x_min) + ", " +
-              Num(zone.x_max) + ") (area / (4 spacing²) of " + Num(zone_area) + " m²): " +
-              std::to_string(nn.size()) + " placed, then the last " +
+              Num(zone.x_max) + ") (area / (4 spacing²) of " + Num(zone_area) +
+              " m²): " + std::to_string(nn.size()) + " placed, then the last " +
               std::to_string(o.max_rejections) +
               " candidates were all rejected (overlap within min_gap, keep-out zones, "
               "hard_core_ratio); use a larger spacing, smaller obstacles, a smaller min_gap or "

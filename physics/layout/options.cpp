@@ -251,8 +251,7 @@ void LayoutOptions::Validate(const std::string& file, const std::string& key_pre
   if (!(total <= kMaxObstaclesPerLayout)) {
     c.Fail(zones.empty() ? "spacing" : "zones",
            "the region (" + Num(region.Area()) + " m²) at this spacing asks for " + Num(total) +
-               " obstacles (area / (4 spacing²) per zone); at most " +
-               Num(kMaxObstaclesPerLayout) +
+               " obstacles (area / (4 spacing²) per zone); at most " + Num(kMaxObstaclesPerLayout) +
                " obstacles per layout are allowed: use a larger spacing or a smaller region");
   }
   double keep_out_area = 0.0;
@@ -267,8 +266,9 @@ void LayoutOptions::Validate(const std::string& file, const std::string& key_pre
 }
 
 LayoutOptions LayoutOptions::FromYaml(const YamlMap& map) {
-  map.RejectUnknownKeys({"region", "mission", "keep_out", "spacing", "density", "obstacles", "zones",
-                         "min_gap", "hard_core_ratio", "tolerance", "max_rejections", "ground"});
+  map.RejectUnknownKeys({"region", "mission", "keep_out", "spacing", "density", "obstacles",
+                         "zones", "min_gap", "hard_core_ratio", "tolerance", "max_rejections",
+                         "ground"});
   LayoutOptions o;
   const YamlMap region = map.Map("region", true);
   region.RejectUnknownKeys({"min", "max"});

@@ -157,9 +157,10 @@ TEST(LayoutOptions, RejectsLayoutThatCouldNeverFinish) {
                             "{x_range: [10, 1000000], spacing: 3}]"),
                       "zones");
   // Just inside the limit: 100 000 obstacles at spacing 1 m (400 000 m²) are accepted.
-  EXPECT_NO_THROW(Parse("region: {min: [0, 0], max: [400, 1000]}\nspacing: 1.0\n"
-                        "obstacles: {cylinder: {radius: [0.1, 0.2]}, ring_fraction: 0}\n"
-                        "mission: {start: [1, 1, 1], goal: [399, 1, 1]}"));
+  EXPECT_NO_THROW(
+      Parse("region: {min: [0, 0], max: [400, 1000]}\nspacing: 1.0\n"
+            "obstacles: {cylinder: {radius: [0.1, 0.2]}, ring_fraction: 0}\n"
+            "mission: {start: [1, 1, 1], goal: [399, 1, 1]}"));
   EXPECT_CONFIG_ERROR(Parse("region: {min: [0, 0], max: [400.01, 1000]}\nspacing: 1.0\n"
                             "obstacles: {cylinder: {radius: [0.1, 0.2]}, ring_fraction: 0}\n"
                             "mission: {start: [1, 1, 1], goal: [399, 1, 1]}"),

@@ -15,10 +15,13 @@
 ///     nearest-neighbour distance, 1 / (2 √λ), is s: on average the paper's meaning holds, but
 ///     the count, hence the crowding, is fixed and grows as 1 / s².
 ///     Why not one obstacle per s² (λ = 1 / s²)? Measured with the default planner on the
-///     shipped forests (docs/results/density/definition.md): at 0.9 m that is ~296 obstacles
-///     in 240 m², mean nearest-neighbour distance well below the drone's need, and the default
-///     flight mostly fails, so flight time stops measuring crowding; A / (4 s²) keeps the count
-///     and the default flight time monotone in s while the flights still complete.
+///     shipped forests (docs/results/density/definition.md): A / s² puts 142 obstacles at
+///     1.3 m and 296 at 0.9 m into the 240 m² corridor (mean nearest-neighbour distance 0.93
+///     and 0.61 m); every default flight there hit obstacles, with 20–25 emergency stops per 3
+///     flights, and flight time fell from 1.3 to 0.9 m (65.0 → 60.8 s), so it stops measuring
+///     crowding. With A / (4 s²) (7, 14, 36, 74 obstacles) all 40 default flights complete,
+///     none with a collision, and the count and the flight time rise monotonically from 3.0 to
+///     0.9 m (28.8, 29.0, 32.0, 32.3 s over 10 seeds).
 ///   - `nearest_neighbour`: darts are added until the mean nearest-neighbour distance between
 ///     obstacle centres reaches s. At low counts that says little about crowding (a few
 ///     obstacles spread out reach a large mean with few obstacles).
@@ -181,7 +184,6 @@ struct LayoutOptions {
   Mission mission;                    ///< start/goal and their keep-out cylinders
   std::vector<KeepOutZone> keep_out;  ///< further keep-out cylinders
   double spacing = 1.3;               ///< target spacing (m) when `zones` is empty
-  DensityDefinition density = DensityDefinition::kArea;  ///< what a spacing means
   ObstacleMix obstacles;              ///< the obstacle mixture (zones may override it)
   std::vector<ZoneOptions> zones;     ///< density zones; empty: one zone over the region
   double min_gap = 0.2;               ///< least distance (m) between two footprints, >= 0
@@ -192,6 +194,8 @@ struct LayoutOptions {
   long max_rejections = 10000;        ///< darts rejected in a row before a zone is declared
                                       ///< impossible, in [100, 1e8]
   bool ground = true;                 ///< the world has a ground plane at z = 0
+  /// What a spacing means (YAML `density`: area | nearest_neighbour).
+  DensityDefinition density = DensityDefinition::kArea;
 
   /// The zones to generate: `zones`, or one zone over the whole region with `spacing`.
   [[nodiscard]] std::vector<ZoneOptions> EffectiveZones() const;
