@@ -6,6 +6,8 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
+#include "quadtune/layout/options.hpp"
+
 namespace quadtune::cli {
 
 /// `quadtune fly`: one closed-loop flight with given parameters, writing its log and figure.
@@ -29,5 +31,11 @@ int RunPlotScript(const std::string& args);
 /// Path of an asset shipped with the sources (assets/…), found from the source tree or
 /// $QUADTUNE_ASSETS.
 std::string AssetPath(const std::string& relative);
+/// The forest the experiments fly at `spacing` (m): assets/layouts/forest_<S>.yaml when one is
+/// shipped for that spacing (e.g. forest_1p3.yaml for 1.3), else forest_1p3.yaml with its
+/// spacing replaced. The layout files are the one source of truth for `fly --spacing` and
+/// `layout --spacing`. Throws ConfigError("--spacing", ...) for a spacing its obstacles cannot
+/// reach.
+layout::LayoutOptions ForestOptions(double spacing);
 
 }  // namespace quadtune::cli

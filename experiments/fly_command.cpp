@@ -1,5 +1,6 @@
 #include <spdlog/spdlog.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -65,8 +66,7 @@ int RunFly(const FlyArgs& a) {
     if (!a.layout_options_file.empty()) {
       options = layout::LayoutOptions::LoadFile(a.layout_options_file);
     } else {
-      options.spacing = a.spacing;
-      options.Validate("--spacing");
+      options = ForestOptions(a.spacing);
     }
     layout = layout::GenerateLayout(options, a.seed);
   }
@@ -100,6 +100,7 @@ int RunFly(const FlyArgs& a) {
     const auto path = std::filesystem::path(a.out) / "summary.json";
     nlohmann::json summary = nlohmann::json::parse(std::ifstream(path));
     summary["spacing_target"] = layout.options.spacing;
+    summary["density_definition"] = layout::ToString(layout.options.density);
     summary["spacing_achieved"] = layout.stats.overall.mean;
     summary["obstacles"] = layout.obstacles.size();
     summary["seed"] = a.seed;
@@ -127,6 +128,23 @@ int RunFly(const FlyArgs& a) {
 
 }  // namespace
 
+layout::LayoutOptions ForestOptions(double spacing) {
+  if (!(spacing > 0.0) || !std::isfinite(spacing)) {
+    throw ConfigError("--spacing", "", "expected a positive spacing (m)");
+  }
+  // forest_1p3.yaml for 1.3 m: the spacing with one decimal, the point written as 'p'.
+  const long tenths = std::lround(10.0 * spacing);
+  const std::string name = "layouts/forest_" + std::to_string(tenths / 10) + "p" +
+                           std::to_string(tenths % 10) + ".yaml";
+  const bool shipped = std::abs(10.0 * spacing - static_cast<double>(tenths)) < 1e-9 &&
+                       std::filesystem::exists(AssetPath(name));
+  layout::LayoutOptions options =
+      layout::LayoutOptions::LoadFile(AssetPath(shipped ? name : "layouts/forest_1p3.yaml"));
+  options.spacing = spacing;
+  options.Validate("--spacing");
+  return options;
+}
+
 void RegisterFly(CLI::App& app, int& exit_code) {
   static FlyArgs args;
   auto* cmd = app.add_subcommand(
@@ -136,8 +154,10 @@ void RegisterFly(CLI::App& app, int& exit_code) {
   cmd->add_option("--layout", args.layout_file, "a saved layout (YAML) to fly through");
   cmd->add_option("--layout-options", args.layout_options_file,
                   "layout generator options (YAML) to generate from");
-  cmd->add_option("--spacing", args.spacing, "target mean obstacle spacing (m) when no layout "
-                                             "is given")->capture_default_str();
+  cmd->add_option("--spacing", args.spacing, "average obstacle spacing (m) when no layout is "
+                                             "given: the shipped forest of that spacing "
+                                             "(assets/layouts/forest_*.yaml), else "
+                                             "forest_1p3.yaml at that spacing")->capture_default_str();
   cmd->add_option("--seed", args.seed, "seed of the layout and the world")->capture_default_str();
   cmd->add_option("--world", args.world_file, "world options (YAML): rates, wind, noise, …");
   cmd->add_option("--set", args.set, "planner parameter override NAME=VALUE (repeatable), e.g. "

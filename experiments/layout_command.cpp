@@ -20,19 +20,24 @@ int RunLayout(const LayoutArgs& a) {
   if (!a.options_file.empty()) {
     options = layout::LayoutOptions::LoadFile(a.options_file);
   } else {
-    options.spacing = a.spacing;
-    options.Validate("--spacing");
+    options = ForestOptions(a.spacing);
   }
   const layout::Layout layout = layout::GenerateLayout(options, a.seed);
   layout.Save(a.out);
   const auto& s = layout.stats.overall;
-  spdlog::info("{} cylinders, {} rings; mean nearest-neighbour spacing {:.3f} m (std {:.3f}, min "
-               "{:.3f}); saved to {}",
-               layout.obstacles.cylinders.size(), layout.obstacles.rings.size(), s.mean, s.std,
-               s.min, a.out);
-  for (const auto& z : layout.stats.zones) {
-    spdlog::info("  zone x in [{:.1f}, {:.1f}] m: target {:.2f} m, achieved {:.3f} m", z.x_min,
-                 z.x_max, z.target_spacing, z.spacing.mean);
+  spdlog::info("{} cylinders, {} rings (density: {}); mean nearest-neighbour spacing {:.3f} m "
+               "(std {:.3f}, min {:.3f}); saved to {}",
+               layout.obstacles.cylinders.size(), layout.obstacles.rings.size(),
+               layout::ToString(options.density), s.mean, s.std, s.min, a.out);
+  const auto zones = options.EffectiveZones();
+  for (std::size_t i = 0; i < layout.stats.zones.size(); ++i) {
+    const auto& z = layout.stats.zones[i];
+    spdlog::info("  zone x in [{:.1f}, {:.1f}] m: spacing {:.2f} m, {} obstacles (area target "
+                 "{:.0f}, {:.3f} per m²), mean nearest-neighbour distance {:.3f} m",
+                 z.x_min, z.x_max, z.target_spacing, z.cylinders + z.rings,
+                 options.TargetCount(zones[i]),
+                 static_cast<double>(z.cylinders + z.rings) / options.ZoneArea(zones[i]),
+                 z.spacing.mean);
   }
   return 0;
 }
@@ -43,7 +48,8 @@ void RegisterLayout(CLI::App& app, int& exit_code) {
   static LayoutArgs args;
   auto* cmd = app.add_subcommand("layout", "generate an obstacle layout (CGAL) and save it");
   cmd->add_option("--options", args.options_file, "generator options (YAML)");
-  cmd->add_option("--spacing", args.spacing, "target mean spacing (m) without --options")
+  cmd->add_option("--spacing", args.spacing, "average spacing (m) without --options: the "
+                                             "shipped forest of that spacing, else forest_1p3")
       ->capture_default_str();
   cmd->add_option("--seed", args.seed, "seed")->capture_default_str();
   cmd->add_option("--out", args.out, "output file (YAML)")->capture_default_str();

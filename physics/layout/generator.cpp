@@ -84,9 +84,11 @@ ZoneResult GenerateZone(const LayoutOptions& o, const ZoneOptions& zone, std::ui
   const double hard_core = o.hard_core_ratio * target;
   // A Poisson forest of intensity λ has mean NN distance 1 / (2 sqrt(λ)); hard cores and the
   // region's border only raise it. Half of that count is a safe lower bound on where to stop.
-  const double zone_area = (zone.x_max - zone.x_min) * (o.region.max_W.y() - o.region.min_W.y());
+  const double zone_area = o.ZoneArea(zone);
   const std::size_t min_count = std::max<std::size_t>(
       2, static_cast<std::size_t>(std::floor(0.5 * zone_area / (4.0 * target * target))));
+  const bool by_count = o.density == DensityDefinition::kArea;
+  const auto target_count = static_cast<std::size_t>(o.TargetCount(zone));
 
   detail::DelaunayIndex index;
   std::vector<double> nn;  // NN distance of every zone obstacle so far (m)
@@ -95,6 +97,18 @@ ZoneResult GenerateZone(const LayoutOptions& o, const ZoneOptions& zone, std::ui
   ZoneResult result;
   long rejections = 0;
   for (;;) {
+    if (rejections >= o.max_rejections && by_count) {
+      throw ConfigError(
+          "", spacing_key,
+          "cannot place the " + std::to_string(target_count) + " obstacles that spacing " +
+              Num(target) + " m asks for in the zone x in [" + Num(zone.x_min) + ", " +
+              Num(zone.x_max) + ") (area / (4 spacing²) of " + Num(zone_area) +
+              " m²): " + std::to_string(nn.size()) + " placed, then the last " +
+              std::to_string(o.max_rejections) +
+              " candidates were all rejected (overlap within min_gap, keep-out zones, "
+              "hard_core_ratio); use a larger spacing, smaller obstacles, a smaller min_gap or "
+              "hard_core_ratio, or fewer/smaller keep-out zones");
+    }
     if (rejections >= o.max_rejections) {
       const std::size_t n = nn.size();
       throw ConfigError(
@@ -144,7 +158,9 @@ ZoneResult GenerateZone(const LayoutOptions& o, const ZoneOptions& zone, std::ui
     }
     new_sum = n == 0 ? 0.0 : (n == 1 ? 2.0 * p_nn : new_sum + p_nn);
     bool done = false;
-    if (n + 1 >= 2) {
+    if (by_count) {
+      done = n + 1 >= target_count;
+    } else if (n + 1 >= 2) {
       const double mean = new_sum / static_cast<double>(n + 1);
       if (mean < band_lo) continue;  // would overshoot the density
       done = mean <= band_hi && n + 1 >= min_count;

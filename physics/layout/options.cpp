@@ -134,6 +134,14 @@ void EmitMix(YAML::Emitter& out, const ObstacleMix& mix) {
 
 }  // namespace
 
+const char* ToString(DensityDefinition d) {
+  return d == DensityDefinition::kArea ? "area" : "nearest_neighbour";
+}
+
+double LayoutOptions::TargetCount(const ZoneOptions& zone) const {
+  return std::max(1.0, std::round(ZoneArea(zone) / (4.0 * zone.spacing * zone.spacing)));
+}
+
 double ObstacleMix::MaxReach() const {
   double reach = 0.0;
   if (ring_fraction < 1.0) reach = std::max(reach, cylinder.radius.max);
@@ -237,6 +245,15 @@ void LayoutOptions::Validate(const std::string& file, const std::string& key_pre
                            " m across)");
     }
   }
+  // Layouts that could never finish.
+  double total = 0.0;
+  for (const ZoneOptions& z : effective) total += TargetCount(z);
+  if (!(total <= kMaxObstaclesPerLayout)) {
+    c.Fail(zones.empty() ? "spacing" : "zones",
+           "the region (" + Num(region.Area()) + " m²) at this spacing asks for " + Num(total) +
+               " obstacles (area / (4 spacing²) per zone); at most " + Num(kMaxObstaclesPerLayout) +
+               " obstacles per layout are allowed: use a larger spacing or a smaller region");
+  }
   double keep_out_area = 0.0;
   for (const KeepOutZone& k : AllKeepOutZones()) {
     keep_out_area += std::numbers::pi * k.radius * k.radius;
@@ -249,8 +266,9 @@ void LayoutOptions::Validate(const std::string& file, const std::string& key_pre
 }
 
 LayoutOptions LayoutOptions::FromYaml(const YamlMap& map) {
-  map.RejectUnknownKeys({"region", "mission", "keep_out", "spacing", "obstacles", "zones",
-                         "min_gap", "hard_core_ratio", "tolerance", "max_rejections", "ground"});
+  map.RejectUnknownKeys({"region", "mission", "keep_out", "spacing", "density", "obstacles",
+                         "zones", "min_gap", "hard_core_ratio", "tolerance", "max_rejections",
+                         "ground"});
   LayoutOptions o;
   const YamlMap region = map.Map("region", true);
   region.RejectUnknownKeys({"min", "max"});
@@ -271,6 +289,9 @@ LayoutOptions LayoutOptions::FromYaml(const YamlMap& map) {
   }
 
   o.spacing = map.Number("spacing", o.spacing, Range::Positive());
+  o.density = map.String("density", "area", {"area", "nearest_neighbour"}) == "area"
+                  ? DensityDefinition::kArea
+                  : DensityDefinition::kNearestNeighbour;
   o.obstacles = ReadMix(map.Map("obstacles", true), o.obstacles);
   for (const YamlMap& z : map.Maps("zones")) {
     z.RejectUnknownKeys({"x_range", "spacing", "obstacles"});
@@ -316,6 +337,7 @@ void LayoutOptions::ToYaml(YAML::Emitter& out) const {
   }
   out << YAML::EndSeq;
   out << YAML::Key << "spacing" << YAML::Value << spacing;
+  out << YAML::Key << "density" << YAML::Value << ToString(density);
   out << YAML::Key << "obstacles" << YAML::Value;
   EmitMix(out, obstacles);
   out << YAML::Key << "zones" << YAML::Value << YAML::BeginSeq;

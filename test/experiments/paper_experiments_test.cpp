@@ -261,6 +261,21 @@ TEST(PaperExperiments, ThreadScalingWritesCsvAndFigure) {
   ExpectFigure(dir / "bench.png");
 }
 
+// `--spacing` uses the experiments' own forest files: `layout --spacing 1.3 --seed 1` writes the
+// shipped layout generated from assets/layouts/forest_1p3.yaml with seed 1, byte for byte.
+TEST(PaperExperiments, SpacingOptionUsesTheShippedForest) {
+  const fs::path dir = Fresh("spacing_forest");
+  ASSERT_EQ(RunQuadtune("--log-level warn layout --spacing 1.3 --seed 1 --out " +
+                            (dir / "l.yaml").string(),
+                        dir / "layout.log"),
+            0)
+      << ReadText(dir / "layout.log");
+  std::string shipped =
+      ReadText(fs::path(QUADTUNE_SOURCE_DIR) / "assets/layouts/forest_1p3_seed1.layout.yaml");
+  shipped = shipped.substr(shipped.find("format:"));  // past the comment header
+  EXPECT_EQ(ReadText(dir / "l.yaml"), shipped);
+}
+
 // Any flight: a top-down figure of the layout with the flown and the planned trajectories.
 TEST(PaperExperiments, FlightWritesTopDownFigure) {
   const fs::path dir = Fresh("flight");

@@ -148,9 +148,35 @@ int CountRuleViolations(const Layout& layout) {
 
 class PaperSpacing : public ::testing::TestWithParam<std::pair<const char*, double>> {};
 
-TEST_P(PaperSpacing, ReachesTargetWithinThreePercentOverManySeeds) {
+LayoutOptions NearestNeighbour(LayoutOptions o) {
+  o.density = DensityDefinition::kNearestNeighbour;
+  return o;
+}
+
+TEST_P(PaperSpacing, AreaDefinitionPlacesExactlyAreaOverFourSpacingSquared) {
   const auto [asset, target] = GetParam();
   const LayoutOptions options = Asset(asset);
+  ASSERT_EQ(options.density, DensityDefinition::kArea);
+  // The count from the formula, independent of TargetCount: 240 m² / (4 s²), rounded.
+  const auto expected = static_cast<std::size_t>(std::lround(240.0 / (4.0 * target * target)));
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    const Layout layout = GenerateLayout(options, seed);
+    const auto centres = Centres(layout.obstacles);
+    EXPECT_EQ(centres.size(), expected) << asset << " seed " << seed;
+    // The nearest-neighbour statistics are still measured and reported.
+    ASSERT_EQ(layout.stats.zones.size(), 1u);
+    EXPECT_EQ(layout.stats.overall.count, centres.size());
+    EXPECT_NEAR(layout.stats.overall.mean, BruteForceMeanNN(centres), 1e-9);
+    EXPECT_EQ(layout.stats.zones[0].cylinders + layout.stats.zones[0].rings, expected);
+    EXPECT_GE(layout.stats.overall.min, options.hard_core_ratio * target - 1e-12);
+    EXPECT_EQ(CountRuleViolations(layout), 0) << asset << " seed " << seed;
+    EXPECT_NO_THROW(layout.Validate());
+  }
+}
+
+TEST_P(PaperSpacing, ReachesTargetWithinThreePercentOverManySeeds) {
+  const auto [asset, target] = GetParam();
+  const LayoutOptions options = NearestNeighbour(Asset(asset));
   ASSERT_EQ(options.spacing, target);
   for (std::uint64_t seed = 1; seed <= 20; ++seed) {
     const Layout layout = GenerateLayout(options, seed);
@@ -181,8 +207,53 @@ INSTANTIATE_TEST_SUITE_P(Layout, PaperSpacing,
                            return std::to_string(static_cast<int>(param_info.param.second * 10));
                          });
 
-TEST(GenerateLayout, ZonesReachTheirOwnSpacing) {
+TEST(GenerateLayout, AreaCountHitsItsTargetAcrossSpacingsAndRegionSizes) {
+  std::size_t previous = 0;
+  for (const double spacing : {4.0, 3.0, 2.1, 1.7, 1.3, 1.1, 0.9}) {
+    for (const double width : {12.0, 24.0, 48.0}) {
+      for (const double depth : {8.0, 10.0, 20.0}) {
+        LayoutOptions o = Asset("forest_0p9.yaml");  // thin pillars fit every spacing here
+        o.spacing = spacing;
+        o.region.max_W = {width, o.region.min_W.y() + depth};
+        o.mission.goal_W.x() = width;
+        const double expected = std::max(1.0, std::round(width * depth / (4 * spacing * spacing)));
+        const Layout layout = GenerateLayout(o, 3);
+        EXPECT_EQ(static_cast<double>(layout.obstacles.size()), expected)
+            << spacing << " m over " << width << " x " << depth;
+        EXPECT_EQ(CountRuleViolations(layout), 0);
+      }
+    }
+    // Monotone in the spacing: a smaller spacing never holds fewer obstacles.
+    LayoutOptions o = Asset("forest_0p9.yaml");
+    o.spacing = spacing;
+    const std::size_t count = GenerateLayout(o, 1).obstacles.size();
+    EXPECT_GT(count, previous) << spacing;
+    previous = count;
+  }
+}
+
+TEST(GenerateLayout, AreaZonesHoldTheirOwnCount) {
   const LayoutOptions options = Asset("changing_density.yaml");
+  ASSERT_EQ(options.density, DensityDefinition::kArea);
+  const std::size_t expected[] = {3, 18, 7, 37};  // 120 m² / (4 s²) at 3.0, 1.3, 2.1, 0.9 m
+  for (std::uint64_t seed = 1; seed <= 10; ++seed) {
+    const Layout layout = GenerateLayout(options, seed);
+    ASSERT_EQ(layout.stats.zones.size(), 4u);
+    for (std::size_t z = 0; z < 4; ++z) {
+      const ZoneOptions& zone = options.zones[z];
+      const auto centres = Centres(layout.obstacles, zone.x_min, zone.x_max);
+      EXPECT_EQ(centres.size(), expected[z]) << "seed " << seed << " zone " << z;
+      const ZoneStats& stats = layout.stats.zones[z];
+      EXPECT_EQ(stats.cylinders + stats.rings, expected[z]);
+      EXPECT_EQ(stats.spacing.count, expected[z]);
+      EXPECT_NEAR(stats.spacing.mean, BruteForceMeanNN(centres), 1e-9);
+    }
+    EXPECT_EQ(CountRuleViolations(layout), 0) << "seed " << seed;
+  }
+}
+
+TEST(GenerateLayout, ZonesReachTheirOwnSpacing) {
+  const LayoutOptions options = NearestNeighbour(Asset("changing_density.yaml"));
   ASSERT_EQ(options.zones.size(), 4u);
   for (std::uint64_t seed = 1; seed <= 10; ++seed) {
     const Layout layout = GenerateLayout(options, seed);
@@ -223,7 +294,7 @@ TEST(GenerateLayout, DenserZonesHoldMoreObstaclesPerArea) {
 }
 
 TEST(GenerateLayout, LargeFieldReachesTarget) {
-  const LayoutOptions options = Asset("field_40x40.yaml");
+  const LayoutOptions options = NearestNeighbour(Asset("field_40x40.yaml"));
   const Layout layout = GenerateLayout(options, 7);
   EXPECT_NEAR(BruteForceMeanNN(Centres(layout.obstacles)), 2.1, 0.03 * 2.1);
   EXPECT_GT(layout.obstacles.rings.size(), 0u);
@@ -298,6 +369,8 @@ TEST(GenerateLayout, SameSeedGivesIdenticalLayout) {
   const Layout b = GenerateLayout(options, 42);
   EXPECT_EQ(a, b);
   EXPECT_EQ(a.ToYamlString(), b.ToYamlString());
+  const LayoutOptions nn = NearestNeighbour(options);
+  EXPECT_EQ(GenerateLayout(nn, 42), GenerateLayout(nn, 42));
 }
 
 TEST(GenerateLayout, DifferentSeedGivesDifferentLayout) {
@@ -400,6 +473,7 @@ TEST(GenerateLayout, UnreachableDensityFailsWithClearError) {
   // Equal pillars that need centres 1.3 m apart cannot average 1.3 m nearest-neighbour spacing:
   // the mean stays above the band and every dart is rejected once the forest saturates.
   LayoutOptions o;
+  o.density = DensityDefinition::kNearestNeighbour;
   o.spacing = 1.3;
   o.min_gap = 0.3;
   o.obstacles.ring_fraction = 0.0;
@@ -427,6 +501,10 @@ TEST(GenerateLayout, ZoneCoveredByKeepOutFailsNamingTheZone) {
     FAIL() << "expected a ConfigError";
   } catch (const ConfigError& e) {
     EXPECT_EQ(e.key(), "zones[1].spacing");
+    // The area target of zone 1 (40 m² / (4 x 3²) = 1 obstacle) and how many were placed.
+    const std::string what = e.what();
+    EXPECT_NE(what.find("cannot place the 1 obstacles"), std::string::npos) << what;
+    EXPECT_NE(what.find("0 placed"), std::string::npos) << what;
   }
 }
 

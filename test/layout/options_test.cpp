@@ -50,6 +50,7 @@ hard_core_ratio: 0.4
 tolerance: 0.02
 max_rejections: 5000
 ground: false
+density: nearest_neighbour
 obstacles:
   ring_fraction: 0.5
   cylinder: {radius: [0.2, 0.3]}
@@ -69,6 +70,7 @@ zones:
   EXPECT_EQ(o.tolerance, 0.02);
   EXPECT_EQ(o.max_rejections, 5000);
   EXPECT_FALSE(o.ground);
+  EXPECT_EQ(o.density, DensityDefinition::kNearestNeighbour);
   EXPECT_EQ(o.obstacles.ring_fraction, 0.5);
   EXPECT_EQ(o.obstacles.cylinder.radius, (Interval{0.2, 0.3}));
   EXPECT_EQ(o.obstacles.cylinder.height, CylinderShape{}.height);  // untouched default
@@ -85,6 +87,7 @@ zones:
 TEST(LayoutOptions, YamlRoundTripIsExact) {
   LayoutOptions o;
   o.spacing = 2.0 / 3.0 + 1.0;  // not representable in few digits
+  o.density = DensityDefinition::kNearestNeighbour;
   o.region.max_W.x() = 24.1 + 1e-13;
   o.obstacles.ring.yaw = {-0.1234567890123, 0.3};
   o.keep_out.push_back({{5.0 / 3.0, 0.1}, 0.7});
@@ -106,6 +109,62 @@ TEST(LayoutOptions, ShippedAssetsAreValid) {
         LayoutOptions::LoadFile(std::string(QUADTUNE_SOURCE_DIR) + "/assets/layouts/" + name))
         << name;
   }
+}
+
+TEST(LayoutOptions, DensityDefaultsToObstaclesPerArea) {
+  EXPECT_EQ(LayoutOptions{}.density, DensityDefinition::kArea);
+  EXPECT_EQ(Parse("density: area").density, DensityDefinition::kArea);
+  EXPECT_EQ(Parse("density: nearest_neighbour").density, DensityDefinition::kNearestNeighbour);
+}
+
+TEST(LayoutOptions, TargetCountIsAreaOverFourSpacingSquared) {
+  // 24 x 10 m: 240 / (4 s²) rounded.
+  const double expected[][2] = {{3.0, 7.0}, {2.1, 14.0}, {1.3, 36.0}, {0.9, 74.0}, {100.0, 1.0}};
+  LayoutOptions o;
+  for (const auto& [spacing, count] : expected) {
+    const ZoneOptions zone{0.0, 24.0, spacing, std::nullopt};
+    EXPECT_EQ(o.TargetCount(zone), count) << spacing;
+  }
+  // A zone's own area: 6 x 10 m at 1.0 m.
+  EXPECT_EQ(o.TargetCount({18.0, 24.0, 1.0, std::nullopt}), 15.0);
+}
+
+TEST(LayoutOptions, RejectsUnknownDensityDefinition) {
+  try {
+    (void)Parse("density: poisson");
+    FAIL() << "expected a ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "density");
+    const std::string what = e.what();
+    EXPECT_NE(what.find("area"), std::string::npos) << what;
+    EXPECT_NE(what.find("nearest_neighbour"), std::string::npos) << what;
+  }
+}
+
+TEST(LayoutOptions, RejectsLayoutThatCouldNeverFinish) {
+  // 10^6 x 10^6 m at 1.3 m asks for ~1.5e11 obstacles, far above the limit.
+  const std::string huge = "region: {min: [0, -500000], max: [1000000, 500000]}\nspacing: 1.3\n";
+  try {
+    (void)Parse(huge);
+    FAIL() << "expected a ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "spacing");
+    EXPECT_NE(std::string(e.what()).find("100000"), std::string::npos) << e.what();
+  }
+  EXPECT_CONFIG_ERROR(Parse(huge + "density: nearest_neighbour"), "spacing");
+  EXPECT_CONFIG_ERROR(Parse("region: {min: [0, -500000], max: [1000000, 500000]}\n"
+                            "zones: [{x_range: [0, 10], spacing: 3}, "
+                            "{x_range: [10, 1000000], spacing: 3}]"),
+                      "zones");
+  // Just inside the limit: 100 000 obstacles at spacing 1 m (400 000 m²) are accepted.
+  EXPECT_NO_THROW(
+      Parse("region: {min: [0, 0], max: [400, 1000]}\nspacing: 1.0\n"
+            "obstacles: {cylinder: {radius: [0.1, 0.2]}, ring_fraction: 0}\n"
+            "mission: {start: [1, 1, 1], goal: [399, 1, 1]}"));
+  EXPECT_CONFIG_ERROR(Parse("region: {min: [0, 0], max: [400.01, 1000]}\nspacing: 1.0\n"
+                            "obstacles: {cylinder: {radius: [0.1, 0.2]}, ring_fraction: 0}\n"
+                            "mission: {start: [1, 1, 1], goal: [399, 1, 1]}"),
+                      "spacing");
 }
 
 // --- One EXPECT_THROW per documented bad input. ---

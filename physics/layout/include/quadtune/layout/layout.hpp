@@ -15,14 +15,19 @@
 ///  2. reject it when its footprint enters a keep-out cylinder, comes closer than min_gap to
 ///     any footprint already placed (any zone), or its centre lies closer than
 ///     hard_core_ratio · spacing to another centre of the zone (Delaunay nearest_vertex);
-///  3. predict the zone's mean NN spacing with it (from the Delaunay conflict zone: only the
-///     new point's Delaunay neighbours change their NN); reject it when the mean would fall
-///     below spacing · (1 − tolerance), else accept it;
-///  4. stop once the mean lies within spacing · (1 ± tolerance) and the zone holds at least
-///     half the obstacles a Poisson forest of that spacing would hold (so a sparse start that
-///     happens to hit the band does not end the zone).
-/// A zone whose darts are rejected max_rejections times in a row cannot reach its density:
-/// generation throws ConfigError naming the zone's spacing key. It never loops forever.
+///  3. density `area`: accept it; stop once the zone holds LayoutOptions::TargetCount
+///     obstacles (round(zone area / (4 spacing²))). A zone whose darts are rejected
+///     max_rejections times in a row cannot be filled: generation throws ConfigError naming
+///     the zone's spacing key, the count placed and the target;
+///  4. density `nearest_neighbour`: predict the zone's mean NN spacing with it (from the
+///     Delaunay conflict zone: only the new point's Delaunay neighbours change their NN);
+///     reject it when the mean would fall below spacing · (1 − tolerance), else accept it; stop
+///     once the mean lies within spacing · (1 ± tolerance) and the zone holds at least half
+///     the obstacles a Poisson forest of that spacing would hold (so a sparse start that
+///     happens to hit the band does not end the zone). max_rejections darts rejected in a row
+///     throw ConfigError naming the zone's spacing key.
+/// Generation never loops forever, and Validate refuses layouts of more than
+/// kMaxObstaclesPerLayout obstacles before any dart is thrown.
 ///
 /// Zone statistics measure the NN distances among the zone's own obstacles (as if the zone
 /// stood alone); `overall` measures all obstacles together.

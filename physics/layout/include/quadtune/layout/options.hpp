@@ -7,10 +7,27 @@
 /// angles in radians.
 ///
 /// Terms used throughout quadtune::layout:
-/// - **spacing**: the mean nearest-neighbour distance between obstacle centres in the xy-plane
-///   (a cylinder's centre is its axis, a ring's centre the centre of its hole). This is the
-///   paper's "average spacing" (Zhou, Xu, Gao, IROS 2022, Table "various obstacle densities":
-///   3.0, 2.1, 1.3, 0.9 m).
+/// - **spacing** s: the paper's "average spacing" (Zhou, Xu, Gao, IROS 2022, Table "various
+///   obstacle densities": 3.0, 2.1, 1.3, 0.9 m). What it controls is the density definition:
+///   - `area` (default): a fixed NUMBER OF OBSTACLES PER AREA, round(A / (4 s²)) obstacles in a
+///     zone of area A (zone x-extent times region y-extent, keep-out zones included). This is
+///     the intensity λ = 1 / (4 s²) of the uniform random (Poisson) forest whose expected mean
+///     nearest-neighbour distance, 1 / (2 √λ), is s: on average the paper's meaning holds, but
+///     the count, hence the crowding, is fixed and grows as 1 / s².
+///     Why not one obstacle per s² (λ = 1 / s²)? Measured with the default planner on the
+///     shipped forests (docs/results/density/definition.md): A / s² puts 142 obstacles at
+///     1.3 m and 296 at 0.9 m into the 240 m² corridor (mean nearest-neighbour distance 0.93
+///     and 0.61 m); every default flight there hit obstacles, with 20–25 emergency stops per 3
+///     flights, and flight time fell from 1.3 to 0.9 m (65.0 → 60.8 s), so it stops measuring
+///     crowding. With A / (4 s²) (7, 14, 36, 74 obstacles) all 40 default flights complete,
+///     none with a collision, and the count and the flight time rise monotonically from 3.0 to
+///     0.9 m (28.8, 29.0, 32.0, 32.3 s over 10 seeds).
+///   - `nearest_neighbour`: darts are added until the mean nearest-neighbour distance between
+///     obstacle centres reaches s. At low counts that says little about crowding (a few
+///     obstacles spread out reach a large mean with few obstacles).
+///   Either way the achieved nearest-neighbour statistics are measured and reported
+///   (LayoutStats). Centres are in the xy-plane: a cylinder's centre is its axis, a ring's the
+///   centre of its hole.
 /// - **footprint**: an obstacle's projection onto the xy-plane. A cylinder's footprint is its
 ///   disc; a vertical ring's footprint is the segment its rim covers, thickened by half the rim
 ///   thickness (a capsule of half-length `radius` across the ring's axis and radius
@@ -114,6 +131,20 @@ struct KeepOutZone {
   friend bool operator==(const KeepOutZone&, const KeepOutZone&) = default;
 };
 
+/// How a spacing turns into a density (see the file comment).
+enum class DensityDefinition {
+  kArea,              ///< round(zone area / (4 spacing²)) obstacles per zone (YAML `area`)
+  kNearestNeighbour,  ///< mean nearest-neighbour distance = spacing (YAML `nearest_neighbour`)
+};
+
+/// YAML name of a definition: "area" or "nearest_neighbour".
+[[nodiscard]] const char* ToString(DensityDefinition d);
+
+/// Most obstacles one layout may ask for (the sum of every zone's count under the `area`
+/// definition, or of the Poisson-equivalent count area / (4 spacing²) under
+/// `nearest_neighbour`); larger targets are refused by Validate.
+inline constexpr double kMaxObstaclesPerLayout = 100000.0;
+
 /// One density zone: the obstacles whose centres lie in x ∈ [x_min, x_max) of the region,
 /// generated to reach their own target spacing.
 struct ZoneOptions {
@@ -133,6 +164,8 @@ struct ZoneOptions {
 /// mission:   {start: [0, 0, 1.2], goal: [24, 0, 1.2], keep_out_radius: 1.5}
 /// keep_out:  [{center: [12, 0], radius: 1.0}]
 /// spacing: 1.3            # used when `zones` is absent
+/// density: area           # area: round(A / (4 spacing²)) obstacles in a zone of area A;
+///                         # nearest_neighbour: mean NN distance = spacing
 /// min_gap: 0.2
 /// hard_core_ratio: 0.5
 /// tolerance: 0.01
@@ -156,14 +189,24 @@ struct LayoutOptions {
   double min_gap = 0.2;               ///< least distance (m) between two footprints, >= 0
   double hard_core_ratio = 0.5;       ///< no two centres of a zone closer than this times the
                                       ///< zone's spacing, in (0, 0.9]
-  double tolerance = 0.01;            ///< relative tolerance on each zone's achieved spacing,
-                                      ///< in (0, 0.1]
+  double tolerance = 0.01;            ///< relative tolerance on each zone's achieved spacing
+                                      ///< (`nearest_neighbour` only), in (0, 0.1]
   long max_rejections = 10000;        ///< darts rejected in a row before a zone is declared
                                       ///< impossible, in [100, 1e8]
   bool ground = true;                 ///< the world has a ground plane at z = 0
+  /// What a spacing means (YAML `density`: area | nearest_neighbour).
+  DensityDefinition density = DensityDefinition::kArea;
 
   /// The zones to generate: `zones`, or one zone over the whole region with `spacing`.
   [[nodiscard]] std::vector<ZoneOptions> EffectiveZones() const;
+  /// Area (m²) of `zone`: its x-extent times the region's y-extent.
+  [[nodiscard]] double ZoneArea(const ZoneOptions& zone) const {
+    return (zone.x_max - zone.x_min) * (region.max_W.y() - region.min_W.y());
+  }
+  /// The obstacle count `zone` is generated to under the `area` definition (and the
+  /// Poisson-equivalent count under `nearest_neighbour`): round(ZoneArea / (4 spacing²)), at
+  /// least 1. A double, so that absurd targets do not overflow before Validate refuses them.
+  [[nodiscard]] double TargetCount(const ZoneOptions& zone) const;
   /// The mixture used in `zone`.
   [[nodiscard]] const ObstacleMix& MixOf(const ZoneOptions& zone) const {
     return zone.obstacles ? *zone.obstacles : obstacles;
@@ -175,7 +218,8 @@ struct LayoutOptions {
   /// non-finite sizes, a range with min > max, a spacing smaller than the obstacles allow
   /// (ObstacleMix::RequiredSpacing), a region too small for its obstacles or for the keep-out
   /// zones (their total area above half the region's), zones that are not consecutive
-  /// x-intervals covering the region.
+  /// x-intervals covering the region, more than kMaxObstaclesPerLayout obstacles in all
+  /// (key `spacing`, or `zones` when zones are given).
   void Validate(const std::string& file = "", const std::string& key_prefix = "") const;
 
   /// Reads options from a YAML map (see the struct's documentation), then Validate()s them.
