@@ -1,0 +1,65 @@
+#!/usr/bin/env bash
+# The scale model of distributed runs (docs/cluster.md): experiments/scale_model.yaml (the sleep
+# planner: the Ipopt planner's wall times, no core used) on 1, 2, 4, … ranks × 1 thread, two
+# trials per rank; stored evaluations per second (the run's evaluations over rank 0's wall_s),
+# against the ideal line (ranks × the single process's rate), and the peak resident memory of
+# every rank (/usr/bin/time). Writes OUT/scale_model.csv and OUT/scale_model.png.
+#
+#   bash scripts/scale_model.sh [OUT [RANKS...]]      default: docs/results/cluster 1 2 4 … 256
+#
+# More ranks than cores run oversubscribed (--oversubscribe); as root --allow-run-as-root.
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+out=${1:-$root/docs/results/cluster}
+shift || true
+ranks_list=("$@")
+(( ${#ranks_list[@]} )) || ranks_list=(1 2 4 8 16 32 64 128 256)
+quadtune=${QUADTUNE:-$root/build/experiments/quadtune}
+work=$(mktemp -d /tmp/quadtune_scale.XXXXXX)
+trap 'rm -rf "$work"' EXIT
+mkdir -p "$out"
+csv=$out/scale_model.csv
+cores=$(nproc)
+mpi=(mpirun --oversubscribe --bind-to none)
+if [[ $(id -u) == 0 ]]; then mpi+=(--allow-run-as-root); fi
+
+echo "ranks,cores,trials,evaluations,wall_s,evals_per_s,ideal_per_s,rss_root_mib,rss_rank_mib" \
+  > "$csv"
+single_rate=
+for ranks in "${ranks_list[@]}"; do
+  run=$work/r$ranks
+  mkdir -p "$run/rss"
+  trials=$((2 * ranks))
+  # Each rank writes its peak RSS (KiB) to rss/RANK.
+  cmd=(/usr/bin/time -o "$run/rss/\${OMPI_COMM_WORLD_RANK:-0}" -f %M "$quadtune" --log-level warn
+       run "$root/experiments/scale_model.yaml" --set "repeats=$trials" --threads 1
+       --out "$run/out" --quiet)
+  if (( ranks == 1 )); then
+    bash -c "${cmd[*]}"
+  else
+    "${mpi[@]}" -np "$ranks" bash -c "${cmd[*]}"
+  fi
+  read -r evaluations wall <<< "$(python3 - "$run/out" <<'PY'
+import json, sqlite3, sys
+d = sys.argv[1]
+n = sqlite3.connect(d + "/results.sqlite").execute("SELECT COUNT(*) FROM evaluation").fetchone()[0]
+print(n, json.load(open(d + "/summary.json"))["wall_s"])
+PY
+)"
+  rate=$(python3 -c "print($evaluations / $wall)")
+  [[ -n $single_rate ]] || single_rate=$(python3 -c "print($rate / $ranks)")
+  ideal=$(python3 -c "print($single_rate * $ranks)")
+  read -r rss_root rss_rank <<< "$(python3 - "$run/rss" <<'PY'
+import os, statistics, sys
+d = sys.argv[1]
+kib = {int(f): int(open(os.path.join(d, f)).read().split()[-1]) for f in os.listdir(d)}
+others = [v for r, v in kib.items() if r != 0] or [kib[0]]
+print(kib[0] / 1024, statistics.median(others) / 1024)
+PY
+)"
+  printf '%d ranks: %d evaluations in %.2f s = %.0f stored/s (ideal %.0f); RSS rank 0 %.0f MiB, '\
+'other ranks %.0f MiB (median)\n' "$ranks" "$evaluations" "$wall" "$rate" "$ideal" "$rss_root" \
+    "$rss_rank"
+  echo "$ranks,$cores,$trials,$evaluations,$wall,$rate,$ideal,$rss_root,$rss_rank" >> "$csv"
+done
+python3 "$root/experiments/plot/quadtune_plot.py" scale-model "$csv"
