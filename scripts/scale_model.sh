@@ -3,7 +3,8 @@
 # planner: the Ipopt planner's wall times, no core used) on 1, 2, 4, … ranks × 1 thread, two
 # trials per rank; stored evaluations per second (the run's evaluations over rank 0's wall_s),
 # against the ideal line (ranks × the single process's rate), and the peak resident memory of
-# every rank (/usr/bin/time). Writes OUT/scale_model.csv and OUT/scale_model.png.
+# every rank and the CPU seconds of rank 0 and of all ranks together (/usr/bin/time). Writes
+# OUT/scale_model.csv and OUT/scale_model.png.
 #
 #   bash scripts/scale_model.sh [OUT [RANKS...]]      default: docs/results/cluster 1 2 4 … 256
 #
@@ -23,15 +24,16 @@ cores=$(nproc)
 mpi=(mpirun --oversubscribe --bind-to none)
 if [[ $(id -u) == 0 ]]; then mpi+=(--allow-run-as-root); fi
 
-echo "ranks,cores,trials,evaluations,wall_s,evals_per_s,ideal_per_s,rss_root_mib,rss_rank_mib" \
-  > "$csv"
+echo "ranks,cores,trials,evaluations,wall_s,evals_per_s,ideal_per_s,rss_root_mib,rss_rank_mib,"\
+"cpu_root_s,cpu_all_s" > "$csv"
 single_rate=
 for ranks in "${ranks_list[@]}"; do
   run=$work/r$ranks
   mkdir -p "$run/rss"
   trials=$((2 * ranks))
-  # Each rank writes its peak RSS (KiB) to rss/RANK.
-  cmd=(/usr/bin/time -o "$run/rss/\${OMPI_COMM_WORLD_RANK:-0}" -f %M "$quadtune" --log-level warn
+  # Each rank writes its peak RSS (KiB) and CPU seconds (user, system) to rss/RANK.
+  cmd=(/usr/bin/time -o "$run/rss/\${OMPI_COMM_WORLD_RANK:-0}" -f "'%M %U %S'" "$quadtune"
+       --log-level warn
        run "$root/experiments/scale_model.yaml" --set "repeats=$trials" --threads 1
        --out "$run/out" --quiet)
   if (( ranks == 1 )); then
@@ -49,17 +51,20 @@ PY
   rate=$(python3 -c "print($evaluations / $wall)")
   [[ -n $single_rate ]] || single_rate=$(python3 -c "print($rate / $ranks)")
   ideal=$(python3 -c "print($single_rate * $ranks)")
-  read -r rss_root rss_rank <<< "$(python3 - "$run/rss" <<'PY'
+  read -r rss_root rss_rank cpu_root cpu_all <<< "$(python3 - "$run/rss" <<'PY'
 import os, statistics, sys
 d = sys.argv[1]
-kib = {int(f): int(open(os.path.join(d, f)).read().split()[-1]) for f in os.listdir(d)}
+fields = {int(f): open(os.path.join(d, f)).read().split()[-3:] for f in os.listdir(d)}
+kib = {r: int(v[0]) for r, v in fields.items()}
+cpu = {r: float(v[1]) + float(v[2]) for r, v in fields.items()}
 others = [v for r, v in kib.items() if r != 0] or [kib[0]]
-print(kib[0] / 1024, statistics.median(others) / 1024)
+print(kib[0] / 1024, statistics.median(others) / 1024, cpu[0], sum(cpu.values()))
 PY
 )"
   printf '%d ranks: %d evaluations in %.2f s = %.0f stored/s (ideal %.0f); RSS rank 0 %.0f MiB, '\
-'other ranks %.0f MiB (median)\n' "$ranks" "$evaluations" "$wall" "$rate" "$ideal" "$rss_root" \
-    "$rss_rank"
-  echo "$ranks,$cores,$trials,$evaluations,$wall,$rate,$ideal,$rss_root,$rss_rank" >> "$csv"
+'other ranks %.0f MiB (median); CPU rank 0 %.1f s, all ranks %.1f s\n' "$ranks" "$evaluations" \
+    "$wall" "$rate" "$ideal" "$rss_root" "$rss_rank" "$cpu_root" "$cpu_all"
+  echo "$ranks,$cores,$trials,$evaluations,$wall,$rate,$ideal,$rss_root,$rss_rank,$cpu_root,"\
+"$cpu_all" >> "$csv"
 done
-python3 "$root/experiments/plot/quadtune_plot.py" scale-model "$csv"
+/usr/bin/python3 "$root/experiments/plot/quadtune_plot.py" scale-model "$csv"
