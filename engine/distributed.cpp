@@ -384,14 +384,7 @@ class RemoteStore final : public EvaluationStore {
   /// kMaxInFlight batches are unacknowledged.
   void Flush() {
     if (batch_.Rows() == 0) return;
-    Backoff backoff;
-    while (in_flight_.size() >= kMaxInFlight && !CancelSet()) {
-      if (Progress()) {
-        backoff.Reset();
-      } else {
-        backoff.Pause();
-      }
-    }
+    AwaitInFlight(kMaxInFlight - 1);
     InFlight& f = in_flight_.emplace_back();
     f.sequence = batch_.Sequence();
     f.rows = batch_.Rows();
@@ -436,8 +429,13 @@ class RemoteStore final : public EvaluationStore {
   /// is cancelled).
   void Drain() {
     Flush();
+    AwaitInFlight(0);
+  }
+
+  /// Waits until at most `count` batches are unacknowledged (or the run is cancelled).
+  void AwaitInFlight(std::size_t count) {
     Backoff backoff;
-    while (!in_flight_.empty() && !CancelSet()) {
+    while (in_flight_.size() > count && !CancelSet()) {
       if (Progress()) {
         backoff.Reset();
       } else {
@@ -461,14 +459,7 @@ class RemoteStore final : public EvaluationStore {
   /// sent (its send completed, so rank 0 has it or is receiving it) and the rank killed before
   /// the acknowledgement can arrive. Says what rank 0 acknowledged and what was in flight.
   [[noreturn]] void KillWithBatchInFlight() {
-    Backoff backoff;
-    while (!in_flight_.empty() && !CancelSet()) {
-      if (Progress()) {
-        backoff.Reset();
-      } else {
-        backoff.Pause();
-      }
-    }
+    AwaitInFlight(0);
     const std::uint32_t rows = batch_.Rows();
     Flush();
     InFlight& last = in_flight_.back();

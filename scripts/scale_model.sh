@@ -25,7 +25,7 @@ mpi=(mpirun --oversubscribe --bind-to none)
 if [[ $(id -u) == 0 ]]; then mpi+=(--allow-run-as-root); fi
 
 echo "ranks,cores,trials,evaluations,wall_s,evals_per_s,ideal_per_s,rss_root_mib,rss_rank_mib,"\
-"cpu_root_s,cpu_all_s" > "$csv"
+"cpu_root_s,cpu_all_s,mpirun_rc" > "$csv"
 single_rate=
 for ranks in "${ranks_list[@]}"; do
   run=$work/r$ranks
@@ -36,11 +36,15 @@ for ranks in "${ranks_list[@]}"; do
        --log-level warn
        run "$root/experiments/scale_model.yaml" --set "repeats=$trials" --threads 1
        --out "$run/out" --quiet)
+  # A non-zero exit of mpirun after rank 0 wrote summary.json is recorded (column mpirun_rc);
+  # without summary.json the run failed.
+  rc=0
   if (( ranks == 1 )); then
-    bash -c "${cmd[*]}"
+    bash -c "${cmd[*]}" || rc=$?
   else
-    "${mpi[@]}" -np "$ranks" bash -c "${cmd[*]}"
+    "${mpi[@]}" -np "$ranks" bash -c "${cmd[*]}" || rc=$?
   fi
+  [[ -f $run/out/summary.json ]] || { echo "the run on $ranks ranks failed (exit $rc)"; exit 1; }
   read -r evaluations wall <<< "$(python3 - "$run/out" <<'PY'
 import json, sqlite3, sys
 d = sys.argv[1]
@@ -54,7 +58,11 @@ PY
   read -r rss_root rss_rank cpu_root cpu_all <<< "$(python3 - "$run/rss" <<'PY'
 import os, statistics, sys
 d = sys.argv[1]
-fields = {int(f): open(os.path.join(d, f)).read().split()[-3:] for f in os.listdir(d)}
+fields = {}
+for f in os.listdir(d):
+    words = open(os.path.join(d, f)).read().split()
+    if len(words) >= 3 and words[-3].isdigit():  # a rank killed at exit leaves a note instead
+        fields[int(f)] = words[-3:]
 kib = {r: int(v[0]) for r, v in fields.items()}
 cpu = {r: float(v[1]) + float(v[2]) for r, v in fields.items()}
 others = [v for r, v in kib.items() if r != 0] or [kib[0]]
@@ -65,6 +73,6 @@ PY
 'other ranks %.0f MiB (median); CPU rank 0 %.1f s, all ranks %.1f s\n' "$ranks" "$evaluations" \
     "$wall" "$rate" "$ideal" "$rss_root" "$rss_rank" "$cpu_root" "$cpu_all"
   echo "$ranks,$cores,$trials,$evaluations,$wall,$rate,$ideal,$rss_root,$rss_rank,$cpu_root,"\
-"$cpu_all" >> "$csv"
+"$cpu_all,$rc" >> "$csv"
 done
 /usr/bin/python3 "$root/experiments/plot/quadtune_plot.py" scale-model "$csv"

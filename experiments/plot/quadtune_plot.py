@@ -631,10 +631,11 @@ def plot_scale_model(csv_path, out=None):
         rows[0].get("cores", "?")))
     ax_a.set_ylabel("stored evaluations per second")
     ax_a.set_title("(A) rank 0's store against ranks")
-    ax_b.plot(ranks, [float(r["rss_rank_mib"]) for r in rows], "o-", color="tab:green",
-              label="a rank ≠ 0 (median)")
-    ax_b.plot(ranks, [float(r["rss_root_mib"]) for r in rows], "s-", color="tab:red",
-              label="rank 0")
+    measured = [r for r in rows if r.get("rss_rank_mib")]  # a run may lack its memory figures
+    ax_b.plot([int(r["ranks"]) for r in measured], [float(r["rss_rank_mib"]) for r in measured],
+              "o-", color="tab:green", label="a rank ≠ 0 (median)")
+    ax_b.plot([int(r["ranks"]) for r in measured], [float(r["rss_root_mib"]) for r in measured],
+              "s-", color="tab:red", label="rank 0")
     ax_b.set_xscale("log", base=2)
     ax_b.set_xlabel("MPI ranks")
     ax_b.set_ylabel("peak resident memory (MiB)")

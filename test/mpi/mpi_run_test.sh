@@ -70,6 +70,20 @@ same_results() {  # same_results DIR_A DIR_B
   cmp -s "$1/evaluations.txt" "$2/evaluations.txt" && cmp -s "$1/trials.txt" "$2/trials.txt"
 }
 
+# killed_run R:N: toy.yaml on 2 ranks into cut/ with QUADTUNE_TEST_KILL_RANK=R:N; the run must
+# fail, and rank 0 must name the lost rank and say how to resume.
+killed_run() {
+  set +e
+  QUADTUNE_TEST_KILL_RANK=$1 "${mpi[@]}" "$quadtune" --log-level warn run toy.yaml --out cut \
+    --threads 1 --quiet > cut.log 2>&1
+  local status=$?
+  set -e
+  cat cut.log
+  if (( status == 0 )); then echo "the run survived the kill"; exit 1; fi
+  grep -q "rank 1 (pid .*) was lost" cut.log || { echo "rank 0 did not name the lost rank"; exit 1; }
+  grep -q "resume with: .*--resume" cut.log || { echo "rank 0 did not say how to resume"; exit 1; }
+}
+
 experiment=(toy.yaml)
 if [[ $mode == ipopt ]]; then
   experiment=("$5/experiments/tiny.yaml" --set 'methods=[default, random, bo_pso]' --set repeats=2)
@@ -96,13 +110,7 @@ fi
 if [[ $mode == batch ]]; then
   # Rank 1 runs a bo_pso trial first (40 rows); at its 30th evaluation it waits for the
   # acknowledgement of every earlier batch, sends the batch holding the 30th and dies.
-  set +e
-  QUADTUNE_TEST_KILL_RANK=1:30 "${mpi[@]}" "$quadtune" --log-level warn run toy.yaml --out cut \
-    --threads 1 --quiet > cut.log 2>&1
-  status=$?
-  set -e
-  cat cut.log
-  if (( status == 0 )); then echo "the run survived the kill"; exit 1; fi
+  killed_run 1:30
   hook=$(grep -o "rank 1: [0-9]* evaluations acknowledged by rank 0, [0-9]* sent in a batch not yet acknowledged (trials [0-9,]*)" cut.log) \
     || { echo "rank 1 did not report its batches"; exit 1; }
   acked=$(sed -E 's/rank 1: ([0-9]+) evaluations.*/\1/' <<< "$hook")
@@ -131,15 +139,7 @@ fi
 
 # kill: rank 1 raises SIGKILL after sending the batch with its 3rd evaluation (mid-trial: a
 # trial has >= 8).
-set +e
-QUADTUNE_TEST_KILL_RANK=1:3 "${mpi[@]}" "$quadtune" --log-level warn run toy.yaml --out cut \
-  --threads 1 --quiet > cut.log 2>&1
-status=$?
-set -e
-cat cut.log
-if (( status == 0 )); then echo "the run survived the kill"; exit 1; fi
-grep -q "rank 1 (pid .*) was lost" cut.log || { echo "rank 0 did not name the lost rank"; exit 1; }
-grep -q "resume with: .*--resume" cut.log || { echo "rank 0 did not say how to resume"; exit 1; }
+killed_run 1:3
 export_store cut
 stored=$(($(wc -l < cut/evaluations.txt) - 1))
 echo "killed run: $stored of $rows evaluations stored"
