@@ -634,10 +634,9 @@ class Root {
     RankState& rank = ranks_[static_cast<std::size_t>(source)];
     const std::string type = body.at("type").get<std::string>();
     if (type == "finish") {
-      locked_->FinishTrial(body.at("trial_id").get<std::int64_t>(),
-                           body.at("status").get<std::string>(),
-                           body.at("best_params").get<std::string>(),
-                           FromBits(body.at("best_value")));
+      locked_->FinishTrial(
+          body.at("trial_id").get<std::int64_t>(), body.at("status").get<std::string>(),
+          body.at("best_params").get<std::string>(), FromBits(body.at("best_value")));
     } else if (type == "next") {
       Next(source, rank, body);
     } else if (type == "error") {

@@ -361,8 +361,7 @@ FlightRecord SleepPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) c
   const double pace = Param(request.params, "pace", 1.0);
   if (!(pace > 0.0)) throw ConfigError("flight parameters", "pace", "pace must be > 0");
   Rng rng(DeriveSeed(request.seed, {map.seed}));
-  const double wall =
-      LogNormal(rng, options_.flight_median_s, options_.flight_p95_s);
+  const double wall = LogNormal(rng, options_.flight_median_s, options_.flight_p95_s);
   ParamValues theta_s{{"effort", Param(request.params, "effort", 1.0)}};
   FlightRecord r;
   for (int q = 0; q < options_.queries_per_flight; ++q) {

@@ -57,8 +57,9 @@ class Reader {
     Need(static_cast<std::size_t>(n));
     std::uint64_t v = 0;
     for (int i = 0; i < n; ++i) {
-      v |= static_cast<std::uint64_t>(static_cast<unsigned char>(rest_[static_cast<std::size_t>(i)]))
-           << (8 * i);
+      v |=
+          static_cast<std::uint64_t>(static_cast<unsigned char>(rest_[static_cast<std::size_t>(i)]))
+          << (8 * i);
     }
     rest_.remove_prefix(static_cast<std::size_t>(n));
     return v;

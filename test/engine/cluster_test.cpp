@@ -24,7 +24,9 @@ namespace {
 /// Rows whose every field differs, with doubles a text encoding would round or lose.
 std::vector<EvaluationRow> AwkwardRows() {
   std::vector<EvaluationRow> rows;
-  const double values[] = {0.1 + 0.2, -0.0, std::numeric_limits<double>::denorm_min(),
+  const double values[] = {0.1 + 0.2,
+                           -0.0,
+                           std::numeric_limits<double>::denorm_min(),
                            std::numeric_limits<double>::infinity(),
                            std::bit_cast<double>(0x7ff8000000000123ULL),  // NaN with a payload
                            -1e308};
