@@ -1,6 +1,7 @@
 // Distributed experiments over MPI (see distributed.hpp): rank 0 serves a work queue of trials
 // and owns the SQLite store, the other ranks run the trials they are handed and forward their
-// rows. Messages are JSON texts (doubles travel as their bit patterns, so they arrive exactly).
+// rows in batches. Rows travel in the binary form of row_codec.hpp, control messages as JSON
+// texts; doubles travel as their bit patterns either way, so they arrive exactly.
 // Without MPI (no QUADTUNE_HAVE_MPI) only MpiLaunchSize() works and the rest reports that
 // quadtune was built without MPI.
 //
@@ -42,6 +43,7 @@
 #include <vector>
 
 #include "quadtune/engine/result_store.hpp"
+#include "quadtune/engine/row_codec.hpp"
 #endif
 
 namespace quadtune::engine {
@@ -96,11 +98,22 @@ namespace {
 using Json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
-// rank → 0: next (asks for work, reporting the finished trial), insert, finish, error, bye.
+// rank → 0: batches of rows (binary, row_codec.hpp) and JSON control messages: next (asks for
+// work, reporting the finished trial), finish, error, bye. One tag keeps them in sending order.
 constexpr int kTagToRoot = 11;
 // 0 → rank: a trial to run, or stop.
 constexpr int kTagToRank = 12;
-constexpr auto kPoll = std::chrono::milliseconds(1);
+// 0 → rank: the highest sequence number of that rank's batches committed so far (8 bytes).
+constexpr int kTagAck = 13;
+
+// Batching of a rank's rows: a batch is sent when it holds kBatchRows rows, when a row is added
+// kBatchAge after its first one, or before any control message; at most kMaxInFlight batches
+// wait for their acknowledgement (then the rank waits: rank 0 sets the pace).
+constexpr std::uint32_t kBatchRows = 256;
+constexpr auto kBatchAge = std::chrono::milliseconds(50);
+constexpr std::size_t kMaxInFlight = 8;
+// Rank 0 receives up to kDrainMessages messages before it commits what they carried.
+constexpr int kDrainMessages = 64;
 
 // ---- messages -----------------------------------------------------------------------------
 
@@ -109,33 +122,60 @@ const std::atomic<bool>* g_cancel = nullptr;
 
 bool CancelSet() { return g_cancel != nullptr && g_cancel->load(); }
 
-/// Waits for `request` without spinning in MPI (a few quick tests, then 1 ms sleeps). Gives up
-/// when the run is cancelled (a peer may be gone): the caller then stops.
+/// Paces a polling wait without spinning in MPI (OpenMPI's blocking calls spin and would take a
+/// core from the computing threads): a few polls back to back, then sleeps from 20 µs doubling
+/// to 1 ms. A reply that comes soon costs microseconds, an idle wait takes no core. Reset()
+/// after progress.
+class Backoff {
+ public:
+  void Pause() {
+    if (++polls_ <= 8) return;
+    std::this_thread::sleep_for(sleep_);
+    sleep_ = std::min(2 * sleep_, kMaxSleep);
+  }
+  void Reset() {
+    polls_ = 0;
+    sleep_ = kMinSleep;
+  }
+
+ private:
+  static constexpr auto kMinSleep = std::chrono::microseconds(20);
+  static constexpr auto kMaxSleep = std::chrono::microseconds(1000);
+  int polls_ = 0;
+  std::chrono::microseconds sleep_ = kMinSleep;
+};
+
+/// Waits for `request` (Backoff pacing). Gives up when the run is cancelled (a peer may be
+/// gone): the caller then stops.
 void WaitFor(MPI_Request& request) {
-  for (int i = 0;; ++i) {
+  Backoff backoff;
+  for (;;) {
     int done = 0;
     MPI_Test(&request, &done, MPI_STATUS_IGNORE);
     if (done != 0 || CancelSet()) return;
-    if (i >= 16) std::this_thread::sleep_for(kPoll);
+    backoff.Pause();
   }
 }
 
-void Send(int destination, int tag, const Json& message) {
-  const std::string text = message.dump();
-  QT_DEMAND(text.size() < static_cast<std::size_t>(INT_MAX), "MPI message too large");
+void SendBytes(int destination, int tag, const std::string& bytes) {
+  QT_DEMAND(bytes.size() < static_cast<std::size_t>(INT_MAX), "MPI message too large");
   MPI_Request request;
-  MPI_Isend(text.data(), static_cast<int>(text.size()), MPI_CHAR, destination, tag, MPI_COMM_WORLD,
-            &request);
+  MPI_Isend(bytes.data(), static_cast<int>(bytes.size()), MPI_CHAR, destination, tag,
+            MPI_COMM_WORLD, &request);
   WaitFor(request);
 }
 
-struct Message {
+void Send(int destination, int tag, const Json& message) {
+  SendBytes(destination, tag, message.dump());
+}
+
+struct RawMessage {
   int source = 0;
-  Json body;
+  std::string bytes;
 };
 
 /// The next message with `tag` from `source` (MPI_ANY_SOURCE allowed), if one has arrived.
-std::optional<Message> TryReceive(int source, int tag) {
+std::optional<RawMessage> TryReceiveBytes(int source, int tag) {
   int flag = 0;
   MPI_Message handle;
   MPI_Status status;
@@ -143,9 +183,21 @@ std::optional<Message> TryReceive(int source, int tag) {
   if (flag == 0) return std::nullopt;
   int count = 0;
   MPI_Get_count(&status, MPI_CHAR, &count);
-  std::string text(static_cast<std::size_t>(count), '\0');
-  MPI_Mrecv(text.data(), count, MPI_CHAR, &handle, MPI_STATUS_IGNORE);
-  return Message{status.MPI_SOURCE, Json::parse(text)};
+  std::string bytes(static_cast<std::size_t>(count), '\0');
+  MPI_Mrecv(bytes.data(), count, MPI_CHAR, &handle, MPI_STATUS_IGNORE);
+  return RawMessage{status.MPI_SOURCE, std::move(bytes)};
+}
+
+struct Message {
+  int source = 0;
+  Json body;
+};
+
+/// The next JSON message with `tag` from `source`, if one has arrived.
+std::optional<Message> TryReceive(int source, int tag) {
+  auto m = TryReceiveBytes(source, tag);
+  if (!m) return std::nullopt;
+  return Message{m->source, Json::parse(m->bytes)};
 }
 
 std::uint64_t Bits(double v) { return std::bit_cast<std::uint64_t>(v); }
@@ -253,6 +305,11 @@ class LockedStore final : public EvaluationStore {
     std::lock_guard lock(mutex_);
     if (store_ != nullptr) store_->Insert(row);
   }
+  /// Commits `rows` in one transaction.
+  void InsertBatch(const std::vector<EvaluationRow>& rows) {
+    std::lock_guard lock(mutex_);
+    if (store_ != nullptr) store_->InsertBatch(rows);
+  }
   void FinishTrial(std::int64_t trial_id, const std::string& status, const std::string& best_params,
                    double best_value) override {
     std::lock_guard lock(mutex_);
@@ -283,22 +340,25 @@ int KillAfter(int rank) {
     throw ConfigError("QUADTUNE_TEST_KILL_RANK", "",
                       std::string("got '") + text +
                           "', allowed: RANK:N with RANK >= 1 and N >= 1 (that rank raises SIGKILL "
-                          "after sending its Nth evaluation)");
+                          "right after sending the batch that holds its Nth evaluation)");
   }
   return r == rank ? n : 0;
 }
 
 /// The store of a rank ≠ 0: the current trial's stored rows (sent with its assignment) for
-/// replay; new rows and finished trials go to rank 0. Driver thread only.
+/// replay; new rows travel to rank 0 in batches (Insert collects, Flush sends without waiting,
+/// rank 0 acknowledges each batch once it is committed); finished trials follow their rows.
+/// Driver thread only (it is the MPI thread).
 class RemoteStore final : public EvaluationStore {
  public:
-  explicit RemoteStore(int rank) : kill_after_(KillAfter(rank)) {}
+  explicit RemoteStore(int rank) : rank_(rank), kill_after_(KillAfter(rank)) {}
 
   void Begin(std::int64_t trial_id, std::string method, int repeat,
              const std::vector<EvaluationRow>& rows) {
     trial_id_ = trial_id;
     method_ = std::move(method);
     repeat_ = repeat;
+    trials_ += (trials_.empty() ? "" : ",") + std::to_string(trial_id);
     rows_.clear();
     for (const auto& r : rows) rows_.emplace(std::make_tuple(r.kind, r.iteration, r.index), r);
   }
@@ -314,11 +374,18 @@ class RemoteStore final : public EvaluationStore {
     return it == rows_.end() ? nullptr : &it->second;
   }
   void Insert(const EvaluationRow& row) override {
-    Send(0, kTagToRoot, Json{{"type", "insert"}, {"row", ToJson(row)}});
-    if (++sent_ == kill_after_) std::raise(SIGKILL);  // test hook (see the header)
+    if (batch_.Rows() == 0) batch_started_ = Clock::now();
+    batch_.Add(row);
+    if (++added_ == kill_after_) KillWithBatchInFlight();  // test hook (see the header)
+    if (batch_.Rows() >= kBatchRows || Clock::now() - batch_started_ >= kBatchAge) {
+      Flush();
+    } else if (!in_flight_.empty()) {
+      Progress();
+    }
   }
   void FinishTrial(std::int64_t trial_id, const std::string& status, const std::string& best_params,
                    double best_value) override {
+    Flush();
     Send(0, kTagToRoot,
          Json{{"type", "finish"},
               {"trial_id", trial_id},
@@ -327,9 +394,109 @@ class RemoteStore final : public EvaluationStore {
               {"best_value", Bits(best_value)}});
   }
 
+  /// Sends the collected rows, if any, without waiting for them to arrive; first waits while
+  /// kMaxInFlight batches are unacknowledged.
+  void Flush() {
+    if (batch_.Rows() == 0) return;
+    AwaitInFlight(kMaxInFlight - 1);
+    InFlight& f = in_flight_.emplace_back();
+    f.sequence = batch_.Sequence();
+    f.rows = batch_.Rows();
+    f.bytes = batch_.Bytes();
+    QT_DEMAND(f.bytes.size() < static_cast<std::size_t>(INT_MAX), "MPI message too large");
+    MPI_Isend(f.bytes.data(), static_cast<int>(f.bytes.size()), MPI_CHAR, 0, kTagToRoot,
+              MPI_COMM_WORLD, &f.request);
+    batch_ = RowBatch(batch_.Sequence() + 1);
+  }
+
+  /// Completes finished sends and takes rank 0's acknowledgements, without waiting; true when
+  /// anything moved.
+  bool Progress() {
+    bool moved = false;
+    for (auto& f : in_flight_) {
+      if (f.sent) continue;
+      int done = 0;
+      MPI_Test(&f.request, &done, MPI_STATUS_IGNORE);
+      if (done == 0) break;
+      f.sent = true;
+      moved = true;
+    }
+    for (;;) {
+      int flag = 0;
+      MPI_Iprobe(0, kTagAck, MPI_COMM_WORLD, &flag, MPI_STATUS_IGNORE);
+      if (flag == 0) break;
+      std::uint64_t sequence = 0;
+      MPI_Recv(&sequence, 1, MPI_UINT64_T, 0, kTagAck, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+      acked_ = std::max(acked_, sequence);
+      moved = true;
+    }
+    while (!in_flight_.empty() && in_flight_.front().sequence <= acked_) {
+      InFlight& f = in_flight_.front();
+      if (!f.sent) WaitFor(f.request);  // acknowledged, so received: completes at once
+      acked_rows_ += f.rows;
+      in_flight_.pop_front();
+    }
+    return moved;
+  }
+
+  /// Sends the collected rows and waits until rank 0 has acknowledged every batch (or the run
+  /// is cancelled).
+  void Drain() {
+    Flush();
+    AwaitInFlight(0);
+  }
+
+  /// Waits until at most `count` batches are unacknowledged (or the run is cancelled).
+  void AwaitInFlight(std::size_t count) {
+    Backoff backoff;
+    while (in_flight_.size() > count && !CancelSet()) {
+      if (Progress()) {
+        backoff.Reset();
+      } else {
+        backoff.Pause();
+      }
+    }
+  }
+
  private:
+  /// A batch sent and not yet acknowledged; its bytes stay put until the send completes
+  /// (std::deque keeps elements in place when the ends change).
+  struct InFlight {
+    std::uint64_t sequence = 0;
+    std::uint32_t rows = 0;
+    std::string bytes;
+    MPI_Request request = MPI_REQUEST_NULL;
+    bool sent = false;
+  };
+
+  /// The test hook: every earlier batch acknowledged, then the batch holding this evaluation
+  /// sent (its send completed, so rank 0 has it or is receiving it) and the rank killed before
+  /// the acknowledgement can arrive. Says what rank 0 acknowledged and what was in flight.
+  [[noreturn]] void KillWithBatchInFlight() {
+    AwaitInFlight(0);
+    const std::uint32_t rows = batch_.Rows();
+    Flush();
+    InFlight& last = in_flight_.back();
+    WaitFor(last.request);
+    last.sent = true;
+    std::fprintf(stderr,
+                 "quadtune: test hook: rank %d: %ld evaluations acknowledged by rank 0, %u sent "
+                 "in a batch not yet acknowledged (trials %s); raising SIGKILL\n",
+                 rank_, acked_rows_, rows, trials_.c_str());
+    std::fflush(stderr);
+    std::raise(SIGKILL);
+    std::_Exit(137);
+  }
+
+  int rank_;
   int kill_after_;
-  int sent_ = 0;
+  long added_ = 0;
+  long acked_rows_ = 0;
+  std::uint64_t acked_ = 0;
+  RowBatch batch_{1};
+  Clock::time_point batch_started_;
+  std::deque<InFlight> in_flight_;
+  std::string trials_;  // ids of the trials assigned to this rank, for the test hook
   std::int64_t trial_id_ = -1;
   std::string method_;
   int repeat_ = -1;
@@ -404,34 +571,38 @@ class Root {
 
   RunSummary Serve() {
     std::thread local([this] { LocalTrials(); });
-    int active = mpi_.Size() - 1;
-    while (active > 0 || !local_done_.load()) {
+    active_ = mpi_.Size() - 1;
+    acks_.assign(static_cast<std::size_t>(mpi_.Size()), 0);
+    Backoff idle;
+    while (active_ > 0 || !local_done_.load()) {
       if (o_.run.cancel != nullptr && o_.run.cancel->load()) ReportStoppedAndExit();
       {
         std::lock_guard lock(mutex_);
         if (!local_error_.empty()) Fail("rank 0: " + local_error_);
       }
-      auto m = TryReceive(MPI_ANY_SOURCE, kTagToRoot);
-      if (!m) {
-        std::this_thread::sleep_for(kPoll);
-        continue;
+      // Take what has arrived, then commit its rows in one transaction and acknowledge them.
+      bool any = false;
+      for (int n = 0; n < kDrainMessages; ++n) {
+        auto m = TryReceiveBytes(MPI_ANY_SOURCE, kTagToRoot);
+        if (!m) break;
+        any = true;
+        if (!m->bytes.empty() && m->bytes.front() == kBatchTag) {
+          try {
+            acks_[static_cast<std::size_t>(m->source)] = DecodeBatch(m->bytes, pending_);
+          } catch (const CodecError& ex) {
+            Fail("rank " + std::to_string(m->source) + " sent " + ex.what());
+          }
+          dirty_.push_back(m->source);
+          continue;
+        }
+        Commit();  // the rows sent before a control message are stored before it is acted on
+        Handle(m->source, Json::parse(m->bytes));
       }
-      RankState& rank = ranks_[static_cast<std::size_t>(m->source)];
-      const std::string type = m->body.at("type").get<std::string>();
-      if (type == "insert") {
-        locked_->Insert(RowFromJson(m->body.at("row")));
-      } else if (type == "finish") {
-        locked_->FinishTrial(
-            m->body.at("trial_id").get<std::int64_t>(), m->body.at("status").get<std::string>(),
-            m->body.at("best_params").get<std::string>(), FromBits(m->body.at("best_value")));
-      } else if (type == "next") {
-        Next(m->source, rank, m->body);
-      } else if (type == "error") {
-        Fail("rank " + std::to_string(m->source) + ": " + m->body.at("message").get<std::string>());
-      } else if (type == "bye") {
-        rank.worlds = m->body.at("worlds").get<int>();
-        rank.done = true;
-        --active;
+      Commit();
+      if (any) {
+        idle.Reset();
+      } else {
+        idle.Pause();
       }
     }
     local.join();
@@ -454,6 +625,43 @@ class Root {
   }
 
  private:
+  /// Commits the rows received since the last commit (one transaction), then acknowledges each
+  /// sender's last batch: what a rank sees acknowledged is in the store.
+  void Commit() {
+    if (!pending_.empty()) {
+      locked_->InsertBatch(pending_);
+      pending_.clear();
+    }
+    std::sort(dirty_.begin(), dirty_.end());
+    dirty_.erase(std::unique(dirty_.begin(), dirty_.end()), dirty_.end());
+    for (const int source : dirty_) {
+      MPI_Request request;
+      MPI_Isend(&acks_[static_cast<std::size_t>(source)], 1, MPI_UINT64_T, source, kTagAck,
+                MPI_COMM_WORLD, &request);
+      WaitFor(request);
+    }
+    dirty_.clear();
+  }
+
+  /// A control message (JSON) from `source`.
+  void Handle(int source, const Json& body) {
+    RankState& rank = ranks_[static_cast<std::size_t>(source)];
+    const std::string type = body.at("type").get<std::string>();
+    if (type == "finish") {
+      locked_->FinishTrial(
+          body.at("trial_id").get<std::int64_t>(), body.at("status").get<std::string>(),
+          body.at("best_params").get<std::string>(), FromBits(body.at("best_value")));
+    } else if (type == "next") {
+      Next(source, rank, body);
+    } else if (type == "error") {
+      Fail("rank " + std::to_string(source) + ": " + body.at("message").get<std::string>());
+    } else if (type == "bye") {
+      rank.worlds = body.at("worlds").get<int>();
+      rank.done = true;
+      --active_;
+    }
+  }
+
   std::optional<Task> NextTask() {
     std::lock_guard lock(mutex_);
     if (queue_.empty()) return std::nullopt;
@@ -581,9 +789,9 @@ class Root {
     }
     if (store_ != nullptr) {
       std::fprintf(stderr,
-                   "quadtune: store %s is consistent: %zu evaluations committed (one transaction "
-                   "each), %d of %zu trials finished; unfinished trials resume from their stored "
-                   "evaluations.\nquadtune: resume with: %s\n",
+                   "quadtune: store %s is consistent: %zu evaluations committed (every batch rank "
+                   "0 acknowledged is in it), %d of %zu trials finished; unfinished trials resume "
+                   "from their stored evaluations.\nquadtune: resume with: %s\n",
                    o_.run.store_path.c_str(), locked_->Count(), done, tasks_.size(),
                    o_.resume_command.c_str());
     }
@@ -609,6 +817,12 @@ class Root {
   int trials_done_ = 0;
   std::string local_error_;
   std::mutex progress_mutex_;
+  // Serving thread only: ranks still running, rows received and not yet committed, each rank's
+  // last batch received (its acknowledgement once committed), ranks owed an acknowledgement.
+  int active_ = 0;
+  std::vector<EvaluationRow> pending_;
+  std::vector<std::uint64_t> acks_;
+  std::vector<int> dirty_;
 };
 
 // ---- ranks ≠ 0 ----------------------------------------------------------------------------
@@ -636,9 +850,14 @@ RunSummary RunWorker(const MpiSession& mpi, const Experiment& e, const Distribut
     for (;;) {
       Send(0, kTagToRoot, next);
       std::optional<Message> m;
+      Backoff backoff;
       while (!(m = TryReceive(0, kTagToRank))) {
         if (cancelled()) WaitToBeStopped();
-        std::this_thread::sleep_for(kPoll);
+        if (store->Progress()) {
+          backoff.Reset();
+        } else {
+          backoff.Pause();
+        }
       }
       const Json& a = m->body;
       if (a.at("stop").get<bool>()) break;
@@ -664,6 +883,8 @@ RunSummary RunWorker(const MpiSession& mpi, const Experiment& e, const Distribut
   summary.resolves = runner->Resolves();
   summary.worlds = runner->Worlds();
   summary.wall_s = runner->ElapsedSeconds();
+  store->Drain();
+  if (cancelled()) WaitToBeStopped();
   Send(0, kTagToRoot, Json{{"type", "bye"}, {"worlds", summary.worlds}});
   return summary;
 }

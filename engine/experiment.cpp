@@ -95,8 +95,27 @@ std::vector<std::string> StringList(const YamlMap& map, const std::string& key) 
   return out;
 }
 
+/// planner.type: sleep (SleepPlanner, the scale model of distributed runs).
+Planner BuildSleepPlanner(const YamlMap& p) {
+  p.RejectUnknownKeys({"type", "sleep"});
+  const YamlMap t = p.Map("sleep", true);
+  t.RejectUnknownKeys({"resolve_median_s", "resolve_p95_s", "flight_median_s", "flight_p95_s",
+                       "queries_per_flight"});
+  SleepPlannerOptions o;
+  o.resolve_median_s = t.Number("resolve_median_s", o.resolve_median_s, Range::Closed(1e-6, 10.0));
+  o.resolve_p95_s = t.Number("resolve_p95_s", o.resolve_p95_s, Range::Closed(1e-6, 10.0));
+  o.flight_median_s = t.Number("flight_median_s", o.flight_median_s, Range::Closed(1e-6, 60.0));
+  o.flight_p95_s = t.Number("flight_p95_s", o.flight_p95_s, Range::Closed(1e-6, 60.0));
+  o.queries_per_flight =
+      static_cast<int>(t.Integer("queries_per_flight", o.queries_per_flight, Range::Closed(1, 1e5)));
+  if (o.resolve_p95_s < o.resolve_median_s) t.Fail("resolve_p95_s", "must be >= resolve_median_s");
+  if (o.flight_p95_s < o.flight_median_s) t.Fail("flight_p95_s", "must be >= flight_median_s");
+  return Planner{SleepPlanner{o}};
+}
+
 Planner BuildPlanner(const YamlMap& p, const std::string& base_dir, std::string* type) {
-  *type = p.String("type", std::string("ipopt"), {"ipopt", "toy"});
+  *type = p.String("type", std::string("ipopt"), {"ipopt", "toy", "sleep"});
+  if (*type == "sleep") return BuildSleepPlanner(p);
   if (*type == "toy") {
     p.RejectUnknownKeys({"type", "toy"});
     const YamlMap t = p.Map("toy", true);

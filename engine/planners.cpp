@@ -1,5 +1,6 @@
 #include "quadtune/engine/planners.hpp"
 
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -309,6 +310,111 @@ ResolveRecord ToyPlanner::Resolve(const Opaque& query, const ParamValues& theta_
   r.duration = 1.0 + 0.01 * s.iterations;
   r.jerk_integral = gain * gain;
   r.min_clearance = 0.5 + 0.1 * gain;
+  r.solve_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+// ---------------------------------------------------------------------------------------------
+// SleepPlanner
+
+namespace {
+
+struct SleepMap {
+  std::uint64_t seed = 0;
+  std::vector<double> gate_limit;  // (m/s)
+};
+
+struct SleepQuery {
+  std::uint64_t seed = 0;
+  double difficulty = 1.0;  // the effort a re-solve needs to succeed
+};
+
+/// A log-normal draw with the given median and 95th percentile.
+double LogNormal(Rng& rng, double median, double p95) {
+  const double sigma = std::log(p95 / median) / 1.6448536269514722;
+  return median * std::exp(sigma * StandardNormal(rng));
+}
+
+void SleepFor(double seconds) {
+  std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+}
+
+}  // namespace
+
+SleepPlanner::SleepPlanner(SleepPlannerOptions options) : options_(options) {}
+
+std::vector<ParameterInfo> SleepPlanner::ShortTermParameters() const { return {{"effort", 1.0}}; }
+std::vector<ParameterInfo> SleepPlanner::LongTermParameters() const { return {{"pace", 1.0}}; }
+
+Opaque SleepPlanner::PrepareMap(std::uint64_t map_seed) const {
+  Rng rng(DeriveSeed(map_seed, {0x51ee}));
+  SleepMap map;
+  map.seed = map_seed;
+  for (int i = 0; i < 5; ++i) map.gate_limit.push_back(Uniform(rng, 1.5, 3.0));
+  return Opaque::Make(std::move(map));
+}
+
+FlightRecord SleepPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) const {
+  const auto& map = request.map.As<SleepMap>();
+  const auto t0 = std::chrono::steady_clock::now();
+  ++slot.uses;
+  const double pace = Param(request.params, "pace", 1.0);
+  if (!(pace > 0.0)) throw ConfigError("flight parameters", "pace", "pace must be > 0");
+  Rng rng(DeriveSeed(request.seed, {map.seed}));
+  const double wall = LogNormal(rng, options_.flight_median_s, options_.flight_p95_s);
+  ParamValues theta_s{{"effort", Param(request.params, "effort", 1.0)}};
+  FlightRecord r;
+  for (int q = 0; q < options_.queries_per_flight; ++q) {
+    if (request.cancelled && request.cancelled()) {
+      r.status = EvalStatus::kCancelled;
+      r.message = "cancelled";
+      return r;
+    }
+    if (request.short_params_provider) {
+      request.short_params_provider(20.0 * q / (pace * options_.queries_per_flight), theta_s);
+    }
+    SleepQuery query;
+    query.seed = rng();
+    query.difficulty = Uniform(rng, 0.5, 1.5);
+    ++r.plans;
+    ++r.queries;
+    if (theta_s["effort"] < query.difficulty) {
+      ++r.failed_plans;
+      ++r.failed_attempts;
+    }
+    r.compute_units += 10.0;
+    if (request.on_query) request.on_query(Opaque::Make(query));
+    SleepFor(wall / options_.queries_per_flight);
+  }
+  for (const double limit : map.gate_limit) {
+    if (pace > limit) ++r.collisions;
+  }
+  r.completed = true;
+  r.flight_time = 20.0 / pace;
+  r.jerk_integral = pace * pace;
+  r.min_clearance = 1.0 / (1.0 + r.collisions);
+  r.message = "completed";
+  r.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+ResolveRecord SleepPlanner::Resolve(const Opaque& query, const ParamValues& theta_s) const {
+  const auto& q = query.As<SleepQuery>();
+  const auto t0 = std::chrono::steady_clock::now();
+  const double effort = Param(theta_s, "effort", 1.0);
+  if (!(effort > 0.0)) throw ConfigError("re-solve parameters", "effort", "effort must be > 0");
+  Rng rng(DeriveSeed(q.seed, {std::bit_cast<std::uint64_t>(effort)}));
+  const double cost = LogNormal(rng, options_.resolve_median_s, options_.resolve_p95_s) *
+                      (0.5 + 0.25 * (effort + 1.0 / effort));
+  SleepFor(cost);
+  ResolveRecord r;
+  r.success = effort >= q.difficulty;
+  r.attempts = 1;
+  r.failed_attempts = r.success ? 0 : 1;
+  r.compute_units = cost / 1e-4;
+  r.duration = 1.0;
+  r.jerk_integral = effort;
+  r.min_clearance = 0.5;
   r.solve_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return r;
 }

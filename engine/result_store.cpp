@@ -189,7 +189,10 @@ ResultStore::ResultStore(const std::string& path) {
   sqlite3_busy_timeout(db_, 5000);
 }
 
-ResultStore::~ResultStore() { sqlite3_close(db_); }
+ResultStore::~ResultStore() {
+  sqlite3_finalize(insert_);
+  sqlite3_close(db_);
+}
 
 std::int64_t ResultStore::Trial(const std::string& method, int repeat, std::uint64_t map_seed) {
   {
@@ -225,29 +228,49 @@ std::vector<EvaluationRow> ResultStore::StoredRows(std::int64_t trial_id) const 
   return rows;
 }
 
-void ResultStore::Insert(const EvaluationRow& r) {
+void ResultStore::BindAndStep(const EvaluationRow& r) {
+  if (insert_ == nullptr) {
+    const char* sql =
+        "INSERT OR IGNORE INTO evaluation(trial_id, method, kind, iteration, idx, params, terms, "
+        "value, status, message, wall_s, started, finished, map_seed, flight_seed) "
+        "VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)";
+    if (sqlite3_prepare_v2(db_, sql, -1, &insert_, nullptr) != SQLITE_OK) {
+      throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(db_) + " in " + sql);
+    }
+  }
+  const auto text = [this](int i, const std::string& v) {
+    sqlite3_bind_text(insert_, i, v.data(), static_cast<int>(v.size()), SQLITE_STATIC);
+  };
+  sqlite3_bind_int64(insert_, 1, r.trial_id);
+  text(2, r.method);
+  text(3, r.kind);
+  sqlite3_bind_int(insert_, 4, r.iteration);
+  sqlite3_bind_int(insert_, 5, r.index);
+  text(6, r.params);
+  text(7, r.terms);
+  sqlite3_bind_double(insert_, 8, r.value);
+  text(9, r.status);
+  text(10, r.message);
+  sqlite3_bind_double(insert_, 11, r.wall_s);
+  sqlite3_bind_double(insert_, 12, r.started);
+  sqlite3_bind_double(insert_, 13, r.finished);
+  const std::string map_seed = SeedText(r.map_seed);
+  const std::string flight_seed = SeedText(r.flight_seed);
+  text(14, map_seed);
+  text(15, flight_seed);
+  const int rc = sqlite3_step(insert_);
+  sqlite3_reset(insert_);
+  sqlite3_clear_bindings(insert_);
+  if (rc != SQLITE_DONE) throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(db_));
+}
+
+void ResultStore::Insert(const EvaluationRow& r) { InsertBatch(std::span(&r, 1)); }
+
+void ResultStore::InsertBatch(std::span<const EvaluationRow> rows) {
+  if (rows.empty()) return;
   Exec("BEGIN");
   try {
-    Statement s(db_,
-                "INSERT OR IGNORE INTO evaluation(trial_id, method, kind, iteration, idx, params, "
-                "terms, value, status, message, wall_s, started, finished, map_seed, flight_seed) "
-                "VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
-    s.Bind(1, r.trial_id);
-    s.Bind(2, r.method);
-    s.Bind(3, r.kind);
-    s.Bind(4, r.iteration);
-    s.Bind(5, r.index);
-    s.Bind(6, r.params);
-    s.Bind(7, r.terms);
-    s.Bind(8, r.value);
-    s.Bind(9, r.status);
-    s.Bind(10, r.message);
-    s.Bind(11, r.wall_s);
-    s.Bind(12, r.started);
-    s.Bind(13, r.finished);
-    s.Bind(14, SeedText(r.map_seed));
-    s.Bind(15, SeedText(r.flight_seed));
-    s.Step();
+    for (const EvaluationRow& r : rows) BindAndStep(r);
     Exec("COMMIT");
   } catch (...) {
     Exec("ROLLBACK");

@@ -14,6 +14,9 @@ Called by `quadtune plot`, or directly:
     quadtune_plot.py study DIR               a study (`quadtune study`): validation and 90%-of-
                                              optimum table, sweep figure, refinement figures
     quadtune_plot.py bench CSV [--out PNG]   thread scaling from `quadtune bench --csv`
+    quadtune_plot.py scale-model CSV [--out PNG]
+                                             stored evaluations/s against MPI ranks from
+                                             scripts/scale_model.sh, with the ideal line
 """
 import argparse
 import csv
@@ -699,6 +702,46 @@ def plot_bench(csv_path, out=None):
     return [out]
 
 
+def plot_scale_model(csv_path, out=None):
+    """The scale model of distributed runs (scripts/scale_model.sh): stored evaluations per second
+    against MPI ranks (log-log), the ideal line (ranks × the single process's rate) and the
+    resident memory per rank."""
+    with open(csv_path, newline="") as f:
+        rows = sorted(csv.DictReader(f), key=lambda r: int(r["ranks"]))
+    ranks = [int(r["ranks"]) for r in rows]
+    rate = [float(r["evals_per_s"]) for r in rows]
+    ideal = [float(r["ideal_per_s"]) for r in rows]
+    fig, (ax_a, ax_b) = plt.subplots(1, 2, figsize=(11, 4))
+    ax_a.plot(ranks, rate, "o-", color="tab:blue", label="stored evaluations/s (measured)")
+    ax_a.plot(ranks, ideal, "k:", label="ideal: ranks × one process's rate")
+    for x, y in zip(ranks, rate):
+        ax_a.annotate("{:.0f}".format(y), (x, y), textcoords="offset points", xytext=(4, -12),
+                      fontsize=7)
+    ax_a.set_xscale("log", base=2)
+    ax_a.set_yscale("log")
+    ax_a.set_xlabel("MPI ranks × 1 thread (sleep planner, on {} cores)".format(
+        rows[0].get("cores", "?")))
+    ax_a.set_ylabel("stored evaluations per second")
+    ax_a.set_title("(A) rank 0's store against ranks")
+    measured = [r for r in rows if r.get("rss_rank_mib")]  # a run may lack its memory figures
+    ax_b.plot([int(r["ranks"]) for r in measured], [float(r["rss_rank_mib"]) for r in measured],
+              "o-", color="tab:green", label="a rank ≠ 0 (median)")
+    ax_b.plot([int(r["ranks"]) for r in measured], [float(r["rss_root_mib"]) for r in measured],
+              "s-", color="tab:red", label="rank 0")
+    ax_b.set_xscale("log", base=2)
+    ax_b.set_xlabel("MPI ranks")
+    ax_b.set_ylabel("peak resident memory (MiB)")
+    ax_b.set_title("(B) memory per rank")
+    for ax in (ax_a, ax_b):
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    out = out or os.path.splitext(csv_path)[0] + ".png"
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out
+
+
 def main(argv):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     sub = parser.add_subparsers(dest="what", required=True)
@@ -717,7 +760,14 @@ def main(argv):
     p.add_argument("--out", default=None)
     sub.add_parser("adapt", help="velocity along the path and top-down view of `quadtune adapt`"
                    ).add_argument("directory")
+    p = sub.add_parser("scale-model", help="stored evaluations/s against MPI ranks "
+                       "(scripts/scale_model.sh CSV)")
+    p.add_argument("csv")
+    p.add_argument("--out", default=None)
     args = parser.parse_args(argv)
+    if args.what == "scale-model":
+        print(plot_scale_model(args.csv, args.out))
+        return 0
     if args.what == "adapt":
         print(plot_adapt(args.directory))
         return 0

@@ -8,6 +8,11 @@
 #   mpi_run_test.sh kill QUADTUNE MPIEXEC WORKDIR
 #       rank 1 is killed (SIGKILL) mid-run: rank 0 reports it, the store is partial and
 #       `--resume` on 2 ranks completes it to the uninterrupted run's results.
+#   mpi_run_test.sh batch QUADTUNE MPIEXEC WORKDIR
+#       rank 1 is killed while a batch of its rows is in flight (sent, not acknowledged): every
+#       evaluation rank 0 acknowledged is in the store, at most the in-flight ones besides, rank
+#       0's count of committed evaluations is the store's, and `--resume` completes the store to
+#       the uninterrupted run's rows, none missing and none twice.
 #   mpi_run_test.sh ipopt QUADTUNE MPIEXEC WORKDIR SOURCE_DIR
 #       as `equal`, with the real planner: experiments/tiny.yaml (Bullet flights, Ipopt solves),
 #       three methods × two repeats.
@@ -26,6 +31,7 @@ if [[ $(id -u) == 0 ]]; then mpi+=(--allow-run-as-root); fi
 # rank 1 dies while rank 0 is still working).
 delay=0
 [[ $mode == kill ]] && delay=0.01
+[[ $mode == batch ]] && delay=0.03  # several 50 ms batches before the kill
 cat > toy.yaml <<YAML
 name: mpi-toy
 seed: 5
@@ -51,10 +57,10 @@ bo: {initial_design_size: 2, acquisition_pool: 50, acquisition_starts: 1, hyper_
 YAML
 
 # What must be identical: evaluations.csv without its wall-clock columns (wall_s, started,
-# finished: the last three, plain numbers) and trials.csv.
+# finished: plain numbers before the last two columns, map_seed and flight_seed) and trials.csv.
 export_store() {  # export_store RUN_DIR → RUN_DIR/evaluations.txt, RUN_DIR/trials.txt
   "$quadtune" --log-level warn export "$1/results.sqlite" --csv "$1/csv"
-  sed -E 's/,[^,]*,[^,]*,[^,]*$//' "$1/csv/evaluations.csv" > "$1/evaluations.txt"
+  sed -E 's/,[^,]*,[^,]*,[^,]*(,[^,]*,[^,]*)$/\1/' "$1/csv/evaluations.csv" > "$1/evaluations.txt"
   cp "$1/csv/trials.csv" "$1/trials.txt"
 }
 
@@ -62,6 +68,20 @@ same_results() {  # same_results DIR_A DIR_B
   diff -u "$1/evaluations.txt" "$2/evaluations.txt" | head -20
   diff -u "$1/trials.txt" "$2/trials.txt" | head -20
   cmp -s "$1/evaluations.txt" "$2/evaluations.txt" && cmp -s "$1/trials.txt" "$2/trials.txt"
+}
+
+# killed_run R:N: toy.yaml on 2 ranks into cut/ with QUADTUNE_TEST_KILL_RANK=R:N; the run must
+# fail, and rank 0 must name the lost rank and say how to resume.
+killed_run() {
+  set +e
+  QUADTUNE_TEST_KILL_RANK=$1 "${mpi[@]}" "$quadtune" --log-level warn run toy.yaml --out cut \
+    --threads 1 --quiet > cut.log 2>&1
+  local status=$?
+  set -e
+  cat cut.log
+  if (( status == 0 )); then echo "the run survived the kill"; exit 1; fi
+  grep -q "rank 1 (pid .*) was lost" cut.log || { echo "rank 0 did not name the lost rank"; exit 1; }
+  grep -q "resume with: .*--resume" cut.log || { echo "rank 0 did not say how to resume"; exit 1; }
 }
 
 experiment=(toy.yaml)
@@ -87,16 +107,39 @@ if [[ $mode == equal || $mode == ipopt ]]; then
   exit 0
 fi
 
-# kill: rank 1 raises SIGKILL after sending its 3rd evaluation (mid-trial: a trial has >= 8).
-set +e
-QUADTUNE_TEST_KILL_RANK=1:3 "${mpi[@]}" "$quadtune" --log-level warn run toy.yaml --out cut \
-  --threads 1 --quiet > cut.log 2>&1
-status=$?
-set -e
-cat cut.log
-if (( status == 0 )); then echo "the run survived the kill"; exit 1; fi
-grep -q "rank 1 (pid .*) was lost" cut.log || { echo "rank 0 did not name the lost rank"; exit 1; }
-grep -q "resume with: .*--resume" cut.log || { echo "rank 0 did not say how to resume"; exit 1; }
+if [[ $mode == batch ]]; then
+  # Rank 1 runs a bo_pso trial first (40 rows); at its 30th evaluation it waits for the
+  # acknowledgement of every earlier batch, sends the batch holding the 30th and dies.
+  killed_run 1:30
+  hook=$(grep -o "rank 1: [0-9]* evaluations acknowledged by rank 0, [0-9]* sent in a batch not yet acknowledged (trials [0-9,]*)" cut.log) \
+    || { echo "rank 1 did not report its batches"; exit 1; }
+  acked=$(sed -E 's/rank 1: ([0-9]+) evaluations.*/\1/' <<< "$hook")
+  in_flight=$(sed -E 's/.*acknowledged by rank 0, ([0-9]+) sent.*/\1/' <<< "$hook")
+  trials=$(sed -E 's/.*\(trials ([0-9,]+)\)/\1/' <<< "$hook")
+  committed=$(grep -o "[0-9]* evaluations committed" cut.log | grep -o "^[0-9]*") \
+    || { echo "rank 0 did not report the store"; exit 1; }
+  export_store cut
+  stored=$(($(wc -l < cut/evaluations.txt) - 1))
+  # Rows of rank 1's trials (the first column is the trial id).
+  of_rank1=$(awk -F, -v ids=",$trials," 'NR > 1 && index(ids, "," $1 ",") { n++ } END { print n + 0 }' \
+    cut/csv/evaluations.csv)
+  echo "rank 1: $acked acknowledged, $in_flight in flight; stored of its trials: $of_rank1;" \
+    "rank 0 committed $committed, the store holds $stored"
+  (( acked > 0 && in_flight > 0 )) || { echo "no batch was acknowledged or in flight"; exit 1; }
+  (( of_rank1 >= acked )) || { echo "an acknowledged evaluation is missing"; exit 1; }
+  (( of_rank1 <= acked + in_flight )) || { echo "more rows than rank 1 sent"; exit 1; }
+  (( committed == stored )) || { echo "rank 0's count differs from the store"; exit 1; }
+  "${mpi[@]}" "$quadtune" --log-level warn run toy.yaml --out cut --threads 1 --quiet --resume \
+    > resume.log 2>&1 || { cat resume.log; exit 1; }
+  export_store cut
+  same_results one cut
+  echo "resumed on 2 ranks: every row once, identical to the uninterrupted run"
+  exit 0
+fi
+
+# kill: rank 1 raises SIGKILL after sending the batch with its 3rd evaluation (mid-trial: a
+# trial has >= 8).
+killed_run 1:3
 export_store cut
 stored=$(($(wc -l < cut/evaluations.txt) - 1))
 echo "killed run: $stored of $rows evaluations stored"

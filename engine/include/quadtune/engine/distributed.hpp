@@ -6,22 +6,36 @@
 ///
 /// Rank 0 owns the SQLite store. Its main thread serves the other ranks: a work queue hands out
 /// one trial at a time to a rank that asks (bo_pso trials first, the most expensive, then the
-/// experiment's order), and the rows the ranks send are stored under a mutex. A second thread of
-/// rank 0 runs trials from the same queue. The trial rows are created up front in the
-/// single-process order, so trial ids, and in reproducible mode every stored evaluation, equal
-/// the single-process run's. On resume, a trial's stored rows travel with its assignment and the
-/// rank replays them exactly as a single process does.
+/// experiment's order). A second thread of rank 0 runs trials from the same queue and stores its
+/// rows one transaction each, as a single process does. The trial rows are created up front in
+/// the single-process order, so trial ids, and in reproducible mode every stored evaluation,
+/// equal the single-process run's. On resume, a trial's stored rows travel with its assignment
+/// and the rank replays them exactly as a single process does.
+///
+/// Rows of the other ranks travel in batches (binary, row_codec.hpp): a rank sends its batch
+/// when it holds 256 rows, when a row comes 50 ms after the batch's first one, and before any
+/// message about its trial (finished, next), and goes on computing. Rank 0 takes every message
+/// that has arrived (up to 64), commits their rows in one transaction (InsertBatch), and only
+/// then acknowledges each rank's last batch. A rank keeps at most 8 batches unacknowledged and
+/// waits for rank 0 beyond that. Guarantees: what rank 0 acknowledged is in the store (a
+/// committed SQLite transaction, WAL journal); a row is stored once (the store keeps the first
+/// row of a key); a rank that is lost loses only its rows not yet committed, which a resume
+/// computes again, as it does for a killed single process.
 ///
 /// Losing a rank: the MPI runtime then stops the others with SIGTERM. Rank 0 says which rank was
 /// lost (when it ran on rank 0's host; otherwise mpirun names it), that the store is consistent
-/// (one transaction per evaluation) and the command that resumes the run. The other ranks wait to
-/// be stopped so that the lost one can be told apart.
+/// and the command that resumes the run. The other ranks wait to be stopped so that the lost one
+/// can be told apart.
 ///
 /// Waiting never blocks inside MPI (OpenMPI spins there and would take a core from the
-/// computing threads): it polls (MPI_Iprobe / MPI_Test) with a 1 ms sleep.
+/// computing threads): it polls (MPI_Improbe / MPI_Test), a few times back to back and then
+/// with sleeps from 20 µs doubling to 1 ms while nothing comes; rank 0 sleeps only when no
+/// message is waiting.
 ///
-/// Test hook: the environment variable QUADTUNE_TEST_KILL_RANK=R:N makes rank R (>= 1) raise
-/// SIGKILL right after it has sent its Nth evaluation to rank 0.
+/// Test hook: the environment variable QUADTUNE_TEST_KILL_RANK=R:N makes rank R (>= 1), at its
+/// Nth evaluation, wait until rank 0 has acknowledged every earlier batch, send the batch that
+/// holds the Nth evaluation, print on stderr how many evaluations rank 0 acknowledged, how many
+/// are in flight and the ids of its trials, and raise SIGKILL before the acknowledgement.
 ///
 /// Without MPI (QUADTUNE_WITH_MPI=OFF or MPI not found) MpiBuilt() is false and MpiSession's
 /// constructor throws.

@@ -1,14 +1,17 @@
 #pragma once
 /// \file
-/// The two planner plug-ins shipped with the engine:
+/// The planner plug-ins shipped with the engine:
 ///
 /// - IpoptPlanner: the project's online planner (physics::World + planning::Fly, Ipopt back end,
 ///   planning::SolveQuery for re-solves). θ_s = {w_col, w_dyn, n_pol}, θ_l = {v_des, h_pl, t_pl}.
 /// - ToyPlanner: a deliberately simple 1-D planner (a point moving along a line through gates)
 ///   with its own parameter names, to show that the engine tunes any plug-in. θ_s = {gain,
 ///   max_iter}, θ_l = {speed, margin}.
+/// - SleepPlanner: a scale model of IpoptPlanner's cost for distributed runs: flights and
+///   re-solves sleep for seeded log-normal durations (no core used), so that many ranks on a few
+///   cores load rank 0 as that many cores would. θ_s = {effort}, θ_l = {pace}.
 ///
-/// Thread safety: both are immutable after construction; all members are safe to call
+/// Thread safety: all are immutable after construction; all members are safe to call
 /// concurrently on distinct WorkerSlots.
 
 #include <memory>
@@ -86,6 +89,42 @@ class ToyPlanner {
 
  private:
   ToyPlannerOptions options_;
+};
+
+/// Settings of SleepPlanner: log-normal durations given by their median and 95th percentile (s).
+/// Defaults from the Ipopt planner on the 2-core development machine: a re-solve of a recorded
+/// query median 1 ms, p95 2 ms (README, `recorded_bench`: 0.6–1.1 ms medians, p95 0.9–2.3 ms); a
+/// flight median 0.22 s (docs/results/scaling/bench.csv: 4.5 flights/s on one thread), p95 twice
+/// that; about 50 planning queries per flight (164 queries in three 1.3 m forest flights).
+struct SleepPlannerOptions {
+  double resolve_median_s = 0.001;  ///< > 0
+  double resolve_p95_s = 0.002;     ///< >= resolve_median_s
+  double flight_median_s = 0.22;    ///< > 0
+  double flight_p95_s = 0.44;       ///< >= flight_median_s
+  int queries_per_flight = 50;      ///< >= 1
+};
+
+/// Sleeps instead of computing. Fly() sleeps a duration drawn from the flight distribution with
+/// the flight's seed, in one step per planning query, reporting each query; Resolve() sleeps a
+/// duration drawn from the re-solve distribution with a seed of (query, θ_s), stretched by
+/// 0.5 + 0.25·(effort + 1/effort) (so effort = 1 is the cheapest) and reports that duration as
+/// its compute units (1 unit = 0.1 ms), so reproducible-mode objectives are deterministic. A
+/// re-solve succeeds when effort reaches the query's difficulty (uniform in [0.5, 1.5]); a flight
+/// takes 20/pace s of flight time and collides once for each of 5 gates whose limit (uniform in
+/// [1.5, 3]) pace exceeds.
+class SleepPlanner {
+ public:
+  explicit SleepPlanner(SleepPlannerOptions options = {});
+
+  std::string Name() const { return "sleep"; }
+  std::vector<ParameterInfo> ShortTermParameters() const;
+  std::vector<ParameterInfo> LongTermParameters() const;
+  Opaque PrepareMap(std::uint64_t map_seed) const;
+  FlightRecord Fly(const FlightRequest& request, WorkerSlot& slot) const;
+  ResolveRecord Resolve(const Opaque& query, const ParamValues& theta_s) const;
+
+ private:
+  SleepPlannerOptions options_;
 };
 
 }  // namespace quadtune::engine

@@ -1,6 +1,8 @@
 #pragma once
 /// \file
-/// The results store: one SQLite file (WAL journal) per run, one transaction per evaluation.
+/// The results store: one SQLite file (WAL journal) per run. A single process commits one
+/// transaction per evaluation (Insert); rank 0 of a distributed run commits a batch of
+/// evaluations per transaction (InsertBatch).
 ///
 /// Tables:
 ///   experiment(id, name, config TEXT, seed, version, machine, threads, mode, started)
@@ -26,11 +28,13 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <tuple>
 #include <vector>
 
 struct sqlite3;
+struct sqlite3_stmt;
 
 namespace quadtune::engine {
 
@@ -99,8 +103,13 @@ class ResultStore : public EvaluationStore {
   /// A stored evaluation, if any.
   [[nodiscard]] const EvaluationRow* Find(std::int64_t trial_id, const std::string& kind,
                                           int iteration, int index) const override;
-  /// Stores one evaluation (one transaction). Ignores a key already stored.
+  /// Stores one evaluation (one transaction): once it returns, the row survives a kill -9 of
+  /// the process (WAL journal, synchronous=NORMAL: not a power loss). Ignores a key already
+  /// stored.
   void Insert(const EvaluationRow& row) override;
+  /// Stores `rows` in one transaction: when it returns every row is stored (as Insert); when it
+  /// throws none is. Keys already stored (also twice inside `rows`) keep their first row.
+  void InsertBatch(std::span<const EvaluationRow> rows);
   /// Marks a trial finished with its best point.
   void FinishTrial(std::int64_t trial_id, const std::string& status, const std::string& best_params,
                    double best_value) override;
@@ -117,7 +126,10 @@ class ResultStore : public EvaluationStore {
 
  private:
   void Exec(const std::string& sql) const;
+  /// Binds `row` to the prepared insert statement and runs it (inside a transaction).
+  void BindAndStep(const EvaluationRow& row);
   sqlite3* db_ = nullptr;
+  sqlite3_stmt* insert_ = nullptr;  // prepared on first use
   std::int64_t experiment_id_ = 0;
   std::map<std::tuple<std::int64_t, std::string, int, int>, EvaluationRow> stored_;
 };
