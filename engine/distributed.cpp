@@ -12,6 +12,7 @@
 // MPI_Finalize and MPI_Wtime, which can shadow MPI's own (every rank would be rank 0). Those four
 // are called here through their PMPI_ names, which only the MPI library defines.
 #include "quadtune/engine/distributed.hpp"
+#include "quadtune/engine/validation.hpp"
 
 #include <cstdlib>
 #include <string>
@@ -619,6 +620,17 @@ class Root {
     }
     for (auto& t : results_) {
       if (t) summary.trials.push_back(std::move(*t));
+    }
+    // Held-out validation on rank 0's threads, once every trial is stored (as RunExperiment).
+    if (o_.run.validate && e_.validation.maps > 0 &&
+        summary.trials.size() == results_.size()) {
+      std::vector<std::int64_t> ids;
+      for (const auto& t : summary.trials) ids.push_back(t.trial_id);
+      long flown = 0;
+      summary.validation = RunValidation(e_, summary.trials, ids,
+                                         store_ != nullptr ? locked_.get() : nullptr, threads_,
+                                         o_.run, &flown);
+      summary.flights += flown;
     }
     summary.wall_s = runner_->ElapsedSeconds();
     return summary;
