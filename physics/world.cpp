@@ -228,7 +228,7 @@ struct World::Impl {
   // The drone.
   std::unique_ptr<btCollisionShape> drone_shape;
   std::unique_ptr<btRigidBody> body;
-  Eigen::Vector3d body_inertia = Eigen::Vector3d::Zero();  // principal inertia of the body (kg·m²)
+  Eigen::Vector3d body_inertia = Eigen::Vector3d::Zero();  // principal inertia (kg·m²)
   std::unique_ptr<GeometricController> controller;
   std::unique_ptr<Mixer> plant_mixer;
   std::unique_ptr<MotorModel> motors;

@@ -59,8 +59,8 @@ double MaxAttitudeError(const DroneDescription& drone, double physics_rate_hz, d
   return worst;
 }
 
-// Euler's equations J ω̇ = -ω × Jω with q̇ = q ⊗ (0, ω/2), integrated with classical RK4 in double
-// precision at a step far below the physics step.
+// Euler's equations J ω̇ = -ω × Jω with q̇ = q ⊗ (0, ω/2), integrated with classical RK4 in
+// double precision at a step far below the physics step.
 class EulerReference {
  public:
   EulerReference(const Eigen::Vector3d& inertia, const Eigen::Quaterniond& q0,
@@ -91,7 +91,8 @@ class EulerReference {
   State Derivative(const State& x) const {
     const Eigen::Quaterniond q(x.head<4>());
     const Eigen::Vector3d w = x.tail<3>();
-    const Eigen::Quaterniond dq = q * Eigen::Quaterniond(0.0, 0.5 * w.x(), 0.5 * w.y(), 0.5 * w.z());
+    const Eigen::Quaterniond dq =
+        q * Eigen::Quaterniond(0.0, 0.5 * w.x(), 0.5 * w.y(), 0.5 * w.z());
     State d;
     d << dq.coeffs(), (-w.cross(inertia_.cwiseProduct(w))).cwiseQuotient(inertia_);
     return d;
@@ -103,7 +104,8 @@ class EulerReference {
 };
 
 TEST(RigidBody, GyroscopicTermIsNotLeftToBullet) {
-  World world(ObstacleSet{}, DroneDescription{}, {}, DroneState::Hover(DroneDescription{}, {0, 0, 1}));
+  const DroneDescription d;
+  World world(ObstacleSet{}, d, {}, DroneState::Hover(d, {0, 0, 1}));
   EXPECT_EQ(world.bullet_body().getFlags() & (BT_ENABLE_GYROSCOPIC_FORCE_EXPLICIT |
                                               BT_ENABLE_GYROSCOPIC_FORCE_IMPLICIT_WORLD |
                                               BT_ENABLE_GYROSCOPIC_FORCE_IMPLICIT_BODY),
