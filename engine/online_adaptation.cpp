@@ -419,7 +419,8 @@ AdaptFlight RunAdaptFlight(const AdaptExperiment& e, const layout::Layout& layou
   options.max_time = e.max_time;
   const planning::TrajectoryOptimizer optimizer(options.planner.optimizer);
   physics::World world(layout.obstacles, e.drone, e.world,
-                       physics::DroneState::Hover(e.drone, mission.start_W, mission.start_yaw));
+                       physics::DroneState::Hover(e.drone, mission.start_W, mission.start_yaw,
+                                                  e.world.gravity));
   planning::FlightHooks hooks;
   std::unique_ptr<OnlineAdapter> adapter;
   if (out.adapted) {

@@ -78,7 +78,7 @@ FlightRecord IpoptPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) c
   physics::WorldOptions world_options = o.world;
   world_options.seed = request.seed;
   const physics::DroneState initial =
-      physics::DroneState::Hover(o.drone, mission.start_W, mission.start_yaw);
+      physics::DroneState::Hover(o.drone, mission.start_W, mission.start_yaw, world_options.gravity);
   // World pool: the slot keeps its World; Reset re-uses it (static objects rebuilt only when the
   // geometry differs).
   auto* world = std::any_cast<std::shared_ptr<physics::World>>(&slot.state);

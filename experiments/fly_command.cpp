@@ -89,7 +89,8 @@ int RunFly(const FlyArgs& a) {
                a.mission, layout.obstacles.size(), layout.options.spacing,
                layout.stats.overall.mean, drone.name);
   physics::World world(layout.obstacles, drone, world_options,
-                       physics::DroneState::Hover(drone, mission.start_W, mission.start_yaw));
+                       physics::DroneState::Hover(drone, mission.start_W, mission.start_yaw,
+                                                  world_options.gravity));
   const planning::FlightResult result = planning::Fly(world, mission, params, options, optimizer);
   const auto& m = result.metrics;
 

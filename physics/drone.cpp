@@ -26,8 +26,8 @@ double DroneDescription::ThrustToWeight() const {
   return 4.0 * thrust_coefficient * max_rotor_speed * max_rotor_speed / (mass * kGravity);
 }
 
-double DroneDescription::HoverRotorSpeed() const {
-  return std::sqrt(mass * kGravity / (4.0 * thrust_coefficient));
+double DroneDescription::HoverRotorSpeed(double gravity) const {
+  return std::sqrt(mass * gravity / (4.0 * thrust_coefficient));
 }
 
 double DroneDescription::BoundingRadius() const {

@@ -14,11 +14,11 @@ double DroneState::Yaw() const {
 }
 
 DroneState DroneState::Hover(const DroneDescription& drone, const Eigen::Vector3d& p_W,
-                             double yaw) {
+                             double yaw, double gravity) {
   DroneState s;
   s.p_W = p_W;
   s.q_WB = Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
-  s.rotor_speeds.fill(drone.HoverRotorSpeed());
+  s.rotor_speeds.fill(drone.HoverRotorSpeed(gravity));
   return s;
 }
 

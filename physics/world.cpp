@@ -228,6 +228,7 @@ struct World::Impl {
   // The drone.
   std::unique_ptr<btCollisionShape> drone_shape;
   std::unique_ptr<btRigidBody> body;
+  Eigen::Vector3d body_inertia = Eigen::Vector3d::Zero();  // principal inertia (kg·m²)
   std::unique_ptr<GeometricController> controller;
   std::unique_ptr<Mixer> plant_mixer;
   std::unique_ptr<MotorModel> motors;
@@ -327,6 +328,12 @@ struct World::Impl {
     body->setLinearVelocity(ToBt(initial.v_W));
     body->setAngularVelocity(ToBt(q * initial.omega_B));
     body->setActivationState(DISABLE_DEACTIVATION);
+    // Step() applies the gyroscopic torque itself (Bullet's implicit term is single precision
+    // and vanishes when det J is below float epsilon, as it is for every small drone).
+    body->setFlags(body->getFlags() & ~(BT_ENABLE_GYROSCOPIC_FORCE_EXPLICIT |
+                                        BT_ENABLE_GYROSCOPIC_FORCE_IMPLICIT_WORLD |
+                                        BT_ENABLE_GYROSCOPIC_FORCE_IMPLICIT_BODY));
+    body_inertia = inertia;
     const double inscribed = drone.InscribedRadius();
     body->setCcdMotionThreshold(static_cast<btScalar>(0.5 * inscribed));
     body->setCcdSweptSphereRadius(static_cast<btScalar>(0.9 * inscribed));
@@ -460,7 +467,11 @@ struct World::Impl {
     const Eigen::Vector3d v_air_W = ToEigen(body->getLinearVelocity()) - options.wind_W - gust_W;
     const Eigen::Vector3d drag_B = -drone.linear_drag.cwiseProduct(R.transpose() * v_air_W);
     Eigen::Vector3d force_W = R * (Eigen::Vector3d(0.0, 0.0, wrench.thrust) + drag_B);
-    Eigen::Vector3d torque_W = R * wrench.moment_B;
+    // Gyroscopic torque -ω × Jω at the body rate of the start of the step, which Bullet's
+    // semi-implicit Euler step then integrates like every other applied torque.
+    const Eigen::Vector3d omega_B = R.transpose() * ToEigen(body->getAngularVelocity());
+    const Eigen::Vector3d gyro_B = -omega_B.cross(body_inertia.cwiseProduct(omega_B));
+    Eigen::Vector3d torque_W = R * (wrench.moment_B + gyro_B);
     if (options.force_noise > 0.0) force_W += options.force_noise * NormalVector(force_rng);
     if (options.torque_noise > 0.0) torque_W += options.torque_noise * NormalVector(force_rng);
     body->applyCentralForce(ToBt(force_W));

@@ -107,7 +107,8 @@ FlightResult Fly(physics::World& world, const Mission& mission, const PlannerPar
   FlightResult result;
   FlightMetrics& m = result.metrics;
 
-  world.Reset(physics::DroneState::Hover(world.drone(), mission.start_W, mission.start_yaw));
+  world.Reset(physics::DroneState::Hover(world.drone(), mission.start_W, mission.start_yaw,
+                                        world.options().gravity));
   physics::DepthSensor sensor(options.sensor, DeriveSeed(world.options().seed, {0x5e7501}));
   LocalMapOptions map_options = options.map;
   map_options.resolution = params.map_resolution;

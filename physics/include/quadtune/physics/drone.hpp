@@ -69,8 +69,9 @@ struct DroneDescription {
 
   /// Thrust of all four rotors at max_rotor_speed divided by the weight m g.
   [[nodiscard]] double ThrustToWeight() const;
-  /// Rotor speed (rpm) at which the four rotors together carry the weight m g.
-  [[nodiscard]] double HoverRotorSpeed() const;
+  /// Rotor speed (rpm) at which the four rotors together carry the weight m g, for gravity
+  /// `gravity` (m/s², > 0; pass WorldOptions::gravity of the world the drone flies in).
+  [[nodiscard]] double HoverRotorSpeed(double gravity = kGravity) const;
   /// Radius (m) of the smallest sphere about the centre of mass containing the collision shape.
   [[nodiscard]] double BoundingRadius() const;
   /// Radius (m) of the largest sphere about the centre of mass inside the collision shape.

@@ -35,9 +35,10 @@ struct DroneState {
   /// Heading (rad): angle of the body x-axis projected on the xy-plane, from +x about +z.
   [[nodiscard]] double Yaw() const;
 
-  /// A state at rest at p_W with heading `yaw` and the rotors spinning at hover speed.
+  /// A state at rest at p_W with heading `yaw` and the rotors spinning at the hover speed for
+  /// `gravity` (m/s²; pass WorldOptions::gravity of the world the state starts in).
   static DroneState Hover(const DroneDescription& drone, const Eigen::Vector3d& p_W,
-                          double yaw = 0.0);
+                          double yaw = 0.0, double gravity = kGravity);
 };
 
 /// Collective thrust along +z_B (N) and moments about the body axes (N·m).

@@ -15,9 +15,13 @@
 ///
 /// Per physics step (1 / physics_rate_hz): the controller runs when due (every
 /// physics_rate_hz / controller_rate_hz steps) on MeasuredState(); the motors approach the command
-/// with the first-order lag; thrust, rotor torques, linear drag against the air (wind and
-/// gusts included) and the optional force noise are applied; Bullet steps; the collision monitor
-/// records contacts.
+/// with the first-order lag; thrust, rotor torques, the gyroscopic torque, linear drag against
+/// the air (wind and gusts included) and the optional force noise are applied; Bullet steps; the
+/// collision monitor records contacts. The gyroscopic torque -ω_B × (J ω_B) is computed in double
+/// precision from the true inertia (DroneDescription::inertia × WorldOptions::mass_scale) and the
+/// body rate at the start of the step; Bullet's own gyroscopic term is switched off on the drone
+/// (it is single precision and vanishes for inertias with det J below float epsilon). Bullet's
+/// semi-implicit Euler step makes the rigid-body error first order in the physics step.
 ///
 /// Thread safety: a World is owned by one thread at a time; distinct Worlds may step
 /// concurrently on different threads and give bit-identical results for the same inputs.
