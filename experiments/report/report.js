@@ -43,7 +43,7 @@ function drawConvergence(runs) {
                   mode: "lines+markers", type: "scatter" });
   }
   Plotly.newPlot("qt-convergence", traces, {
-    margin: { t: 10, r: 10 }, xaxis: { title: { text: "flights" } },
+    margin: { t: 40, r: 10 }, legend: { orientation: "h", x: 0, y: 1.02, yanchor: "bottom" }, xaxis: { title: { text: "flights" } },
     yaxis: { title: { text: "best f_l so far" }, type: logScaleFits(all) ? "log" : "linear" },
   }, plotConfig);
 }
@@ -59,7 +59,8 @@ function drawFinals(runs) {
     type: "scatter", mode: "markers", name: "median", y: names, x: ranked.map((f) => f.med),
     marker: { symbol: "diamond", size: 13, color: ranked.map((f) => colour(f.name)) },
     error_x: { type: "data", symmetric: false, array: ranked.map((f) => Math.max(...f.vals) - f.med),
-               arrayminus: ranked.map((f) => f.med - Math.min(...f.vals)), thickness: 2, width: 6 },
+               arrayminus: ranked.map((f) => f.med - Math.min(...f.vals)), thickness: 2, width: 6,
+               color: "#444" },
   }, {
     type: "scatter", mode: "markers", name: "repeats", y: ranked.flatMap((f) => f.vals.map(() => f.name)),
     x: ranked.flatMap((f) => f.vals), marker: { size: 7, color: "rgba(0,0,0,0.55)" },
@@ -67,7 +68,7 @@ function drawFinals(runs) {
   }];
   const all = ranked.flatMap((f) => f.vals);
   Plotly.newPlot("qt-finals", traces, {
-    margin: { t: 10, r: 10, l: 160 }, height: Math.max(260, 60 + 45 * names.length),
+    margin: { t: 40, r: 10, l: 160 }, legend: { orientation: "h", x: 0, y: 1.02, yanchor: "bottom" }, height: Math.max(260, 60 + 45 * names.length),
     xaxis: { title: { text: "final best f_l" }, type: logScaleFits(all) ? "log" : "linear" },
     yaxis: { automargin: true },
   }, plotConfig);
@@ -85,7 +86,7 @@ function drawImportance(runs) {
     text: rs.map((r) => `ρ = ${r.rho.toFixed(2)}, n = ${r.n}`), hoverinfo: "text+y",
   }));
   Plotly.newPlot("qt-importance", traces, {
-    margin: { t: 10, r: 10 }, barmode: "group", xaxis: { title: { text: "|Spearman ρ|" }, range: [0, 1] },
+    margin: { t: 40, r: 10 }, legend: { orientation: "h", x: 0, y: 1.02, yanchor: "bottom" }, barmode: "group", xaxis: { title: { text: "|Spearman ρ|" }, range: [0, 1] },
     yaxis: { automargin: true },
   }, plotConfig);
 }
@@ -109,8 +110,9 @@ function drawSlices(runs) {
       text: fs.map((f) => `evaluation ${f.id}`), showlegend: p === runs.parameters[0],
     }));
     Plotly.newPlot(div, traces, {
-      margin: { t: 8, r: 8, b: 42, l: 55 }, xaxis: { title: { text: p } },
-      yaxis: { title: { text: "f_l" }, type: log ? "log" : "linear" }, legend: { font: { size: 10 } },
+      margin: { t: 30, r: 8, b: 42, l: 55 }, xaxis: { title: { text: p } },
+      yaxis: { title: { text: "f_l" }, type: log ? "log" : "linear" },
+      legend: { orientation: "h", x: 0, y: 1.02, yanchor: "bottom", font: { size: 10 } },
     }, plotConfig);
   }
 }
@@ -398,4 +400,11 @@ if (data.replays.length > 0) {
 } else {
   document.getElementById("qt-replay-section").style.display = "none";
 }
+// Test hook: where the charts and the 3-D view lie on the page (CSS pixels, page coordinates).
+const boxes = {};
+for (const id of ["qt-convergence", "qt-finals", "qt-importance", "qt-slices", "qt-parcoords", "qt-scene"]) {
+  const r = document.getElementById(id).getBoundingClientRect();
+  if (r.width > 0) boxes[id] = [r.left + window.scrollX, r.top + window.scrollY, r.width, r.height].map(Math.round);
+}
+document.body.dataset.boxes = JSON.stringify(boxes);
 document.body.dataset.ready = "1";
