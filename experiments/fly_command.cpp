@@ -64,7 +64,9 @@ int RunFly(const FlyArgs& a) {
       throw ConfigError("", a.from.empty() ? "--from" : "--evaluation",
                         "--from STORE and --evaluation ID go together");
     }
-    return FlyStored(a.from, a.evaluation, a.out);
+    const int status = FlyStored(a.from, a.evaluation, a.out);
+    if (a.plot && RunPlotScript("flight '" + a.out + "'") != 0) return 1;
+    return status;
   }
   const physics::DroneDescription drone = physics::LoadDroneDescription(AssetPath(a.drone));
   layout::Layout layout;

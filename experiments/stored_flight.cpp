@@ -242,25 +242,28 @@ void WriteTidyCsv(const std::string& store, const std::string& directory) {
     std::ofstream csv(std::filesystem::path(directory) / file);
     std::set<std::string> used(fixed.begin(), fixed.end());
     std::string header;
-    for (const auto& c : fixed) header += (header.empty() ? "" : ",") + c;
+    for (const auto& c : fixed) {
+      if (!header.empty()) header += ',';
+      header += c;
+    }
     auto column = [&](const std::string& name, const std::string& prefix) {
       const std::string col = used.count(name) ? prefix + name : name;
       used.insert(col);
-      header += "," + Cell(col);
+      header += ',';
+      header += Cell(col);
     };
     for (const auto& n : param_names[kind]) column(n, "param_");
     for (const auto& n : term_names[kind]) column(n, "term_");
     csv << header << '\n';
     for (const auto& r : by_kind[kind]) {
-      std::string line;
-      for (std::size_t c = 0; c < r.fixed.size(); ++c) line += (c ? "," : "") + Cell(r.fixed[c]);
+      for (std::size_t c = 0; c < r.fixed.size(); ++c) csv << (c ? "," : "") << Cell(r.fixed[c]);
       for (const auto& n : param_names[kind]) {
-        line += "," + (r.params.contains(n) ? Cell(Number(r.params[n])) : std::string());
+        csv << ',' << (r.params.contains(n) ? Cell(Number(r.params[n])) : std::string());
       }
       for (const auto& n : term_names[kind]) {
-        line += "," + (r.terms.contains(n) ? Cell(Number(r.terms[n])) : std::string());
+        csv << ',' << (r.terms.contains(n) ? Cell(Number(r.terms[n])) : std::string());
       }
-      csv << line << '\n';
+      csv << '\n';
     }
   }
 }

@@ -77,7 +77,7 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
     SCOPED_TRACE("evaluation " + f[0]);
     const fs::path out = dir / ("fly_" + f[0]);
     ASSERT_EQ(RunQuadtune("--log-level warn fly --from " + store.string() + " --evaluation " +
-                              f[0] + " --out " + out.string(),
+                              f[0] + " --no-plot --out " + out.string(),
                           dir / "fly.log"),
               0)
         << ReadText(dir / "fly.log");
@@ -86,6 +86,10 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
     EXPECT_EQ(summary["flight_time"].get<double>(), terms["t_f"].get<double>());
     EXPECT_EQ(summary["collisions"].get<double>(), terms["n_c"].get<double>());
     EXPECT_EQ(summary["emergency_stops"].get<double>(), terms["n_e"].get<double>());
+    for (const char* same : {"plans", "failed_attempts", "compute_units", "jerk_integral",
+                             "min_clearance"}) {
+      EXPECT_EQ(summary[same].get<double>(), terms[same].get<double>()) << same;
+    }
     EXPECT_EQ(summary["stored"]["evaluation"].get<int>(), std::stoi(f[0]));
     EXPECT_GT(ReadCsv(out / "flight.csv").size(), 20u);
     EXPECT_GT(ReadCsv(out / "plans.csv").size(), 20u);
