@@ -43,7 +43,9 @@ function drawConvergence(runs) {
                   mode: "lines+markers", type: "scatter" });
   }
   Plotly.newPlot("qt-convergence", traces, {
-    margin: { t: 40, r: 10 }, legend: { orientation: "h", x: 0, y: 1.02, yanchor: "bottom" }, xaxis: { title: { text: "flights" } },
+    margin: { t: 40, r: 10 }, legend: { orientation: "h", x: 0, y: 1.02, yanchor: "bottom" },
+    xaxis: { title: { text: "flights" }, tick0: 1,
+             dtick: Math.max(1, Math.ceil(Math.max(...runs.series.map((s) => s.x.length)) / 12)) },
     yaxis: { title: { text: "best f_l so far" }, type: logScaleFits(all) ? "log" : "linear" },
   }, plotConfig);
 }
@@ -67,8 +69,10 @@ function drawFinals(runs) {
     text: ranked.flatMap((f) => f.values.map((v) => `repeat ${v.repeat}`)),
   }];
   const all = ranked.flatMap((f) => f.vals);
+  const height = Math.max(200, 110 + 45 * names.length);
+  document.getElementById("qt-finals").style.height = `${height}px`;
   Plotly.newPlot("qt-finals", traces, {
-    margin: { t: 40, r: 10, l: 160 }, legend: { orientation: "h", x: 0, y: 1.02, yanchor: "bottom" }, height: Math.max(260, 60 + 45 * names.length),
+    margin: { t: 40, r: 10, l: 160 }, legend: { orientation: "h", x: 0, y: 1.02, yanchor: "bottom" },
     xaxis: { title: { text: "final best f_l" }, type: logScaleFits(all) ? "log" : "linear" },
     yaxis: { automargin: true },
   }, plotConfig);
@@ -82,7 +86,8 @@ function drawImportance(runs) {
   }
   const traces = Object.entries(groups).map(([key, rs]) => ({
     type: "bar", orientation: "h", name: key, y: rs.map((r) => r.parameter),
-    x: rs.map((r) => Math.abs(r.rho)), marker: { color: colour(key) },
+    x: rs.map((r) => Math.abs(r.rho)),
+    marker: { color: colour(key), opacity: rs.map((r) => (r.n < 10 ? 0.35 : 1)) },
     text: rs.map((r) => `ρ = ${r.rho.toFixed(2)}, n = ${r.n}`), hoverinfo: "text+y",
   }));
   Plotly.newPlot("qt-importance", traces, {
@@ -234,6 +239,13 @@ class Replay {
       this.world.add(line);
       return { t0: pl.t0, line };
     });
+    // The plan in use: beads along it (WebGL lines are one pixel wide and hide under the path).
+    const longest = Math.max(1, ...flight.plans.map((pl) => pl.p.length));
+    this.beads = new THREE.InstancedMesh(new THREE.SphereGeometry(0.035, 8, 6),
+                                         new THREE.MeshBasicMaterial({ color: 0xff7f0e }), longest);
+    this.beads.count = 0;
+    this.beadsOf = -1;
+    this.world.add(this.beads);
     const start = flight.summary.start, goal = flight.summary.goal;
     for (const [p, col] of [[start, 0x2ca02c], [goal, 0xd62728]]) {
       if (!p) continue;
@@ -276,6 +288,14 @@ class Replay {
       pl.line.visible = k <= current && k >= current - 3;
       pl.line.material = k === current ? Replay.currentPlan : Replay.oldPlan;
     });
+    if (current !== this.beadsOf) {
+      const pts = current >= 0 ? this.flight.plans[current].p : [];
+      const m = new THREE.Matrix4();
+      pts.forEach((p, k) => this.beads.setMatrixAt(k, m.makeTranslation(p[0], p[1], p[2])));
+      this.beads.count = pts.length;
+      this.beads.instanceMatrix.needsUpdate = true;
+      this.beadsOf = current;
+    }
     document.getElementById("qt-scrub").value = String(this.time);
     document.getElementById("qt-time").textContent =
         `t = ${this.time.toFixed(2)} s of ${this.duration.toFixed(2)} s` +
