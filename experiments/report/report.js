@@ -368,7 +368,7 @@ function setUpReplay(flights) {
   const replay = new Replay(document.getElementById("qt-scene"));
   const select = document.getElementById("qt-flight");
   flights.forEach((f, k) => {
-    const label = f.summary.stored ? `${f.summary.stored.method} (evaluation ${f.summary.stored.evaluation})` : f.name;
+    const label = f.summary.stored ? `${f.name}: ${f.summary.stored.method}` : f.name;
     select.add(new Option(label, String(k)));
   });
   const scrub = document.getElementById("qt-scrub");
