@@ -74,7 +74,8 @@ int Report(const ReportArgs& a) {
       const fs::path out = dir / "report_flights" / FlightFolder(dir, store, id);
       try {
         if (FlyStored(store.string(), id, out.string()) != 0) {
-          spdlog::warn("the replay of {} evaluation {} differs from the stored flight", store.string(), id);
+          spdlog::warn("the replay of {} evaluation {} differs from the stored flight",
+                       store.string(), id);
         }
       } catch (const ConfigError& e) {  // e.g. a toy-planner store: charts only
         spdlog::warn("no replay of {} evaluation {}: {}", store.string(), id, e.what());
@@ -101,13 +102,15 @@ int Report(const ReportArgs& a) {
 void RegisterReport(CLI::App& app, int& exit_code) {
   static ReportArgs args;
   auto* cmd = app.add_subcommand(
-      "report", "write DIR/report.html: convergence, final values, parameter importance, slices, "
-                "parallel coordinates and a 3-D replay of stored flights (opens offline)");
+      "report",
+      "write DIR/report.html: convergence, final values, parameter importance, slices, "
+      "parallel coordinates and a 3-D replay of stored flights (opens offline)");
   cmd->add_option("DIR", args.dir, "a `quadtune run`, `study` or `fly` output directory")
       ->required()
       ->check(CLI::ExistingDirectory);
-  cmd->add_option("--flights", args.flights, "stored flights to fly again for the 3-D replay "
-                                             "(each method's best first)")
+  cmd->add_option("--flights", args.flights,
+                  "stored flights to fly again for the 3-D replay "
+                  "(each method's best first)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd->callback([&exit_code] { exit_code = Report(args); });

@@ -43,8 +43,8 @@ class ReadOnlyStore {
   void Query(const std::string& sql, RowFn&& row) const {
     sqlite3_stmt* raw = nullptr;
     if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &raw, nullptr) != SQLITE_OK) {
-      throw ConfigError(path_, "", std::string("not a quadtune results store: ") +
-                                       sqlite3_errmsg(db_));
+      throw ConfigError(path_, "",
+                        std::string("not a quadtune results store: ") + sqlite3_errmsg(db_));
     }
     std::unique_ptr<sqlite3_stmt, int (*)(sqlite3_stmt*)> stmt(raw, sqlite3_finalize);
     int rc = 0;
@@ -131,12 +131,13 @@ std::vector<std::int64_t> BestFlightIds(const std::string& store, int limit) {
   const ReadOnlyStore db(store);
   std::vector<std::int64_t> ids;
   std::set<std::string> seen;
-  db.Query("SELECT id, method FROM evaluation WHERE kind = 'long' AND status = 'ok' "
-           "ORDER BY value, id",
-           [&](sqlite3_stmt* s) {
-             if (static_cast<int>(ids.size()) >= limit) return;
-             if (seen.insert(Text(s, 1)).second) ids.push_back(sqlite3_column_int64(s, 0));
-           });
+  db.Query(
+      "SELECT id, method FROM evaluation WHERE kind = 'long' AND status = 'ok' "
+      "ORDER BY value, id",
+      [&](sqlite3_stmt* s) {
+        if (static_cast<int>(ids.size()) >= limit) return;
+        if (seen.insert(Text(s, 1)).second) ids.push_back(sqlite3_column_int64(s, 0));
+      });
   return ids;
 }
 
@@ -148,7 +149,8 @@ int FlyStored(const std::string& store, std::int64_t id, const std::string& out)
   if (planner == nullptr) {
     throw ConfigError(store, "planner.type",
                       "only flights of the ipopt planner can be flown again (this store's "
-                      "planner is '" + e.planner_type + "')");
+                      "planner is '" +
+                          e.planner_type + "')");
   }
   const engine::IpoptPlannerOptions& o = planner->options();
   // The map and world exactly as IpoptPlanner::PrepareMap and ::Fly build them.
@@ -180,11 +182,16 @@ int FlyStored(const std::string& store, std::int64_t id, const std::string& out)
   const auto path = std::filesystem::path(out) / "summary.json";
   nlohmann::json summary = nlohmann::json::parse(std::ifstream(path));
   const nlohmann::json terms = nlohmann::json::parse(f.terms);
-  summary["stored"] = {{"store", store},           {"evaluation", id},
-                       {"method", f.method},       {"kind", f.kind},
-                       {"iteration", f.iteration}, {"index", f.index},
-                       {"value", f.value},         {"terms", terms},
-                       {"params", stored_params},  {"map_seed", std::to_string(f.map_seed)},
+  summary["stored"] = {{"store", store},
+                       {"evaluation", id},
+                       {"method", f.method},
+                       {"kind", f.kind},
+                       {"iteration", f.iteration},
+                       {"index", f.index},
+                       {"value", f.value},
+                       {"terms", terms},
+                       {"params", stored_params},
+                       {"map_seed", std::to_string(f.map_seed)},
                        {"flight_seed", std::to_string(f.flight_seed)}};
   summary["obstacles"] = layout.obstacles.size();
   summary["drone"] = o.drone.name;
@@ -195,8 +202,8 @@ int FlyStored(const std::string& store, std::int64_t id, const std::string& out)
                     terms.value("n_c", -1.0) == static_cast<double>(m.collisions) &&
                     terms.value("n_e", -1.0) == static_cast<double>(m.emergency_stops);
   spdlog::info("t_f {} s, n_c {}, n_e {} (stored: {}, {}, {}); wrote {}", m.flight_time,
-               m.collisions, m.emergency_stops, terms.value("t_f", -1.0),
-               terms.value("n_c", -1.0), terms.value("n_e", -1.0), out);
+               m.collisions, m.emergency_stops, terms.value("t_f", -1.0), terms.value("n_c", -1.0),
+               terms.value("n_e", -1.0), out);
   if (!same) spdlog::error("the flight flown again differs from the stored one");
   return same ? 0 : 4;
 }
@@ -209,31 +216,32 @@ void WriteTidyCsv(const std::string& store, const std::string& directory) {
   };
   std::map<std::string, std::vector<Row>> by_kind;
   std::map<std::string, std::vector<std::string>> param_names, term_names;  // per kind, in order
-  db.Query("SELECT e.id, e.trial_id, e.method, t.repeat, e.kind, e.iteration, e.idx, e.status, "
-           "e.value, e.wall_s, e.map_seed, e.flight_seed, e.params, e.terms, t.map_seed "
-           "FROM evaluation e JOIN trial t ON t.id = e.trial_id "
-           "ORDER BY e.kind, e.trial_id, e.iteration, e.idx",
-           [&](sqlite3_stmt* s) {
-             Row r;
-             for (int c = 0; c < 12; ++c) r.fixed.push_back(Exact(s, c));
-             if (r.fixed[10].empty() && r.fixed[4] != "short") r.fixed[10] = Text(s, 14);
-             r.params = nlohmann::json::parse(Text(s, 12).empty() ? "{}" : Text(s, 12));
-             r.terms = nlohmann::json::parse(Text(s, 13).empty() ? "{}" : Text(s, 13));
-             const std::string kind = r.fixed[4];
-             auto note = [](std::vector<std::string>& names, const nlohmann::json& obj) {
-               for (auto it = obj.begin(); it != obj.end(); ++it) {
-                 if (std::find(names.begin(), names.end(), it.key()) == names.end()) {
-                   names.push_back(it.key());
-                 }
-               }
-             };
-             note(param_names[kind], r.params);
-             note(term_names[kind], r.terms);
-             by_kind[kind].push_back(std::move(r));
-           });
-  const std::vector<std::string> fixed = {"id",     "trial_id", "method", "repeat",
-                                          "kind",   "iteration", "index", "status",
-                                          "value",  "wall_s",   "map_seed", "flight_seed"};
+  db.Query(
+      "SELECT e.id, e.trial_id, e.method, t.repeat, e.kind, e.iteration, e.idx, e.status, "
+      "e.value, e.wall_s, e.map_seed, e.flight_seed, e.params, e.terms, t.map_seed "
+      "FROM evaluation e JOIN trial t ON t.id = e.trial_id "
+      "ORDER BY e.kind, e.trial_id, e.iteration, e.idx",
+      [&](sqlite3_stmt* s) {
+        Row r;
+        for (int c = 0; c < 12; ++c) r.fixed.push_back(Exact(s, c));
+        if (r.fixed[10].empty() && r.fixed[4] != "short") r.fixed[10] = Text(s, 14);
+        r.params = nlohmann::json::parse(Text(s, 12).empty() ? "{}" : Text(s, 12));
+        r.terms = nlohmann::json::parse(Text(s, 13).empty() ? "{}" : Text(s, 13));
+        const std::string kind = r.fixed[4];
+        auto note = [](std::vector<std::string>& names, const nlohmann::json& obj) {
+          for (auto it = obj.begin(); it != obj.end(); ++it) {
+            if (std::find(names.begin(), names.end(), it.key()) == names.end()) {
+              names.push_back(it.key());
+            }
+          }
+        };
+        note(param_names[kind], r.params);
+        note(term_names[kind], r.terms);
+        by_kind[kind].push_back(std::move(r));
+      });
+  const std::vector<std::string> fixed = {"id",    "trial_id",  "method",   "repeat",
+                                          "kind",  "iteration", "index",    "status",
+                                          "value", "wall_s",    "map_seed", "flight_seed"};
   std::filesystem::create_directories(directory);
   const std::map<std::string, std::string> files = {
       {"long", "long_term.csv"}, {"short", "short_term.csv"}, {"validation", "validation.csv"}};

@@ -17,18 +17,18 @@ namespace quadtune::cli {
 
 /// One stored evaluation with what is needed to fly it again.
 struct StoredFlight {
-  std::int64_t id = 0;         ///< evaluation.id
+  std::int64_t id = 0;  ///< evaluation.id
   std::string method;
-  std::string kind;            ///< "long" | "validation" (flights); "short" rows are refused
+  std::string kind;  ///< "long" | "validation" (flights); "short" rows are refused
   int iteration = 0;
   int index = 0;
-  std::string params;          ///< JSON object name → value
-  std::string terms;           ///< JSON object of the objective terms recorded
-  double value = 0.0;          ///< f_l told to the optimiser
+  std::string params;  ///< JSON object name → value
+  std::string terms;   ///< JSON object of the objective terms recorded
+  double value = 0.0;  ///< f_l told to the optimiser
   std::string status;
   std::uint64_t map_seed = 0;     ///< the row's map seed; the trial's when the row has none
   std::uint64_t flight_seed = 0;  ///< the flight's world seed
-  std::string config;          ///< the experiment's configuration text
+  std::string config;             ///< the experiment's configuration text
 };
 
 /// The flight stored as evaluation `id` in `store`. Throws ConfigError when the file is not a

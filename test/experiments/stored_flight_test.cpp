@@ -68,8 +68,9 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
             0)
       << ReadText(dir / "run.log");
   const fs::path store = run / "results.sqlite";
-  const auto flights = Query(store, "SELECT id, terms, value FROM evaluation WHERE kind = 'long' "
-                                    "ORDER BY id");
+  const auto flights = Query(store,
+                             "SELECT id, terms, value FROM evaluation WHERE kind = 'long' "
+                             "ORDER BY id");
   ASSERT_EQ(flights.size(), 3u);  // tiny.yaml: bo_pso, 3 flights
 
   // Every stored flight flown again: the same flight time, collisions and emergency stops.
@@ -86,8 +87,8 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
     EXPECT_EQ(summary["flight_time"].get<double>(), terms["t_f"].get<double>());
     EXPECT_EQ(summary["collisions"].get<double>(), terms["n_c"].get<double>());
     EXPECT_EQ(summary["emergency_stops"].get<double>(), terms["n_e"].get<double>());
-    for (const char* same : {"plans", "failed_attempts", "compute_units", "jerk_integral",
-                             "min_clearance"}) {
+    for (const char* same :
+         {"plans", "failed_attempts", "compute_units", "jerk_integral", "min_clearance"}) {
       EXPECT_EQ(summary[same].get<double>(), terms[same].get<double>()) << same;
     }
     EXPECT_EQ(summary["stored"]["evaluation"].get<int>(), std::stoi(f[0]));
@@ -135,7 +136,9 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
   // The Python reader: the same rows as DataFrames.
   const std::string python = "PYTHONPATH='" + std::string(QUADTUNE_SOURCE_DIR) +
                              "/experiments/python' /usr/bin/python3 -c \"import quadtune; "
-                             "r = quadtune.load('" + run.string() + "'); "
+                             "r = quadtune.load('" +
+                             run.string() +
+                             "'); "
                              "print(len(r.long), len(r.short), repr(r.long['t_f'].sum()), "
                              "r.long['v_des'].notna().all(), r.experiment['name'])\"";
   double t_f_sum = 0.0;
@@ -153,15 +156,16 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
   EXPECT_EQ(name, "tiny") << loaded;
 
   // The report: the best flight flown again beside it, the run's flights in the page's data.
-  ASSERT_EQ(RunQuadtune("--log-level warn report " + run.string() + " --flights 1",
-                        dir / "report.log"),
-            0)
+  ASSERT_EQ(
+      RunQuadtune("--log-level warn report " + run.string() + " --flights 1", dir / "report.log"),
+      0)
       << ReadText(dir / "report.log");
   const std::string page = ReadText(run / "report.html");
   EXPECT_GT(page.size(), 1000000u);  // plotly.js and three.js inlined
   EXPECT_EQ(page.find("<script src="), std::string::npos);
-  const auto best = Query(store, "SELECT id FROM evaluation WHERE kind = 'long' AND status = 'ok' "
-                                 "ORDER BY value, id LIMIT 1");
+  const auto best = Query(store,
+                          "SELECT id FROM evaluation WHERE kind = 'long' AND status = 'ok' "
+                          "ORDER BY value, id LIMIT 1");
   ASSERT_FALSE(best.empty());
   EXPECT_TRUE(fs::exists(run / "report_flights" / ("run_e" + best[0][0]) / "flight.csv"));
   const auto start = page.find("id=\"qt-data\">");
