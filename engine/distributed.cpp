@@ -189,13 +189,26 @@ EvaluationRow RowFromJson(const Json& j) {
   return r;
 }
 
+Json ParamsJson(const ParamValues& values) {
+  Json out = Json::array();
+  for (const auto& [name, value] : values) out.push_back(Json::array({name, Bits(value)}));
+  return out;
+}
+
+ParamValues ParamsFromJson(const Json& j) {
+  ParamValues out;
+  for (const auto& pair : j) out[pair.at(0).get<std::string>()] = FromBits(pair.at(1));
+  return out;
+}
+
 Json ToJson(const TrialSummary& s) {
-  Json best = Json::array();
-  for (const auto& [name, value] : s.best) best.push_back(Json::array({name, Bits(value)}));
   return Json{{"method", s.method},
               {"repeat", s.repeat},
-              {"best", best},
+              {"trial_id", s.trial_id},
+              {"best", ParamsJson(s.best)},
               {"best_value", Bits(s.best_value)},
+              {"recommended", ParamsJson(s.recommended)},
+              {"recommended_value", Bits(s.recommended_value)},
               {"flights", s.flights},
               {"short_evals", s.short_evals},
               {"failed", s.failed},
@@ -207,10 +220,11 @@ TrialSummary SummaryFromJson(const Json& j) {
   TrialSummary s;
   s.method = j.at("method").get<std::string>();
   s.repeat = j.at("repeat").get<int>();
-  for (const auto& pair : j.at("best")) {
-    s.best[pair.at(0).get<std::string>()] = FromBits(pair.at(1));
-  }
+  s.trial_id = j.at("trial_id").get<std::int64_t>();
+  s.best = ParamsFromJson(j.at("best"));
   s.best_value = FromBits(j.at("best_value"));
+  s.recommended = ParamsFromJson(j.at("recommended"));
+  s.recommended_value = FromBits(j.at("recommended_value"));
   s.flights = j.at("flights").get<int>();
   s.short_evals = j.at("short_evals").get<int>();
   s.failed = j.at("failed").get<int>();

@@ -48,8 +48,36 @@ std::string ResolvePath(const std::string& relative, const std::string& base_dir
   return relative;
 }
 
+const char* ToString(MapMode mode) {
+  switch (mode) {
+    case MapMode::kPerFlight: return "per_flight";
+    case MapMode::kPerRepeat: return "per_repeat";
+    case MapMode::kPool: return "pool";
+  }
+  return "?";
+}
+
 std::uint64_t Experiment::MapSeed(int repeat) const {
   return DeriveSeed(seed, {0x3a9, static_cast<std::uint64_t>(repeat)});
+}
+
+std::uint64_t Experiment::FlightMapSeed(int repeat, int flight) const {
+  const auto r = static_cast<std::uint64_t>(repeat);
+  switch (maps.mode) {
+    case MapMode::kPerRepeat: return MapSeed(repeat);
+    case MapMode::kPool:
+      return DeriveSeed(seed, {0x3a9, r, static_cast<std::uint64_t>(flight % maps.pool)});
+    case MapMode::kPerFlight: break;
+  }
+  return DeriveSeed(seed, {0x3a9, r, static_cast<std::uint64_t>(flight)});
+}
+
+std::uint64_t Experiment::HeldOutMapSeed(int index) const {
+  return DeriveSeed(seed, {0x4e1d, static_cast<std::uint64_t>(index)});
+}
+
+std::uint64_t Experiment::HeldOutFlightSeed(int index) const {
+  return DeriveSeed(seed, {0x4e1e, static_cast<std::uint64_t>(index)});
 }
 
 namespace {
@@ -88,7 +116,7 @@ Planner BuildPlanner(const YamlMap& p, const std::string& base_dir, std::string*
     return Planner{ToyPlanner{o}};
   }
   p.RejectUnknownKeys({"type", "drone", "layout", "layout_file", "world", "mission", "max_time",
-                       "fixed"});
+                       "fixed", "safety_nets"});
   IpoptPlannerOptions o;
   const std::string drone = ResolvePath(p.String("drone", std::string("drones/research_1kg.yaml")), base_dir);
   if (!std::filesystem::exists(drone)) {
@@ -111,6 +139,16 @@ Planner BuildPlanner(const YamlMap& p, const std::string& base_dir, std::string*
                     "go_and_return";
   o.flight.max_time = p.Number("max_time", 60.0, Range::Positive());
   if (p.Has("fixed")) o.base = planning::PlannerParams::FromYaml(p.Map("fixed"));
+  if (!p.Bool("safety_nets", true)) {
+    // Plan as the paper's planners do: one back-end attempt per re-plan, no collision-weight
+    // escalation, no stop-and-go fallback (a failed re-plan is a failure, n_s = 1).
+    if (p.Has("fixed") && p.Map("fixed").Has("max_attempts")) {
+      p.Fail("safety_nets", "false sets max_attempts to 1; remove fixed.max_attempts");
+    }
+    o.base.max_attempts = 1;
+    o.flight.planner.retry_collision_gain = 1.0;
+    o.flight.replanner.fallback_speed = 0.0;
+  }
   o.base.Validate(p.file());
   o.flight.planner.CheckParams(o.base, p.file());
   return Planner{IpoptPlanner{std::move(o)}};
@@ -143,7 +181,7 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
   const YamlMap map = YamlMap::FromString(text, origin);
   map.RejectUnknownKeys({"name", "seed", "threads", "mode", "repeats", "methods", "planner",
                          "parameters", "short_term", "long_term", "initial_short_term",
-                         "start", "objective", "budget", "pso", "bo"});
+                         "start", "objective", "maps", "validation", "budget", "pso", "bo"});
   Experiment e;
   e.file = origin;
   e.text = text;
@@ -228,6 +266,21 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
   }
   e.objective = ObjectiveOptions::FromYaml(map.Map("objective", true));
   e.objective.Validate(origin);
+
+  {
+    const YamlMap m = map.Map("maps", true);
+    m.RejectUnknownKeys({"mode", "pool"});
+    const std::string mode = m.String("mode", std::string(ToString(e.maps.mode)),
+                                      {"per_flight", "per_repeat", "pool"});
+    for (MapMode candidate : {MapMode::kPerFlight, MapMode::kPerRepeat, MapMode::kPool}) {
+      if (mode == ToString(candidate)) e.maps.mode = candidate;
+    }
+    e.maps.pool = static_cast<int>(m.Integer("pool", e.maps.pool, Range::Closed(1, 1e6)));
+    const YamlMap v = map.Map("validation", true);
+    v.RejectUnknownKeys({"maps"});
+    e.validation.maps =
+        static_cast<int>(v.Integer("maps", e.validation.maps, Range::Closed(0, 1e5)));
+  }
 
   const YamlMap b = map.Map("budget", true);
   b.RejectUnknownKeys({"flights", "default_flights", "flight_batch", "short_evals_per_flight", "queries_per_eval",

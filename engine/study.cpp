@@ -1,8 +1,5 @@
 #include "quadtune/engine/study.hpp"
 
-#include <oneapi/tbb/enumerable_thread_specific.h>
-#include <oneapi/tbb/parallel_for.h>
-#include <oneapi/tbb/task_arena.h>
 #include <yaml-cpp/yaml.h>
 
 #include <chrono>
@@ -16,6 +13,7 @@
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/yaml.hpp"
+#include "quadtune/engine/validation.hpp"
 
 namespace quadtune::engine {
 namespace {
@@ -138,7 +136,7 @@ Study Study::LoadFile(const std::string& path, const std::vector<std::string>& a
   const YamlMap validation = map.Map("validation", true);
   validation.RejectUnknownKeys({"flights"});
   s.validation_flights =
-      static_cast<int>(validation.Integer("flights", 5, Range::Closed(0, 100000)));
+      static_cast<int>(validation.Integer("flights", 20, Range::Closed(0, 100000)));
 
   // Every point and stage must load: all configuration errors before any work.
   for (std::size_t p = 0; p < s.labels.size(); ++p) {
@@ -204,6 +202,7 @@ StudySummary RunStudy(const Study& study, const StudyOptions& options) {
       ro.store_path = (fs::path(dir) / "results.sqlite").string();
       ro.threads = options.threads;
       ro.resume = options.resume && fs::exists(ro.store_path);
+      ro.validate = false;  // the study validates every stage's points in the last stage's world
       ro.cancel = options.cancel;
       if (options.on_progress) {
         ro.on_progress = [&](const Progress& run) {
@@ -227,10 +226,10 @@ StudySummary RunStudy(const Study& study, const StudyOptions& options) {
       double best = std::numeric_limits<double>::infinity();
       for (const auto& t : rs.trials) {
         if (t.method == ToString(Method::kDefault)) continue;
-        candidates.push_back({stage.name, t.method, t.repeat, t.best});
-        if (t.best_value < best) {
-          best = t.best_value;
-          stage_best[stage.name] = t.best;
+        candidates.push_back({stage.name, t.method, t.repeat, t.recommended});
+        if (t.recommended_value < best) {
+          best = t.recommended_value;
+          stage_best[stage.name] = t.recommended;
         }
       }
       if (!stage_best.count(stage.name)) stage_best[stage.name] = e.Defaults();
@@ -256,45 +255,28 @@ StudySummary RunStudy(const Study& study, const StudyOptions& options) {
     }
     if (study.validation_flights == 0) continue;
 
-    // Validation: every candidate and the defaults on the same new maps and flight seeds, in the
-    // last stage's world.
+    // Validation: every candidate and the defaults on the same held-out maps and flight seeds,
+    // in the last stage's world.
     candidates.insert(candidates.begin(), Candidate{"", "default", 0, last.Defaults()});
     const int n = study.validation_flights;
-    std::vector<Opaque> maps(static_cast<std::size_t>(n));
     std::vector<std::uint64_t> map_seeds(static_cast<std::size_t>(n));
-    for (int f = 0; f < n; ++f) {
-      map_seeds[static_cast<std::size_t>(f)] =
-          DeriveSeed(study.seed, {static_cast<std::uint64_t>(p), 1000u + static_cast<std::uint64_t>(f)});
-      maps[static_cast<std::size_t>(f)] = last.planner.PrepareMap(map_seeds[static_cast<std::size_t>(f)]);
+    for (int f = 0; f < n; ++f) map_seeds[static_cast<std::size_t>(f)] = last.HeldOutMapSeed(f);
+    std::vector<FlightJob> jobs;
+    for (const Candidate& c : candidates) {
+      for (int f = 0; f < n; ++f) {
+        FlightJob job;
+        job.params = last.Defaults();
+        for (const auto& [k, v] : c.params) job.params[k] = v;
+        job.map_seed = map_seeds[static_cast<std::size_t>(f)];
+        job.flight_seed = last.HeldOutFlightSeed(f);
+        jobs.push_back(std::move(job));
+      }
     }
-    const std::size_t total = candidates.size() * static_cast<std::size_t>(n);
-    std::vector<FlightRecord> records(total);
-    std::atomic<int> done{0};
+    const std::size_t total = jobs.size();
     const int threads = options.threads > 0 ? options.threads : last.threads;
-    tbb::task_arena arena(threads);
-    tbb::enumerable_thread_specific<WorkerSlot> slots;
-    arena.execute([&] {
-      tbb::parallel_for(std::size_t{0}, total, [&](std::size_t i) {
-        if (cancelled()) {
-          records[i].status = EvalStatus::kCancelled;
-          return;
-        }
-        const Candidate& c = candidates[i / static_cast<std::size_t>(n)];
-        const std::size_t f = i % static_cast<std::size_t>(n);
-        FlightRequest req;
-        req.map = maps[f];
-        req.params = last.Defaults();
-        for (const auto& [k, v] : c.params) req.params[k] = v;
-        req.seed = DeriveSeed(study.seed, {static_cast<std::uint64_t>(p), 2000u + f});
-        req.cancelled = cancelled;
-        try {
-          records[i] = last.planner.Fly(req, slots.local());
-        } catch (const std::exception& ex) {
-          records[i].status = EvalStatus::kFailed;
-          records[i].message = ex.what();
-        }
-        const int d = ++done;
-        if (options.on_progress) {
+    const std::vector<FlightRecord> records =
+        FlyJobs(last.planner, jobs, threads, options.cancel, [&](int d, int t) {
+          if (!options.on_progress) return;
           StudyProgress sp;
           sp.label = study.labels[p];
           sp.stage = "validation";
@@ -302,11 +284,9 @@ StudySummary RunStudy(const Study& study, const StudyOptions& options) {
           sp.points = study.labels.size();
           sp.validating = true;
           sp.validation_done = d;
-          sp.validation_total = static_cast<int>(total);
+          sp.validation_total = t;
           options.on_progress(sp);
-        }
-      });
-    });
+        });
     if (cancelled()) {
       summary.status = RunStatus::kCancelled;
       break;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <deque>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -61,6 +62,20 @@ struct Context {
   std::atomic<long> resolves{0};
   std::atomic<int> trials_done{0};
   std::atomic<int> trials_total{0};
+  std::mutex maps_mutex;
+  std::map<std::uint64_t, Opaque> maps;  // prepared maps by seed (shared by every method)
+
+  /// The map of `seed`, prepared on first use (deterministic: two threads preparing one seed
+  /// make the same map). Throws what PrepareMap throws.
+  Opaque Map(std::uint64_t seed) {
+    {
+      std::lock_guard lock(maps_mutex);
+      if (auto it = maps.find(seed); it != maps.end()) return it->second;
+    }
+    Opaque map = e.planner.PrepareMap(seed);
+    std::lock_guard lock(maps_mutex);
+    return maps.emplace(seed, std::move(map)).first->second;
+  }
 
   [[nodiscard]] bool CancelRequested() const {
     return options.cancel != nullptr && options.cancel->load();
@@ -68,9 +83,10 @@ struct Context {
 };
 
 /// Runs one flight into `out` (called inside a scheduler job). Never throws.
-void FlyInto(Context& c, const Opaque& map, const ParamValues& params, std::uint64_t seed,
+void FlyInto(Context& c, std::uint64_t map_seed, const ParamValues& params, std::uint64_t seed,
              bool record, std::function<void(double, ParamValues&)> provider, Outcome& out) {
   out.params = params;
+  out.map_seed = map_seed;
   out.flight_seed = seed;
   out.started = Now();
   const auto t0 = Clock::now();
@@ -78,7 +94,7 @@ void FlyInto(Context& c, const Opaque& map, const ParamValues& params, std::uint
   FlightRecord rec;
   try {
     FlightRequest req;
-    req.map = map;
+    req.map = c.Map(map_seed);
     req.params = params;
     req.seed = seed;
     req.short_params_provider = std::move(provider);
@@ -200,17 +216,21 @@ void BoundAroundStart(const Experiment& e, optimizers::BayesOpt& bo) {
 /// One trial: method × repeat.
 class Trial {
  public:
-  Trial(Context& c, Method method, int repeat, Opaque map)
-      : c_(c), e_(c.e), method_(method), repeat_(repeat), map_(std::move(map)),
+  Trial(Context& c, Method method, int repeat)
+      : c_(c), e_(c.e), method_(method), repeat_(repeat),
         seed_(DeriveSeed(c.e.seed, {static_cast<std::uint64_t>(method), static_cast<std::uint64_t>(repeat)})) {
     summary_.method = ToString(method);
     summary_.repeat = repeat;
-    if (c.store != nullptr) trial_id_ = c.store->Trial(ToString(method), repeat, e_.MapSeed(repeat));
+    if (c.store != nullptr) {
+      trial_id_ = c.store->Trial(ToString(method), repeat, e_.FlightMapSeed(repeat, 0));
+    }
+    summary_.trial_id = trial_id_;
   }
 
   /// Returns false when cancelled.
   bool Run() {
     const bool done = method_ == Method::kBoPso ? RunBoPso() : RunSingle();
+    Recommend();
     if (c_.store != nullptr) {
       c_.store->FinishTrial(trial_id_, done ? "done" : "cancelled", ToJson(summary_.best),
                             summary_.best_value);
@@ -268,6 +288,17 @@ class Trial {
           c_.store ? c_.store->Find(trial_id_, "long", iteration, static_cast<int>(i)) : nullptr;
       if (row != nullptr) {
         out[i] = Replay(c_, *row, batch[i]);
+        const std::uint64_t map_seed =
+            e_.FlightMapSeed(repeat_, summary_.flights + static_cast<int>(i));
+        if (e_.mode == TimingMode::kReproducible && row->map_seed != map_seed) {
+          throw ConfigError(c_.options.store_path, "--resume",
+                            "stored flight (iteration " + std::to_string(iteration) + ", index " +
+                                std::to_string(i) + ") flew map " + std::to_string(row->map_seed) +
+                                " but the run asks map " + std::to_string(map_seed) +
+                                "; the stored run is not a prefix of this one");
+        }
+        out[i].map_seed = map_seed;
+        out[i].flight_seed = FlightSeed(iteration, static_cast<int>(i));
         continue;
       }
       std::function<void(double, ParamValues&)> provider;
@@ -278,11 +309,13 @@ class Trial {
         };
       }
       const std::uint64_t seed = FlightSeed(iteration, static_cast<int>(i));
+      const std::uint64_t map_seed =
+          e_.FlightMapSeed(repeat_, summary_.flights + static_cast<int>(i));
       Outcome* slot = &out[i];
       const ParamValues params = batch[i];
       c_.scheduler.Submit(group, Priority::kFlight,
-                          [this, slot, params, seed, record, provider] {
-                            FlyInto(c_, map_, params, seed, record, provider, *slot);
+                          [this, slot, map_seed, params, seed, record, provider] {
+                            FlyInto(c_, map_seed, params, seed, record, provider, *slot);
                           });
     }
   }
@@ -293,7 +326,7 @@ class Trial {
   }
 
   bool RunSingle() {
-    std::unique_ptr<optimizers::Optimizer> opt;
+    std::unique_ptr<optimizers::Optimizer>& opt = single_opt_;
     switch (method_) {
       case Method::kRandom:
         opt = std::make_unique<optimizers::RandomSearch>(
@@ -310,6 +343,7 @@ class Trial {
         o.seed = DeriveSeed(seed_, {1});
         auto bo = std::make_unique<optimizers::BayesOpt>(e_.space, o);
         BoundAroundStart(e_, *bo);
+        single_bo_ = bo.get();
         opt = std::move(bo);
         break;
       }
@@ -352,6 +386,7 @@ class Trial {
     bool pending = false;  // replayed flight: queries not materialised yet
     ParamValues params;
     std::uint64_t seed = 0;
+    std::uint64_t map_seed = 0;
   };
 
   int BufferTotal() const {
@@ -377,8 +412,9 @@ class Trial {
       Outcome* slot = &out[i];
       const ParamValues params = buffer_[i].params;
       const std::uint64_t seed = buffer_[i].seed;
-      c_.scheduler.Submit(group, Priority::kFlight, [this, slot, params, seed] {
-        FlyInto(c_, map_, params, seed, true, {}, *slot);
+      const std::uint64_t map_seed = buffer_[i].map_seed;
+      c_.scheduler.Submit(group, Priority::kFlight, [this, slot, map_seed, params, seed] {
+        FlyInto(c_, map_seed, params, seed, true, {}, *slot);
       });
     }
     if (!any) return;
@@ -407,6 +443,8 @@ class Trial {
                                             : e_.pso.num_particles);
       if (cands.empty()) break;
       const int gen = generation_++;
+      // One query subset per generation: every candidate is scored on the same problems.
+      std::vector<Opaque> subset;
       std::vector<Outcome> out(cands.size());
       std::vector<std::vector<ObjectiveValue>> per_query(cands.size());
       std::vector<std::vector<std::string>> errors(cands.size());
@@ -437,19 +475,13 @@ class Trial {
         }
         out[i].params = theta_s;
         out[i].started = Now();
-        Rng rng(DeriveSeed(seed_, {0x5e, static_cast<std::uint64_t>(gen), i}));
-        const int q = e_.budget.queries_per_eval;
+        if (subset.empty()) subset = DrawSubset(gen, window_begin, total);
+        const int q = static_cast<int>(subset.size());
         per_query[i].resize(static_cast<std::size_t>(q));
         errors[i].resize(static_cast<std::size_t>(q));
         walls[i].resize(static_cast<std::size_t>(q));
         for (int j = 0; j < q; ++j) {
-          int pick = static_cast<int>(UniformInt(rng, window_begin, total - 1));
-          std::size_t entry = 0;
-          while (pick >= buffer_[entry].count) {
-            pick -= buffer_[entry].count;
-            ++entry;
-          }
-          const Opaque query = buffer_[entry].queries[static_cast<std::size_t>(pick)];
+          const Opaque query = subset[static_cast<std::size_t>(j)];
           ObjectiveValue* value = &per_query[i][static_cast<std::size_t>(j)];
           std::string* error = &errors[i][static_cast<std::size_t>(j)];
           double* wall = &walls[i][static_cast<std::size_t>(j)];
@@ -502,15 +534,33 @@ class Trial {
     }
   }
 
+  /// The queries_per_eval queries every candidate of generation `gen` re-solves, drawn (with
+  /// replacement) from buffer positions [window_begin, total).
+  std::vector<Opaque> DrawSubset(int gen, int window_begin, int total) const {
+    Rng rng(DeriveSeed(seed_, {0x5e, static_cast<std::uint64_t>(gen)}));
+    std::vector<Opaque> subset;
+    for (int j = 0; j < e_.budget.queries_per_eval; ++j) {
+      int pick = static_cast<int>(UniformInt(rng, window_begin, total - 1));
+      std::size_t entry = 0;
+      while (pick >= buffer_[entry].count) {
+        pick -= buffer_[entry].count;
+        ++entry;
+      }
+      subset.push_back(buffer_[entry].queries[static_cast<std::size_t>(pick)]);
+    }
+    return subset;
+  }
+
   ParamValues BestShort() const {
     const auto best = pso_->Best();
     return best ? short_space_.ToNamed(best->x) : theta_s_start_;
   }
 
-  void AddToBuffer(const Outcome& o, std::uint64_t seed) {
+  void AddToBuffer(const Outcome& o) {
     BufferEntry b;
     b.params = o.params;
-    b.seed = seed;
+    b.seed = o.flight_seed;
+    b.map_seed = o.map_seed;
     if (o.replayed) {
       b.pending = o.query_count > 0;
       b.count = o.query_count;
@@ -522,12 +572,12 @@ class Trial {
     TrimBuffer();
   }
 
-  void ForwardBestChanges() {
-    const std::uint64_t changes = pso_->BestChanges();
-    for (; forwarded_changes_ < changes; ++forwarded_changes_) {
-      bo_->NotifyContextChanged();
-      ++summary_.context_changes;
-    }
+  /// n_d advances once when the θ_s that flies this round differs from the last round's.
+  void NoteFlyingShort(const ParamValues& theta_s) {
+    if (theta_s == flying_short_) return;
+    flying_short_ = theta_s;
+    bo_->NotifyContextChanged();
+    ++summary_.context_changes;
   }
 
   bool RunBoPso() {
@@ -544,8 +594,10 @@ class Trial {
     if (e_.start) {
       for (const auto& [name, value] : *e_.start) defaults[name] = value;
     }
+    bo_pso_defaults_ = defaults;
     theta_s_start_ = e_.initial_short ? *e_.initial_short : Pick(defaults, e_.short_names);
     live_best_ = theta_s_start_;
+    flying_short_ = theta_s_start_;
     int iteration = 0;
     if (!e_.initial_short) {
       // θ_s first: a flight with the defaults records queries; PSO runs on them before BO.
@@ -554,12 +606,12 @@ class Trial {
       SubmitFlights(group, 0, {defaults}, true, out);
       c_.scheduler.Wait(group);
       if (c_.CancelRequested()) return false;
+      if (!out[0].replayed) out[0].objective.terms["n_d"] = summary_.context_changes;
       Store(c_, trial_id_, method_, "long", 0, 0, out[0]);
       Observe(out[0]);
-      AddToBuffer(out[0], FlightSeed(0, 0));
+      AddToBuffer(out[0]);
       ShortPhase(e_.budget.short_evals_per_flight, buffer_.size());
       if (c_.CancelRequested()) return false;
-      ForwardBestChanges();
       iteration = 1;
       Report();
     }
@@ -567,6 +619,7 @@ class Trial {
       if (c_.CancelRequested()) return false;
       const int k = std::min(FlightBatch(), e_.budget.flights - summary_.flights);
       const ParamValues theta_s_round = BestShort();
+      NoteFlyingShort(theta_s_round);
       const auto cands = bo_->Ask(k);
       std::vector<ParamValues> batch;
       for (const auto& cand : cands) {
@@ -581,37 +634,56 @@ class Trial {
       c_.scheduler.Wait(flights);
       if (c_.CancelRequested()) return false;
       for (std::size_t i = 0; i < out.size(); ++i) {
+        if (!out[i].replayed) out[i].objective.terms["n_d"] = summary_.context_changes;
         Store(c_, trial_id_, method_, "long", iteration, static_cast<int>(i), out[i]);
         bo_->Tell(cands[i].id, out[i].objective.value);
         Observe(out[i]);
       }
-      for (std::size_t i = 0; i < out.size(); ++i) {
-        AddToBuffer(out[i], FlightSeed(iteration, static_cast<int>(i)));
-      }
-      ForwardBestChanges();
+      for (const Outcome& o : out) AddToBuffer(o);
       ++iteration;
       Report();
     }
     return true;
   }
 
+  /// Fills summary_.recommended (see TrialSummary).
+  void Recommend() {
+    summary_.recommended = summary_.best;
+    summary_.recommended_value = summary_.best_value;
+    if (method_ == Method::kDefault) {
+      summary_.recommended = DefaultsOf(e_);
+    } else if (method_ == Method::kBo && single_bo_ != nullptr) {
+      if (const auto best = single_bo_->Best()) {
+        summary_.recommended = Merge(DefaultsOf(e_), e_.space.ToNamed(best->x));
+        summary_.recommended_value = best->value;
+      }
+    } else if (method_ == Method::kBoPso && bo_) {
+      if (const auto best = bo_->Best()) {
+        summary_.recommended = Merge(Merge(bo_pso_defaults_, BestShort()), long_space_.ToNamed(best->x));
+        summary_.recommended_value = best->value;
+      }
+    }
+  }
+
   Context& c_;
   const Experiment& e_;
   Method method_;
   int repeat_;
-  Opaque map_;
   std::uint64_t seed_;
   std::int64_t trial_id_ = 0;
   TrialSummary summary_;
   bool have_best_ = false;
+  std::unique_ptr<optimizers::Optimizer> single_opt_;  // random, pso, bo
+  optimizers::BayesOpt* single_bo_ = nullptr;          // bo: single_opt_ as BayesOpt
+  ParamValues bo_pso_defaults_;                        // bo_pso: defaults with e_.start
   // bo_pso
   optimizers::ParameterSpace short_space_, long_space_;
   std::unique_ptr<optimizers::Pso> pso_;
   std::unique_ptr<optimizers::BayesOpt> bo_;
   std::deque<BufferEntry> buffer_;
   int generation_ = 0;
-  std::uint64_t forwarded_changes_ = 0;
   ParamValues theta_s_start_;
+  ParamValues flying_short_;  // θ_s of the last round flown (n_d counts its changes)
   std::mutex live_mutex_;
   ParamValues live_best_;
 };
@@ -628,26 +700,28 @@ struct TrialRunner::Impl {
   Scheduler scheduler;
   WorldPool pool;
   Context c;
-  std::vector<Opaque> maps;  // one per repeat
 };
 
 TrialRunner::TrialRunner(const Experiment& experiment, const RunOptions& options, int threads,
                          EvaluationStore* store)
     : impl_(std::make_unique<Impl>(experiment, options, threads, store)) {
   impl_->c.trials_total = static_cast<int>(experiment.methods.size()) * experiment.repeats;
-  // Random maps of identical density: one map per repeat, shared by every method. Made before
-  // any flight, so a layout that cannot be generated stops the run before work starts.
+  // The first map of every repeat (and of the validation) is made before any flight, so a
+  // layout that cannot be generated stops the run before work starts.
   for (int repeat = 0; repeat < experiment.repeats; ++repeat) {
-    impl_->maps.push_back(experiment.planner.PrepareMap(experiment.MapSeed(repeat)));
+    (void)impl_->c.Map(experiment.FlightMapSeed(repeat, 0));
+  }
+  if (options.validate && experiment.validation.maps > 0) {
+    (void)experiment.planner.PrepareMap(experiment.HeldOutMapSeed(0));
   }
 }
 
 TrialRunner::~TrialRunner() = default;
 
 bool TrialRunner::Run(Method method, int repeat, TrialSummary& summary) {
-  QT_DEMAND(repeat >= 0 && repeat < static_cast<int>(impl_->maps.size()),
+  QT_DEMAND(repeat >= 0 && repeat < impl_->c.e.repeats,
             "repeat " + std::to_string(repeat) + " out of range");
-  Trial trial(impl_->c, method, repeat, impl_->maps[static_cast<std::size_t>(repeat)]);
+  Trial trial(impl_->c, method, repeat);
   const bool done = trial.Run();
   summary = trial.Summary();
   return done;
@@ -691,7 +765,19 @@ RunSummary RunExperiment(const Experiment& experiment, const RunOptions& options
       }
     }
   }
-  summary.flights = runner.Flights();
+  long validation_flights = 0;
+  if (summary.status == RunStatus::kCompleted && options.validate &&
+      experiment.validation.maps > 0) {
+    std::vector<std::int64_t> ids;
+    for (const auto& t : summary.trials) ids.push_back(t.trial_id);
+    summary.validation = RunValidation(experiment, summary.trials, ids, store.get(),
+                                       summary.threads, options, &validation_flights);
+    if (summary.validation.empty()) {
+      summary.status = RunStatus::kCancelled;
+      summary.message = "cancelled";
+    }
+  }
+  summary.flights = runner.Flights() + validation_flights;
   summary.resolves = runner.Resolves();
   summary.worlds = runner.Worlds();
   summary.wall_s = runner.ElapsedSeconds();

@@ -48,6 +48,23 @@ struct RunArgs {
 std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quiet = false) {
   auto last = std::make_shared<std::chrono::steady_clock::time_point>();
   return [tty, quiet, last](const engine::Progress& p) {
+    if (p.method == "validation") {  // the held-out validation after the trials
+      const double eta = p.flights_done > 0 ? p.elapsed_s * (p.flights_total - p.flights_done) /
+                                                  p.flights_done
+                                            : 0.0;
+      const std::string line =
+          fmt::format("validation on held-out maps: flights {}/{}, elapsed {:.0f} s, ETA {:.0f} s",
+                      p.flights_done, p.flights_total, p.elapsed_s, eta);
+      if (tty) {
+        std::fprintf(stderr, "\r\033[K%s", line.c_str());
+        std::fflush(stderr);
+      } else if (!quiet && (p.flights_done == p.flights_total ||
+                            std::chrono::steady_clock::now() - *last >= std::chrono::seconds(30))) {
+        *last = std::chrono::steady_clock::now();
+        spdlog::info("{}", line);
+      }
+      return;
+    }
     const double done = p.trials_done + static_cast<double>(p.flights_done) / p.flights_total;
     const double eta = done > 0 ? p.elapsed_s * (p.trials_total - done) / done : 0.0;
     const double rate = p.elapsed_s > 0 ? static_cast<double>(p.short_evals) / p.elapsed_s : 0.0;
@@ -97,7 +114,26 @@ int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& sto
     tj["short_evals"] = t.short_evals;
     tj["failed"] = t.failed;
     tj["replayed"] = t.replayed;
+    tj["recommended"] = t.recommended;
+    tj["recommended_value"] = t.recommended_value;
+    tj["context_changes"] = t.context_changes;
     j["trials"].push_back(tj);
+  }
+  for (const auto& v : s.validation) {
+    spdlog::info("held-out validation, {}{}: mean f_l {:.3f} over {} maps, {} completed, {} "
+                 "collision-free, {} emergency stops",
+                 v.method, v.repeat >= 0 ? fmt::format(" repeat {}", v.repeat) : std::string(),
+                 v.mean_value, v.flights, v.completed, v.collision_free, v.emergency_stops);
+    nlohmann::json vj;
+    vj["method"] = v.method;
+    vj["repeat"] = v.repeat;
+    vj["params"] = v.params;
+    vj["flights"] = v.flights;
+    vj["mean_value"] = v.mean_value;
+    vj["completed"] = v.completed;
+    vj["collision_free"] = v.collision_free;
+    vj["emergency_stops"] = v.emergency_stops;
+    j["validation"].push_back(vj);
   }
   std::ofstream(fs::path(a.out) / "summary.json") << j.dump(1) << '\n';
   if (s.ranks > 1) {

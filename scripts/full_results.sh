@@ -36,7 +36,8 @@ run_benchmark() {
   timed benchmark "$q" run experiments/benchmark.yaml --out "$raw/benchmark"
   "$q" plot run "$raw/benchmark"
   mkdir -p "$docs/benchmark"
-  cp "$raw/benchmark/"{tuning.png,tuning.md,tuning.csv,summary.json} "$docs/benchmark/"
+  cp "$raw/benchmark/"{tuning.png,tuning.md,tuning.csv,validation.png,validation.csv,summary.json} \
+    "$docs/benchmark/"
 }
 
 run_benchmark_jc() {  # BO+PSO with the clearance term in f_s, against the same defaults
@@ -45,15 +46,16 @@ run_benchmark_jc() {  # BO+PSO with the clearance term in f_s, against the same 
     --set objective.short_term.w_c=0.1 --set 'methods=[default, bo_pso]'
   "$q" plot run "$raw/benchmark_jc"
   mkdir -p "$docs/benchmark_jc"
-  cp "$raw/benchmark_jc/"{tuning.png,tuning.md,tuning.csv,summary.json} "$docs/benchmark_jc/"
+  cp "$raw/benchmark_jc/"{tuning.png,tuning.md,tuning.csv,validation.png,validation.csv,summary.json} \
+    "$docs/benchmark_jc/"
 }
 
 run_density() {
   rm -rf "$raw/density"
   timed density "$q" study experiments/density_study.yaml --out "$raw/density"
   mkdir -p "$docs/density"
-  cp "$raw/density/"{study.md,study.csv,study_sweep.png,validation.csv,summary.json} \
-    "$docs/density/"
+  cp "$raw/density/"{study.md,study.csv,study_sweep.png,validation.csv,study_validation.csv} \
+    "$raw/density/summary.json" "$docs/density/"
 }
 
 run_adapt() {
@@ -74,7 +76,8 @@ run_refinement() {
   rm -rf "$raw/refinement"
   timed refinement "$q" study experiments/refinement_study.yaml --out "$raw/refinement"
   mkdir -p "$docs/refinement"
-  cp "$raw/refinement/"{study.md,study.csv,validation.csv,summary.json} "$docs/refinement/"
+  cp "$raw/refinement/"{study.md,study.csv,validation.csv,study_validation.csv,summary.json} \
+    "$docs/refinement/"
   cp "$raw/refinement/"refinement_*.png "$docs/refinement/"
 }
 

@@ -26,6 +26,7 @@ import sys
 
 import matplotlib
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.patches import Circle  # noqa: E402
@@ -224,7 +225,7 @@ def load_run(path):
             continue
         if kind == "short":
             t["shorts"] += queries_per_eval
-        else:
+        elif kind == "long":
             t["long"].append(value)
             t["params"].append(json.loads(params) if params else {})
             t["short_before"].append(t["shorts"])
@@ -387,7 +388,69 @@ def plot_run(directory):
             w.writerow([r["method"], r["repeats"], r["flights"], m, s, min(r["finals"]),
                         r["early10"], r["early25"], r["k90"], r["shorts"], r["failed"], pd_, pb,
                         r["params"]])
-    return [figure, table, csv_path]
+    return [figure, table, csv_path] + plot_validation(directory)
+
+
+def plot_validation(directory):
+    """The held-out validation of a run (kind 'validation' rows): a table appended to
+    tuning.md, validation.csv, and validation.png: (A) mean f_l with its 95% CI per method on the
+    held-out maps, ranked; (B) n_d, the count of θ_s changes the BO discount has seen, against
+    the flight, for the BO+PSO trials."""
+    import quadtune_validation as qv
+    con = sqlite3.connect("file:{}?mode=ro".format(os.path.join(directory, "results.sqlite")),
+                          uri=True)
+    flights = qv.read_store(con)
+    config = con.execute("SELECT config FROM experiment ORDER BY id LIMIT 1").fetchone()
+    n_d = {}
+    for tid, iteration, idx, terms in con.execute(
+            "SELECT e.trial_id, e.iteration, e.idx, e.terms FROM evaluation e JOIN trial t "
+            "ON t.id = e.trial_id WHERE e.kind = 'long' AND t.method = 'bo_pso' "
+            "ORDER BY e.trial_id, e.id"):
+        n_d.setdefault(tid, []).append(json.loads(terms).get("n_d", float("nan")))
+    con.close()
+    if not flights:
+        return []
+    space = qv.space_of(config[0]) if config else []
+    rows = qv.summarise(flights, space)
+    maps = len({f["map"] for f in flights})
+    with open(os.path.join(directory, "tuning.md"), "a") as f:
+        f.write("\n" + qv.markdown(rows, maps))
+    csv_path = os.path.join(directory, "validation.csv")
+    with open(csv_path, "w", newline="") as fc:
+        w = csv.writer(fc)
+        w.writerow(qv.CSV_FIELDS)
+        for r in rows:
+            w.writerow(qv.csv_row(r))
+    fig, (ax_a, ax_b) = plt.subplots(1, 2, figsize=(11, 3.8),
+                                     gridspec_kw={"width_ratios": [1.2, 1]})
+    ranked = sorted(rows, key=lambda r: r["mean"])
+    ys = list(range(len(ranked)))
+    for y, r in zip(ys, ranked):
+        c = COLORS.get(r["method"], "0.3")
+        ax_a.errorbar(r["mean"], y, xerr=0 if r["ci"] != r["ci"] else r["ci"], fmt="o",
+                      color=c, capsize=4, ms=7)
+    ax_a.set_yticks(ys)
+    ax_a.set_yticklabels(["{} ({}/{} collision-free)".format(
+        LABELS.get(r["method"], r["method"]), r["collision_free"], r["flights"]) for r in ranked])
+    ax_a.set_xlabel("mean f_l on held-out maps (s; 95% CI)")
+    ax_a.set_title("(A) held-out validation, {} maps".format(maps))
+    ax_a.grid(alpha=0.3, axis="x")
+    for tid, values in sorted(n_d.items()):
+        ax_b.step(range(1, len(values) + 1), values, where="post", color=COLORS.get("bo_pso"),
+                  alpha=0.7, lw=1.2)
+    from matplotlib.ticker import MaxNLocator
+    ax_a.set_ylim(-0.6, len(ranked) - 0.4)
+    ax_b.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax_b.yaxis.set_major_locator(MaxNLocator(integer=True))
+    ax_b.set_xlabel("long-term evaluation (flight)")
+    ax_b.set_ylabel("n_d (θ_s changes so far)")
+    ax_b.set_title("(B) BO+PSO: discount count n_d per trial")
+    ax_b.grid(alpha=0.3)
+    fig.tight_layout()
+    figure = os.path.join(directory, "validation.png")
+    fig.savefig(figure, dpi=120)
+    plt.close(fig)
+    return [figure, csv_path]
 
 
 def read_rows(path):
@@ -400,6 +463,34 @@ SWEEP_AXIS_LABELS = {
     "planner.layout_file": "layout: mean obstacle spacing (m)",
     "planner.drone": "drone",
 }
+
+
+def study_validation_tables(directory, study, validation):
+    """Per point, the held-out validation of the last stage's recommended points against the
+    defaults (quadtune_validation.markdown), appended to study.md; study_validation.csv."""
+    import quadtune_validation as qv
+    if not validation:
+        return []
+    csv_path = os.path.join(directory, "study_validation.csv")
+    with open(os.path.join(directory, "study.md"), "a") as f, open(csv_path, "w", newline="") as fc:
+        w = csv.writer(fc)
+        w.writerow(["point"] + qv.CSV_FIELDS)
+        for p, point in enumerate(study["points"]):
+            last = point["stages"][-1]
+            flights = [dict(method=r["method"], repeat=int(r["repeat"]), map=int(r["flight"]),
+                            value=float(r["f_l"]), completed=r["completed"] == "1",
+                            n_c=float(r["collisions"]), n_e=float(r["emergency_stops"]),
+                            params=json.loads(r["params"]) if r["params"] else {})
+                       for r in validation if int(r["point"]) == p and
+                       (r["method"] == "default" or r["source_stage"] == last["name"])]
+            if not flights:
+                continue
+            rows = qv.summarise(flights, last.get("space", []))
+            f.write("\n### {} = {}\n\n".format(study.get("sweep_key") or "point", point["label"]))
+            f.write(qv.markdown(rows, len({x["map"] for x in flights})))
+            for r in rows:
+                w.writerow([point["label"]] + qv.csv_row(r))
+    return [csv_path]
 
 
 def plot_study(directory):
@@ -469,6 +560,7 @@ def plot_study(directory):
                         r["default"][0], r["default"][1], r["default_fl"][0], r["s90"][0],
                         r["s90"][1], r["k90"][0], r["k90"][1]])
     outputs += [table, csv_path]
+    outputs += study_validation_tables(directory, study, validation)
 
     if len(rows) > 1:
         labels = [r["label"] for r in rows]

@@ -10,8 +10,10 @@
 namespace quadtune::engine::test {
 
 /// The toy experiment used by most tests: small and fast (milliseconds per trial).
+/// `validation_maps`: held-out validation maps (0: none, so row counts are the trials' only).
 inline std::string ToyYaml(const std::string& methods = "[default, random, pso, bo, bo_pso]",
-                           const std::string& extra_toy = "", int flights = 6) {
+                           const std::string& extra_toy = "", int flights = 6,
+                           int validation_maps = 0) {
   return "name: toy-test\nseed: 11\nthreads: 2\nmode: reproducible\nrepeats: 1\n"
          "methods: " + methods + "\n"
          "planner:\n  type: toy\n  toy: {length: 10, gates: 4, plan_interval: 1.0" + extra_toy + "}\n"
@@ -22,6 +24,7 @@ inline std::string ToyYaml(const std::string& methods = "[default, random, pso, 
          "  - {name: margin, lower: 0.0, upper: 3.0, default: 0.5}\n"
          "short_term: [gain, max_iter]\nlong_term: [speed, margin]\n"
          "objective:\n  short_term: {tau_t: 0.002}\n"
+         "validation: {maps: " + std::to_string(validation_maps) + "}\n"
          "budget: {flights: " + std::to_string(flights) +
          ", flight_batch: 2, short_evals_per_flight: 4, queries_per_eval: 2, query_window: 50}\n"
          "pso: {num_particles: 4}\n"

@@ -88,7 +88,7 @@ TEST(PaperExperiments, BenchmarkComparisonScaledDown) {
                             " --quiet --set repeats=2 --set budget.flights=3 "
                             "--set budget.default_flights=2 --set budget.short_evals_per_flight=4 "
                             "--set budget.queries_per_eval=2 --set pso.num_particles=4 "
-                            "--set bo.initial_design_size=2",
+                            "--set bo.initial_design_size=2 --set validation.maps=2",
                         dir / "run.log"),
             0)
       << ReadText(dir / "run.log");
@@ -128,9 +128,26 @@ TEST(PaperExperiments, BenchmarkComparisonScaledDown) {
   }
   EXPECT_EQ(methods, (std::set<std::string>{"default", "random", "pso", "bo", "bo_pso"}));
   const std::string md = ReadText(fs::path(out) / "tuning.md");
-  for (const char* label : {"Default", "Random", "PSO only", "BO only", "BO+PSO", "p vs Default"}) {
+  for (const char* label : {"Default", "Random", "PSO only", "BO only", "BO+PSO", "p vs Default",
+                            "Held-out validation"}) {
     EXPECT_NE(md.find(label), std::string::npos) << label;
   }
+  // Held-out validation: the defaults once (trial id 0) and each tuned trial's recommended point
+  // on the same 2 maps; one table row per method with its flights.
+  const auto held_out = Query(db, "SELECT trial_id, COUNT(*), COUNT(DISTINCT map_seed) FROM "
+                                  "evaluation WHERE kind = 'validation' GROUP BY trial_id");
+  ASSERT_EQ(held_out.size(), 9u);  // defaults + 4 tuned methods × 2 repeats
+  for (const auto& row : held_out) {
+    EXPECT_EQ(row[1], "2") << "trial " << row[0];
+    EXPECT_EQ(row[2], "2") << "trial " << row[0];
+  }
+  const auto validation = ReadCsv(fs::path(out) / "validation.csv");
+  ASSERT_EQ(validation.size(), 5u);
+  for (const auto& r : validation) {
+    EXPECT_EQ(Number(r, "flights"), r.at("method") == "default" ? 2.0 : 4.0) << r.at("method");
+    EXPECT_LE(Number(r, "collision_free"), Number(r, "completed")) << r.at("method");
+  }
+  ExpectFigure(fs::path(out) / "validation.png");
 }
 
 // Paper Sec. IV-B2: tune at several densities, then validation flights of the tuned parameters

@@ -9,7 +9,15 @@
 ///     seed: 1                  # master seed; every stream derives from it
 ///     threads: 2               # worker threads (the CLI's --threads overrides)
 ///     mode: reproducible       # reproducible | realtime
-///     repeats: 1               # trials per method; repeat r flies map seed DeriveSeed(seed, {r})
+///     repeats: 1               # trials per method
+///     maps:                    # which map each flight flies (common random numbers: flight k of
+///       mode: per_flight       # every method in repeat r flies the same map)
+///                              # per_flight: a fresh map per flight | per_repeat: one map per
+///                              # repeat | pool: flight k flies map k mod pool of the repeat
+///       pool: 10               # pool mode: maps per repeat, >= 1
+///     validation:              # held-out validation after the trials (`quadtune run`)
+///       maps: 20               # maps no trial flies; each method's recommended point and the
+///                              # defaults fly all of them (0: no validation)
 ///     methods: [default, random, pso, bo, bo_pso]
 ///     planner:
 ///       type: ipopt            # ipopt | toy
@@ -19,6 +27,9 @@
 ///       mission: go_and_return                 # ipopt: go_and_return | go_to
 ///       max_time: 60                           # ipopt: flight time limit (s)
 ///       fixed: {a_max: 3.0}                    # ipopt: fixed PlannerParams
+///       safety_nets: true                      # ipopt: false plans as the paper's planners do:
+///                              # one attempt per re-plan, no 10× collision-weight retries, no
+///                              # stop-and-go fallback
 ///       toy: {length: 20, gates: 6, ...}       # toy: ToyPlannerOptions
 ///     parameters:              # ParameterSpace (bounds, log, integer, default)
 ///       - {name: w_col, lower: 0.05, upper: 5.0, log: true, default: 0.5}
@@ -69,6 +80,25 @@ const char* ToString(Method method);
 /// Parses "default" | "random" | "pso" | "bo" | "bo_pso"; nullopt otherwise.
 std::optional<Method> MethodFromString(const std::string& name);
 
+/// Which map a flight flies (YAML `maps.mode`).
+enum class MapMode {
+  kPerFlight,  ///< every flight a fresh map of the layout's density (the default)
+  kPerRepeat,  ///< one map per repeat, flown by every flight of its trials
+  kPool,       ///< a pool of `maps.pool` maps per repeat; flight k flies map k mod pool
+};
+const char* ToString(MapMode mode);
+
+/// YAML `maps:`.
+struct MapOptions {
+  MapMode mode = MapMode::kPerFlight;
+  int pool = 10;  ///< kPool: maps per repeat, >= 1
+};
+
+/// YAML `validation:`: the held-out validation that ends `quadtune run`.
+struct ValidationOptions {
+  int maps = 20;  ///< held-out maps, >= 0 (0: none)
+};
+
 /// Budgets of one trial (YAML `budget:`).
 struct Budget {
   int flights = 6;                 ///< long-term evaluations per trial, >= 1
@@ -109,6 +139,8 @@ struct Experiment {
   /// starts from start's short-term part. Used to refine a result in a higher-fidelity world.
   std::optional<ParamValues> start;
   ObjectiveOptions objective;
+  MapOptions maps;
+  ValidationOptions validation;
   Budget budget;
   optimizers::PsoOptions pso;
   optimizers::BayesOptOptions bo;
@@ -122,8 +154,17 @@ struct Experiment {
   static Experiment FromString(const std::string& text, const std::string& origin = "<string>",
                                const std::string& base_dir = ".");
 
-  /// Map seed of repeat r (random maps of identical density: one layout per repeat).
+  /// Map seed of repeat r: the map of every flight in per_repeat mode, and the one prepared (and
+  /// so checked) before any work in the other modes.
   [[nodiscard]] std::uint64_t MapSeed(int repeat) const;
+  /// Map seed of flight `flight` (0, 1, … in the order a trial flies them) of repeat `repeat`,
+  /// by maps.mode. It does not depend on the method: flight k of every method flies one map.
+  [[nodiscard]] std::uint64_t FlightMapSeed(int repeat, int flight) const;
+  /// Seed of held-out map `index` (validation). Derived under a tag no tuning map uses.
+  [[nodiscard]] std::uint64_t HeldOutMapSeed(int index) const;
+  /// Seed of the world's random streams for the validation flights on held-out map `index`
+  /// (the same for every parameter set flown there).
+  [[nodiscard]] std::uint64_t HeldOutFlightSeed(int index) const;
   /// Every parameter the planner takes at its default, overridden by the space's defaults.
   [[nodiscard]] ParamValues Defaults() const;
 };

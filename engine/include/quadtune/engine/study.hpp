@@ -7,7 +7,7 @@
 /// refine in a high-fidelity one around the result) are expressed.
 ///
 ///     name: density
-///     seed: 11                      # validation maps: DeriveSeed(seed, {point, 1000 + k})
+///     seed: 11
 ///     experiment: density_base.yaml # the base experiment (relative to this file)
 ///     override: {budget: {...}}     # optional, deep-merged onto the base (maps merge, the rest
 ///                                   # is replaced)
@@ -19,14 +19,16 @@
 ///       - {name: low_fidelity}
 ///       - name: high_fidelity
 ///         override: {planner: {world: {wind: [1, 0, 0]}}}
-///         start_from: low_fidelity  # experiment `start:` = best point of that stage
-///     validation: {flights: 5}      # validation flights per tuned trial (0: none)
+///         start_from: low_fidelity  # experiment `start:` = that stage's recommended point
+///     validation: {flights: 20}     # held-out maps each recommended point flies (0: none)
 ///
 /// Outputs under OUT: study.json (points, stages, parameter bounds, files), per point and stage
 /// OUT/<label>/<stage>/results.sqlite (a `quadtune run` store, so `--resume` works per stage),
 /// and validation.csv: every validation flight, flown in the last stage's world (planner, map
-/// density, noise) with the best parameters of each trial of every stage and with the defaults,
-/// all on the same maps — new maps of the same kind, not the ones tuned on.
+/// density, noise) with the recommended point of each trial of every stage (TrialSummary::
+/// recommended) and with the defaults, all on the same held-out maps and flight seeds
+/// (Experiment::HeldOutMapSeed / HeldOutFlightSeed of the last stage: maps of the same kind
+/// that no trial flew). The runs inside a study skip their own validation.
 ///
 /// Thread safety: a Study is an immutable value; RunStudy uses the threads it is given.
 
@@ -59,7 +61,7 @@ struct Study {
   std::vector<std::string> sweep_values;  ///< YAML scalars as written
   std::vector<std::string> labels;        ///< one per point (a single "all" without a sweep)
   std::vector<StudyStage> stages;
-  int validation_flights = 5;
+  int validation_flights = 20;
 
   /// Reads and checks a study file: every point and stage is built into an Experiment (so every
   /// configuration error surfaces before any work), errors name the file and the key.

@@ -7,8 +7,13 @@
 /// the complementary tuner (paper Sec. III): BayesOpt on θ_l scored by flights; PSO on θ_s scored
 /// by f_s on planning queries recorded from the flights; the best θ_s flows into later flights
 /// (flight hook); BO discounts observations made under an older θ_s (NotifyContextChanged for
-/// every increment of Pso::BestChanges()). With no initial θ_s a first flight with the defaults
+/// each round whose flying θ_s differs from the previous round's; the n_d in force is stored
+/// with each flight as term "n_d"). With no initial θ_s a first flight with the defaults
 /// records queries and PSO runs on them before BO starts.
+///
+/// Maps: flight k of a trial (counted over the trial: 0, 1, …) flies map
+/// Experiment::FlightMapSeed(repeat, k), the same for every method (common random numbers);
+/// each stored flight records its map seed and flight seed.
 ///
 /// Rounds. Each round asks a fixed batch of `budget.flight_batch` candidates and flies them
 /// (priority: flights) while, in bo_pso, PSO generations re-solve queries recorded in earlier
@@ -16,9 +21,9 @@
 /// the round, never in completion order.
 ///
 /// Reproducible mode: batch sizes come from the experiment, not the thread count; every flight
-/// seed is DeriveSeed(trial seed, {iteration, index}); the queries a θ_s evaluation re-solves are
-/// drawn with DeriveSeed(trial seed, {generation, index}) from the buffer as it stood at the
-/// start of the round; t_c comes from compute units; a flight's θ_s is fixed when it starts. So
+/// seed is DeriveSeed(trial seed, {iteration, index}); every θ_s evaluation of one PSO
+/// generation re-solves the same queries, drawn with DeriveSeed(trial seed, {generation}) from
+/// the buffer as it stood at the start of the round (candidates compared on one problem set); t_c comes from compute units; a flight's θ_s is fixed when it starts. So
 /// the same seed gives identical results with 1, 2 or 8 threads. Realtime mode measures t_c by
 /// the wall clock and lets running flights pick up a new best θ_s at their next plan.
 ///
@@ -28,6 +33,11 @@
 ///
 /// Failures: an exception in a flight or re-solve is caught at the evaluation boundary and
 /// recorded (status failed, message); the optimiser is told objective.failure_value.
+///
+/// Validation: RunExperiment ends, when options.validate and experiment.validation.maps > 0, by
+/// flying each trial's recommended point and the defaults on the held-out maps (validation.hpp),
+/// stored as kind 'validation' rows (iteration = map index) under the trial's id, the defaults'
+/// under trial id 0; resumable like the rest.
 ///
 /// RunExperiment runs every trial in order on one TrialRunner. A distributed run (MPI,
 /// distributed.hpp) gives each rank a TrialRunner and hands it whole trials; a trial computes
@@ -44,6 +54,7 @@
 #include <vector>
 
 #include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/validation.hpp"
 
 namespace quadtune::engine {
 
@@ -68,6 +79,9 @@ struct RunOptions {
   bool resume = false;              ///< continue the run stored in store_path
   std::function<void(const Progress&)> on_progress;  ///< may be empty
   const std::atomic<bool>* cancel = nullptr;          ///< set → stop after the current round
+  /// End with the held-out validation (experiment.validation.maps > 0); a study turns it off
+  /// and validates across its stages itself.
+  bool validate = true;
 };
 
 /// Outcome of a run.
@@ -77,15 +91,23 @@ enum class RunStatus { kCompleted, kCancelled };
 struct TrialSummary {
   std::string method;
   int repeat = 0;
-  ParamValues best;         ///< best parameters found (all of θ_s ∪ θ_l)
+  std::int64_t trial_id = 0;  ///< the store's id of the trial (0 without a store)
+  ParamValues best;         ///< parameters of the best flight (all of θ_s ∪ θ_l)
   /// Best f_l of a completed flight; while none has completed, the best failed one's value
   /// (objective.failure_value), and `best` its parameters.
   double best_value = 0.0;
+  /// The point the method recommends (what validation flies): bo, the observed point of lowest
+  /// posterior mean (BayesOpt::Best), not the luckiest flight; bo_pso, that for θ_l with PSO's
+  /// final best θ_s; pso and random, the best flight's parameters; default, the defaults.
+  ParamValues recommended;
+  /// bo and bo_pso: the posterior mean at `recommended`; the others: best_value.
+  double recommended_value = 0.0;
   int flights = 0;
   int short_evals = 0;      ///< θ_s evaluations
   int failed = 0;           ///< failed evaluations
   int replayed = 0;         ///< evaluations taken from the store on resume
-  /// bo_pso: BayesOpt::NotifyContextChanged() calls (= increments of Pso::BestChanges()).
+  /// bo_pso: n_d, BayesOpt::NotifyContextChanged() calls: one per change of the θ_s that flies
+  /// (a round whose θ_s differs from the previous round's).
   int context_changes = 0;
 };
 
@@ -99,6 +121,9 @@ struct RunSummary {
   int threads = 0;
   int worlds = 0;           ///< world-pool slots created
   int ranks = 1;            ///< MPI ranks (distributed runs; threads is per rank)
+  /// Held-out validation (RunOptions::validate): the defaults first, then each trial's
+  /// recommended point; empty when not validated.
+  std::vector<ValidationSummary> validation;
 };
 
 class EvaluationStore;

@@ -1,0 +1,237 @@
+// Maps per flight with common random numbers, the held-out validation, the recommended points
+// and the discount count n_d (engine/tuner.cpp, engine/validation.cpp).
+#include <gtest/gtest.h>
+
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <vector>
+
+#include "quadtune/engine/result_store.hpp"
+#include "quadtune/engine/tuner.hpp"
+#include "test_util.hpp"
+
+namespace quadtune::engine {
+namespace {
+
+/// Long-term rows per (method, repeat), in flight order (iteration, index).
+std::map<std::pair<std::string, int>, std::vector<EvaluationRow>> LongRows(
+    const std::string& store_path) {
+  ResultStore store(store_path);
+  std::map<std::int64_t, int> repeat_of;
+  for (const auto& t : store.Trials()) repeat_of[t.id] = t.repeat;
+  std::map<std::pair<std::string, int>, std::vector<EvaluationRow>> rows;
+  for (const auto& r : store.Evaluations()) {
+    if (r.kind == "long") rows[{r.method, repeat_of.at(r.trial_id)}].push_back(r);
+  }
+  return rows;
+}
+
+std::string WithMaps(const std::string& yaml, const std::string& maps) {
+  return yaml + "maps: " + maps + "\n";
+}
+
+TEST(MapsPerFlight, EveryFlightFliesAFreshMapAndFlightKOfEveryMethodTheSameOne) {
+  const std::string dir = test::TempDir("maps_per_flight");
+  RunOptions o;
+  o.store_path = dir + "/r.sqlite";
+  std::string yaml = test::ToyYaml("[default, random, pso, bo, bo_pso]", "", 6, 0);
+  yaml.replace(yaml.find("repeats: 1"), 10, "repeats: 2");
+  const Experiment e = Experiment::FromString(yaml, "toy.yaml");
+  ASSERT_EQ(e.maps.mode, MapMode::kPerFlight);
+  ASSERT_EQ(RunExperiment(e, o).status, RunStatus::kCompleted);
+  const auto rows = LongRows(o.store_path);
+  ASSERT_EQ(rows.size(), 10u);  // 5 methods × 2 repeats
+  std::map<int, std::vector<std::uint64_t>> reference;  // repeat → map seeds of flight k
+  std::set<std::uint64_t> all_repeats;
+  for (const auto& [key, trial] : rows) {
+    const auto& [method, repeat] = key;
+    ASSERT_EQ(trial.size(), 6u) << method;
+    std::vector<std::uint64_t> seeds;
+    for (const auto& r : trial) seeds.push_back(r.map_seed);
+    // Distinct maps within a trial, the default baseline included.
+    EXPECT_EQ(std::set<std::uint64_t>(seeds.begin(), seeds.end()).size(), seeds.size()) << method;
+    for (std::size_t k = 0; k < seeds.size(); ++k) {
+      EXPECT_EQ(seeds[k], e.FlightMapSeed(repeat, static_cast<int>(k))) << method << " " << k;
+      EXPECT_NE(trial[k].flight_seed, 0u);
+    }
+    // Paired across methods: flight k of every method in one repeat flies the same map.
+    if (!reference.count(repeat)) reference[repeat] = seeds;
+    EXPECT_EQ(seeds, reference[repeat]) << method << " repeat " << repeat;
+    all_repeats.insert(seeds.begin(), seeds.end());
+  }
+  // The two repeats fly different maps.
+  EXPECT_EQ(all_repeats.size(), 12u);
+}
+
+TEST(MapsPerFlight, PerRepeatAndPoolModesReuseMaps) {
+  const std::string base = test::ToyYaml("[random]", "", 6, 0);
+  {
+    const Experiment e = Experiment::FromString(WithMaps(base, "{mode: per_repeat}"), "t.yaml");
+    EXPECT_EQ(e.FlightMapSeed(0, 0), e.MapSeed(0));
+    EXPECT_EQ(e.FlightMapSeed(0, 5), e.MapSeed(0));
+    EXPECT_NE(e.FlightMapSeed(1, 0), e.MapSeed(0));
+  }
+  {
+    const Experiment e = Experiment::FromString(WithMaps(base, "{mode: pool, pool: 3}"), "t.yaml");
+    EXPECT_EQ(e.FlightMapSeed(0, 4), e.FlightMapSeed(0, 1));
+    EXPECT_NE(e.FlightMapSeed(0, 2), e.FlightMapSeed(0, 1));
+    const std::string dir = test::TempDir("maps_pool");
+    RunOptions o;
+    o.store_path = dir + "/r.sqlite";
+    ASSERT_EQ(RunExperiment(e, o).status, RunStatus::kCompleted);
+    std::set<std::uint64_t> seeds;
+    for (const auto& r : LongRows(o.store_path).at({"random", 0})) seeds.insert(r.map_seed);
+    EXPECT_EQ(seeds.size(), 3u);
+  }
+}
+
+TEST(MapsPerFlight, BadMapsKeysNameTheKey) {
+  const std::string base = test::ToyYaml("[random]", "", 6, 0);
+  try {
+    (void)Experiment::FromString(WithMaps(base, "{mode: sometimes}"), "m.yaml");
+    FAIL() << "accepted an unknown maps.mode";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("mode"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("per_flight"), std::string::npos) << e.what();
+  }
+  try {
+    (void)Experiment::FromString(WithMaps(base, "{mode: pool, pool: 0}"), "m.yaml");
+    FAIL() << "accepted an empty pool";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("pool"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Validation, HeldOutMapsAreDisjointFromTuningMapsAndSharedByEveryPoint) {
+  const std::string dir = test::TempDir("validation");
+  RunOptions o;
+  o.store_path = dir + "/r.sqlite";
+  const Experiment e =
+      Experiment::FromString(test::ToyYaml("[default, random, bo, bo_pso]", "", 6, 4), "t.yaml");
+  const RunSummary s = RunExperiment(e, o);
+  ASSERT_EQ(s.status, RunStatus::kCompleted);
+  // The defaults first, then one recommended point per trial; each on the 4 maps.
+  ASSERT_EQ(s.validation.size(), 5u);
+  EXPECT_EQ(s.validation[0].method, "default");
+  EXPECT_EQ(s.validation[0].params, e.Defaults());
+  for (const auto& v : s.validation) EXPECT_EQ(v.flights, 4) << v.method;
+  // The `default` trial recommends the defaults and reuses their flights.
+  EXPECT_EQ(s.validation[1].method, "default");
+  EXPECT_EQ(s.validation[1].mean_value, s.validation[0].mean_value);
+
+  ResultStore store(o.store_path);
+  std::set<std::uint64_t> tuning;
+  std::map<std::int64_t, std::vector<std::uint64_t>> held_out;  // trial → map seeds by map
+  std::map<std::int64_t, std::vector<std::uint64_t>> flight_seeds;
+  for (const auto& r : store.Evaluations()) {
+    if (r.kind == "long") tuning.insert(r.map_seed);
+    if (r.kind == "validation") {
+      held_out[r.trial_id].push_back(r.map_seed);
+      flight_seeds[r.trial_id].push_back(r.flight_seed);
+    }
+  }
+  ASSERT_EQ(tuning.size(), 6u);  // flight k of every method flies map k
+  // Stored: the defaults (trial id 0) and the three tuned trials; not the `default` trial.
+  ASSERT_EQ(held_out.size(), 4u);
+  ASSERT_TRUE(held_out.count(0));
+  for (const auto& [trial, seeds] : held_out) {
+    ASSERT_EQ(seeds.size(), 4u);
+    EXPECT_EQ(seeds, held_out.at(0)) << "trial " << trial << " flew other held-out maps";
+    EXPECT_EQ(flight_seeds.at(trial), flight_seeds.at(0)) << "trial " << trial;
+    for (std::size_t v = 0; v < seeds.size(); ++v) {
+      EXPECT_EQ(seeds[v], e.HeldOutMapSeed(static_cast<int>(v)));
+      EXPECT_FALSE(tuning.count(seeds[v])) << "held-out map " << v << " was a tuning map";
+    }
+  }
+  EXPECT_EQ(std::set<std::uint64_t>(held_out.at(0).begin(), held_out.at(0).end()).size(), 4u);
+}
+
+TEST(Validation, ResumedRunReplaysStoredValidationAndGivesTheSameSummary) {
+  const std::string dir = test::TempDir("validation_resume");
+  const Experiment e =
+      Experiment::FromString(test::ToyYaml("[random, bo_pso]", "", 4, 3), "t.yaml");
+  RunOptions o;
+  o.store_path = dir + "/r.sqlite";
+  const RunSummary first = RunExperiment(e, o);
+  ASSERT_EQ(first.status, RunStatus::kCompleted);
+  o.resume = true;
+  const RunSummary again = RunExperiment(e, o);
+  ASSERT_EQ(again.status, RunStatus::kCompleted);
+  EXPECT_EQ(again.flights, 0);  // nothing flown twice: trials and validation replayed
+  ASSERT_EQ(again.validation.size(), first.validation.size());
+  for (std::size_t i = 0; i < first.validation.size(); ++i) {
+    EXPECT_EQ(again.validation[i].mean_value, first.validation[i].mean_value);
+    EXPECT_EQ(again.validation[i].params, first.validation[i].params);
+  }
+}
+
+TEST(Recommendation, BoRecommendsAnObservedPointAndDefaultTheDefaults) {
+  const std::string dir = test::TempDir("recommend");
+  RunOptions o;
+  o.store_path = dir + "/r.sqlite";
+  const Experiment e =
+      Experiment::FromString(test::ToyYaml("[default, bo, bo_pso]", "", 8, 0), "t.yaml");
+  const RunSummary s = RunExperiment(e, o);
+  ASSERT_EQ(s.status, RunStatus::kCompleted);
+  ResultStore store(o.store_path);
+  std::map<std::string, std::vector<std::string>> observed;  // method → params JSON of flights
+  for (const auto& r : store.Evaluations()) {
+    if (r.kind == "long") observed[r.method].push_back(r.params);
+  }
+  for (const auto& t : s.trials) {
+    nlohmann::json j = nlohmann::json::object();
+    for (const auto& [k, v] : t.recommended) j[k] = v;
+    if (t.method == "default") {
+      EXPECT_EQ(t.recommended, e.Defaults());
+      continue;
+    }
+    ASSERT_FALSE(t.recommended.empty()) << t.method;
+    if (t.method == "bo") {
+      // An observed point (the lowest posterior mean), told to BO as a flight.
+      const auto& obs = observed.at("bo");
+      EXPECT_NE(std::find(obs.begin(), obs.end(), j.dump()), obs.end()) << j.dump();
+    } else {
+      // bo_pso: its θ_l is an observed flight's θ_l.
+      bool found = false;
+      for (const auto& p : observed.at("bo_pso")) {
+        const auto flown = nlohmann::json::parse(p);
+        found = found || (flown["speed"] == j["speed"] && flown["margin"] == j["margin"]);
+      }
+      EXPECT_TRUE(found) << j.dump();
+    }
+  }
+}
+
+TEST(DiscountCount, NdAdvancesOncePerChangeOfTheFlyingThetaSAndIsStored) {
+  const std::string dir = test::TempDir("n_d");
+  RunOptions o;
+  o.store_path = dir + "/r.sqlite";
+  const Experiment e = Experiment::FromString(test::ToyYaml("[bo_pso]", "", 9, 0), "t.yaml");
+  const RunSummary s = RunExperiment(e, o);
+  ASSERT_EQ(s.status, RunStatus::kCompleted);
+  const auto rows = LongRows(o.store_path).at({"bo_pso", 0});
+  ASSERT_EQ(rows.size(), 9u);
+  int previous = 0;
+  std::string previous_short;
+  for (const auto& r : rows) {
+    const auto terms = nlohmann::json::parse(r.terms);
+    ASSERT_TRUE(terms.contains("n_d")) << r.terms;
+    const int n_d = terms["n_d"].get<int>();
+    const auto params = nlohmann::json::parse(r.params);
+    const std::string theta_s = params["gain"].dump() + "," + params["max_iter"].dump();
+    // n_d grows by one exactly when the θ_s flown changes from one round to the next.
+    if (!previous_short.empty() && r.index == 0) {
+      EXPECT_EQ(n_d - previous, theta_s != previous_short ? 1 : 0) << "iteration " << r.iteration;
+    } else if (r.index > 0) {
+      EXPECT_EQ(n_d, previous);  // flights of one round share θ_s and n_d
+    }
+    previous = n_d;
+    previous_short = theta_s;
+  }
+  EXPECT_EQ(previous, s.trials[0].context_changes);
+  EXPECT_GT(previous, 0);
+}
+
+}  // namespace
+}  // namespace quadtune::engine
