@@ -94,8 +94,8 @@ StoredFlight LoadStoredFlight(const std::string& store, std::int64_t id) {
   bool found = false;
   db.Query(
       "SELECT e.id, e.method, e.kind, e.iteration, e.idx, e.params, e.terms, e.value, e.status, "
-      "e.map_seed, e.flight_seed, t.map_seed, x.config FROM evaluation e JOIN trial t ON "
-      "t.id = e.trial_id JOIN experiment x ON x.id = t.experiment_id WHERE e.id = " +
+      "e.map_seed, e.flight_seed, t.map_seed, (SELECT config FROM experiment ORDER BY id "
+      "LIMIT 1) FROM evaluation e LEFT JOIN trial t ON t.id = e.trial_id WHERE e.id = " +
           std::to_string(id),
       [&](sqlite3_stmt* s) {
         found = true;
@@ -219,7 +219,7 @@ void WriteTidyCsv(const std::string& store, const std::string& directory) {
   db.Query(
       "SELECT e.id, e.trial_id, e.method, t.repeat, e.kind, e.iteration, e.idx, e.status, "
       "e.value, e.wall_s, e.map_seed, e.flight_seed, e.params, e.terms, t.map_seed "
-      "FROM evaluation e JOIN trial t ON t.id = e.trial_id "
+      "FROM evaluation e LEFT JOIN trial t ON t.id = e.trial_id "
       "ORDER BY e.kind, e.trial_id, e.iteration, e.idx",
       [&](sqlite3_stmt* s) {
         Row r;

@@ -72,9 +72,17 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
                              "SELECT id, terms, value FROM evaluation WHERE kind = 'long' "
                              "ORDER BY id");
   ASSERT_EQ(flights.size(), 3u);  // tiny.yaml: bo_pso, 3 flights
+  // Held-out validation flights (tiny.yaml: 2 maps) belong to no trial; they fly again too.
+  auto again = flights;
+  for (auto& v : Query(store,
+                       "SELECT id, terms, value FROM evaluation WHERE kind = 'validation' "
+                       "ORDER BY id LIMIT 1")) {
+    again.push_back(v);
+  }
+  ASSERT_EQ(again.size(), 4u);
 
   // Every stored flight flown again: the same flight time, collisions and emergency stops.
-  for (const auto& f : flights) {
+  for (const auto& f : again) {
     SCOPED_TRACE("evaluation " + f[0]);
     const fs::path out = dir / ("fly_" + f[0]);
     ASSERT_EQ(RunQuadtune("--log-level warn fly --from " + store.string() + " --evaluation " +
@@ -127,6 +135,9 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
     }
   }
   const auto n_short = Query(store, "SELECT count(*) FROM evaluation WHERE kind = 'short'");
+  const auto n_validation =
+      Query(store, "SELECT count(*) FROM evaluation WHERE kind = 'validation'");
+  EXPECT_EQ(std::to_string(ReadCsv(dir / "tidy" / "validation.csv").size()), n_validation[0][0]);
   const auto short_rows = ReadCsv(dir / "tidy" / "short_term.csv");
   EXPECT_EQ(std::to_string(short_rows.size()), n_short[0][0]);
   ASSERT_FALSE(short_rows.empty());

@@ -51,7 +51,7 @@ def rows(path):
     with _connect(path) as db:
         query = ("SELECT e.id, e.trial_id, e.method, t.repeat, e.kind, e.iteration, e.idx, e.status,"
                  " e.value, e.wall_s, e.map_seed, e.flight_seed, e.params, e.terms, t.map_seed"
-                 " FROM evaluation e JOIN trial t ON t.id = e.trial_id"
+                 " FROM evaluation e LEFT JOIN trial t ON t.id = e.trial_id"
                  " ORDER BY e.kind, e.trial_id, e.iteration, e.idx")
         for r in db.execute(query):
             kind = r[4]
