@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "stored_flight.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/layout/layout.hpp"
@@ -31,6 +32,8 @@ struct FlyArgs {
   std::string mission = "go-and-return";
   double max_time = 120.0;
   bool plot = true;
+  std::string from;              ///< a results store: fly its evaluation `evaluation` again
+  std::int64_t evaluation = -1;
 };
 
 /// Applies "name=value" overrides to the planner parameters.
@@ -57,6 +60,15 @@ planning::PlannerParams ParseOverrides(const std::vector<std::string>& items) {
 }
 
 int RunFly(const FlyArgs& a) {
+  if (!a.from.empty() || a.evaluation >= 0) {
+    if (a.from.empty() || a.evaluation < 0) {
+      throw ConfigError("", a.from.empty() ? "--from" : "--evaluation",
+                        "--from STORE and --evaluation ID go together");
+    }
+    const int status = FlyStored(a.from, a.evaluation, a.out);
+    if (a.plot && RunPlotScript("flight '" + a.out + "'") != 0) return 1;
+    return status;
+  }
   const physics::DroneDescription drone = physics::LoadDroneDescription(AssetPath(a.drone));
   layout::Layout layout;
   if (!a.layout_file.empty()) {
@@ -168,6 +180,9 @@ void RegisterFly(CLI::App& app, int& exit_code) {
   cmd->add_option("--max-time", args.max_time, "flight time limit (s)")->capture_default_str();
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();
   cmd->add_flag("!--no-plot", args.plot, "skip the figure");
+  cmd->add_option("--from", args.from, "a results store (results.sqlite): fly one of its stored "
+                                       "flights again exactly, with full logs");
+  cmd->add_option("--evaluation", args.evaluation, "with --from: the evaluation id to fly");
   cmd->callback([&exit_code] { exit_code = RunFly(args); });
 }
 

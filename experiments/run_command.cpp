@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "stored_flight.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/engine/distributed.hpp"
 #include "quadtune/engine/experiment.hpp"
@@ -397,8 +398,17 @@ void RegisterExport(CLI::App& app, int& exit_code) {
   static std::string csv = "results/csv";
   auto* cmd = app.add_subcommand("export", "export a results store to CSV files");
   cmd->add_option("results", store, "results.sqlite")->required();
+  static std::string tidy;
   cmd->add_option("--csv", csv, "output directory")->capture_default_str();
+  cmd->add_option("--tidy", tidy, "instead: one row per evaluation, one column per parameter and "
+                                  "objective term (long_term.csv, short_term.csv) in this folder");
   cmd->callback([&exit_code] {
+    if (!tidy.empty()) {
+      WriteTidyCsv(store, tidy);
+      spdlog::info("wrote {}/long_term.csv, short_term.csv", tidy);
+      exit_code = 0;
+      return;
+    }
     engine::ResultStore s(store);
     s.ExportCsv(csv);
     spdlog::info("wrote {}/experiment.csv, trials.csv, evaluations.csv", csv);

@@ -48,3 +48,5 @@ echo "  forest_*/flight_topdown.png one figure per flight; forest_*/flight.csv, 
 cat "$results/tuning/tuning.md"
 echo
 cat "$results/flights.md"
+"$quadtune" report "$results/tuning"
+echo "Report (opens offline in a browser): $results/tuning/report.html"

@@ -19,10 +19,13 @@ packages=(
   libopenmpi-dev openmpi-bin
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-matplotlib python3-numpy python3-pandas python3-scipy python3-yaml
+  npm chromium python3-pil
 )
 
 missing=()
 for p in "${packages[@]}"; do
+  # npm also comes inside NodeSource's nodejs package, which conflicts with Debian's npm.
+  [[ "$p" == npm ]] && command -v npm >/dev/null && continue
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
     missing+=("$p")
   fi
@@ -40,6 +43,12 @@ if ((${#missing[@]} > 0)); then
   $sudo apt-get install -y -q --no-install-recommends "${missing[@]}"
 else
   echo "quadtune setup: all ${#packages[@]} Debian packages present"
+fi
+
+# The report's JavaScript libraries (three, plotly.js), pinned by package-lock.json.
+js="$root/experiments/report/js"
+if ! cmp -s "$js/package-lock.json" "$js/node_modules/.quadtune-lock"; then
+  (cd "$js" && npm ci --no-audit --no-fund && cp package-lock.json node_modules/.quadtune-lock)
 fi
 
 jobs="$(nproc)"

@@ -1,0 +1,119 @@
+// `quadtune report DIR`: one self-contained HTML page (DIR/report.html) of a run, a study or a
+// flight directory. Stored flights are flown again into DIR/report_flights/ for the 3-D replay;
+// the page itself is written by experiments/report/quadtune_report.py (Debian's python3, standard
+// library only) with three.js and plotly.js inlined from experiments/report/js/node_modules.
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "quadtune/common/error.hpp"
+#include "stored_flight.hpp"
+
+namespace quadtune::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ReportArgs {
+  std::string dir;
+  int flights = 3;
+};
+
+/// Every results store under `dir` (the run's own, or each stage of a study), sorted.
+std::vector<fs::path> StoresUnder(const fs::path& dir) {
+  std::vector<fs::path> stores;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    if (entry.is_regular_file() && entry.path().filename() == "results.sqlite" &&
+        entry.path().string().find("report_flights") == std::string::npos) {
+      stores.push_back(entry.path());
+    }
+  }
+  std::sort(stores.begin(), stores.end());
+  return stores;
+}
+
+/// Folder name of a replayed flight: the store's folder relative to the report, and the id.
+std::string FlightFolder(const fs::path& dir, const fs::path& store, std::int64_t id) {
+  std::string tag = fs::relative(store.parent_path(), dir).generic_string();
+  std::replace(tag.begin(), tag.end(), '/', '_');
+  if (tag == ".") tag = "run";
+  return tag + "_e" + std::to_string(id);
+}
+
+int Report(const ReportArgs& a) {
+  const fs::path dir(a.dir);
+  const bool flight_dir = fs::exists(dir / "flight.csv") && fs::exists(dir / "summary.json");
+  if (!flight_dir) {
+    const std::vector<fs::path> stores = StoresUnder(dir);
+    if (stores.empty()) {
+      throw ConfigError(a.dir, "DIR",
+                        "holds no results.sqlite (a `quadtune run` or `study` output) and no "
+                        "flight.csv (a `quadtune fly` output)");
+    }
+    // Each store's best flight per method, taken store by store in turn, at most --flights.
+    std::vector<std::vector<std::int64_t>> best;
+    for (const auto& s : stores) best.push_back(BestFlightIds(s.string(), a.flights));
+    std::vector<std::pair<fs::path, std::int64_t>> chosen;
+    for (std::size_t rank = 0; static_cast<int>(chosen.size()) < a.flights; ++rank) {
+      bool any = false;
+      for (std::size_t s = 0; s < stores.size(); ++s) {
+        if (rank < best[s].size() && static_cast<int>(chosen.size()) < a.flights) {
+          chosen.emplace_back(stores[s], best[s][rank]);
+          any = true;
+        }
+      }
+      if (!any) break;
+    }
+    fs::remove_all(dir / "report_flights");
+    for (const auto& [store, id] : chosen) {
+      const fs::path out = dir / "report_flights" / FlightFolder(dir, store, id);
+      try {
+        if (FlyStored(store.string(), id, out.string()) != 0) {
+          spdlog::warn("the replay of {} evaluation {} differs from the stored flight",
+                       store.string(), id);
+        }
+      } catch (const ConfigError& e) {  // e.g. a toy-planner store: charts only
+        spdlog::warn("no replay of {} evaluation {}: {}", store.string(), id, e.what());
+        break;
+      }
+    }
+  }
+  std::string script =
+      (fs::path(QUADTUNE_SOURCE_DIR) / "experiments/report/quadtune_report.py").string();
+  if (const char* env = std::getenv("QUADTUNE_REPORT_SCRIPT")) script = env;
+  const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+  const std::string command = python + " '" + script + "' '" + a.dir + "'";
+  spdlog::debug("running {}", command);
+  if (std::system(command.c_str()) != 0) {
+    spdlog::error("report script failed: {}", command);
+    return 1;
+  }
+  spdlog::info("report: {}", (dir / "report.html").string());
+  return 0;
+}
+
+}  // namespace
+
+void RegisterReport(CLI::App& app, int& exit_code) {
+  static ReportArgs args;
+  auto* cmd = app.add_subcommand(
+      "report",
+      "write DIR/report.html: convergence, final values, parameter importance, slices, "
+      "parallel coordinates and a 3-D replay of stored flights (opens offline)");
+  cmd->add_option("DIR", args.dir, "a `quadtune run`, `study` or `fly` output directory")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  cmd->add_option("--flights", args.flights,
+                  "stored flights to fly again for the 3-D replay "
+                  "(each method's best first)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cmd->callback([&exit_code] { exit_code = Report(args); });
+}
+
+}  // namespace quadtune::cli

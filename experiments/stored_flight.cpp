@@ -1,0 +1,279 @@
+#include "stored_flight.hpp"
+
+#include <spdlog/spdlog.h>
+#include <sqlite3.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "quadtune/common/error.hpp"
+#include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/planners.hpp"
+#include "quadtune/layout/layout.hpp"
+#include "quadtune/physics/world.hpp"
+#include "quadtune/planning/flight.hpp"
+
+namespace quadtune::cli {
+namespace {
+
+/// A read-only connection and one prepared statement at a time.
+class ReadOnlyStore {
+ public:
+  explicit ReadOnlyStore(std::string path) : path_(std::move(path)) {
+    if (!std::filesystem::is_regular_file(path_)) {
+      throw ConfigError(path_, "", "no such results store (a results.sqlite file is expected)");
+    }
+    if (sqlite3_open_v2(path_.c_str(), &db_, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
+      const std::string why = db_ ? sqlite3_errmsg(db_) : "out of memory";
+      sqlite3_close(db_);
+      throw ConfigError(path_, "", "cannot open the results store: " + why);
+    }
+  }
+  ~ReadOnlyStore() { sqlite3_close(db_); }
+  ReadOnlyStore(const ReadOnlyStore&) = delete;
+  ReadOnlyStore& operator=(const ReadOnlyStore&) = delete;
+
+  /// Runs `sql` and calls `row` with the statement positioned on each result row.
+  template <class RowFn>
+  void Query(const std::string& sql, RowFn&& row) const {
+    sqlite3_stmt* raw = nullptr;
+    if (sqlite3_prepare_v2(db_, sql.c_str(), -1, &raw, nullptr) != SQLITE_OK) {
+      throw ConfigError(path_, "",
+                        std::string("not a quadtune results store: ") + sqlite3_errmsg(db_));
+    }
+    std::unique_ptr<sqlite3_stmt, int (*)(sqlite3_stmt*)> stmt(raw, sqlite3_finalize);
+    int rc = 0;
+    while ((rc = sqlite3_step(raw)) == SQLITE_ROW) row(raw);
+    if (rc != SQLITE_DONE) throw ConfigError(path_, "", sqlite3_errmsg(db_));
+  }
+  [[nodiscard]] const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+  sqlite3* db_ = nullptr;
+};
+
+std::string Text(sqlite3_stmt* s, int col) {
+  const auto* t = sqlite3_column_text(s, col);
+  return t ? reinterpret_cast<const char*>(t) : "";
+}
+/// A column as text; REAL columns in their shortest exact decimal form.
+std::string Exact(sqlite3_stmt* s, int col) {
+  if (sqlite3_column_type(s, col) == SQLITE_FLOAT) {
+    return nlohmann::json(sqlite3_column_double(s, col)).dump();
+  }
+  return Text(s, col);
+}
+std::uint64_t Seed(const std::string& text) { return text.empty() ? 0 : std::stoull(text); }
+
+/// CSV cell: quoted when it holds a separator, quote or line break.
+std::string Cell(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+std::string Number(const nlohmann::json& v) {
+  if (v.is_number_integer()) return std::to_string(v.get<long long>());
+  if (v.is_number()) return nlohmann::json(v.get<double>()).dump();
+  if (v.is_boolean()) return v.get<bool>() ? "1" : "0";
+  return v.is_string() ? v.get<std::string>() : v.dump();
+}
+
+}  // namespace
+
+StoredFlight LoadStoredFlight(const std::string& store, std::int64_t id) {
+  const ReadOnlyStore db(store);
+  StoredFlight f;
+  bool found = false;
+  db.Query(
+      "SELECT e.id, e.method, e.kind, e.iteration, e.idx, e.params, e.terms, e.value, e.status, "
+      "e.map_seed, e.flight_seed, t.map_seed, (SELECT config FROM experiment ORDER BY id "
+      "LIMIT 1) FROM evaluation e LEFT JOIN trial t ON t.id = e.trial_id WHERE e.id = " +
+          std::to_string(id),
+      [&](sqlite3_stmt* s) {
+        found = true;
+        f.id = sqlite3_column_int64(s, 0);
+        f.method = Text(s, 1);
+        f.kind = Text(s, 2);
+        f.iteration = sqlite3_column_int(s, 3);
+        f.index = sqlite3_column_int(s, 4);
+        f.params = Text(s, 5);
+        f.terms = Text(s, 6);
+        f.value = sqlite3_column_double(s, 7);
+        f.status = Text(s, 8);
+        const std::string row_map = Text(s, 9);
+        f.map_seed = Seed(row_map.empty() ? Text(s, 11) : row_map);
+        f.flight_seed = Seed(Text(s, 10));
+        f.config = Text(s, 12);
+      });
+  if (!found) {
+    throw ConfigError(store, "--evaluation",
+                      "no evaluation with id " + std::to_string(id) +
+                          " (ids are the evaluation table's id column; see `quadtune export "
+                          "--tidy`)");
+  }
+  if (f.kind == "short") {
+    throw ConfigError(store, "--evaluation",
+                      "evaluation " + std::to_string(id) +
+                          " is a short-term re-solve, not a flight; give a long-term row");
+  }
+  return f;
+}
+
+std::vector<std::int64_t> BestFlightIds(const std::string& store, int limit) {
+  const ReadOnlyStore db(store);
+  std::vector<std::int64_t> ids;
+  std::set<std::string> seen;
+  db.Query(
+      "SELECT id, method FROM evaluation WHERE kind = 'long' AND status = 'ok' "
+      "ORDER BY value, id",
+      [&](sqlite3_stmt* s) {
+        if (static_cast<int>(ids.size()) >= limit) return;
+        if (seen.insert(Text(s, 1)).second) ids.push_back(sqlite3_column_int64(s, 0));
+      });
+  return ids;
+}
+
+int FlyStored(const std::string& store, std::int64_t id, const std::string& out) {
+  const StoredFlight f = LoadStoredFlight(store, id);
+  const engine::Experiment e =
+      engine::Experiment::FromString(f.config, store + " (stored configuration)");
+  const auto* planner = e.planner.Extract<engine::IpoptPlanner>();
+  if (planner == nullptr) {
+    throw ConfigError(store, "planner.type",
+                      "only flights of the ipopt planner can be flown again (this store's "
+                      "planner is '" +
+                          e.planner_type + "')");
+  }
+  const engine::IpoptPlannerOptions& o = planner->options();
+  // The map and world exactly as IpoptPlanner::PrepareMap and ::Fly build them.
+  const layout::Layout layout = layout::GenerateLayout(o.layout, f.map_seed);
+  const auto geometry = physics::ObstacleGeometry::Make(layout.obstacles, o.world);
+  planning::PlannerParams params = o.base;
+  const nlohmann::json stored_params = nlohmann::json::parse(f.params);
+  for (auto it = stored_params.begin(); it != stored_params.end(); ++it) {
+    params.Set(it.key(), it.value().get<double>());
+  }
+  params.Validate(store + " evaluation " + std::to_string(id));
+  const planning::Mission mission =
+      o.go_and_return ? planning::Mission::GoAndReturn(layout.start_W(), layout.goal_W())
+                      : planning::Mission::GoTo(layout.start_W(), layout.goal_W());
+  physics::WorldOptions world_options = o.world;
+  world_options.seed = f.flight_seed;
+  physics::World world(geometry, o.drone, world_options,
+                       physics::DroneState::Hover(o.drone, mission.start_W, mission.start_yaw));
+  planning::FlightOptions flight = o.flight;
+  flight.log_rate_hz = planning::FlightOptions{}.log_rate_hz;
+  const planning::TrajectoryOptimizer optimizer(o.flight.planner.optimizer);
+  spdlog::info("flying evaluation {} of {} again ({}, map seed {}, flight seed {})", id, store,
+               f.method, f.map_seed, f.flight_seed);
+  const planning::FlightResult result = planning::Fly(world, mission, params, flight, optimizer);
+
+  std::filesystem::create_directories(out);
+  planning::WriteFlightFiles(out, result, layout.obstacles, mission);
+  layout.Save((std::filesystem::path(out) / "layout.yaml").string());
+  const auto path = std::filesystem::path(out) / "summary.json";
+  nlohmann::json summary = nlohmann::json::parse(std::ifstream(path));
+  const nlohmann::json terms = nlohmann::json::parse(f.terms);
+  summary["stored"] = {{"store", store},
+                       {"evaluation", id},
+                       {"method", f.method},
+                       {"kind", f.kind},
+                       {"iteration", f.iteration},
+                       {"index", f.index},
+                       {"value", f.value},
+                       {"terms", terms},
+                       {"params", stored_params},
+                       {"map_seed", std::to_string(f.map_seed)},
+                       {"flight_seed", std::to_string(f.flight_seed)}};
+  summary["obstacles"] = layout.obstacles.size();
+  summary["drone"] = o.drone.name;
+  std::ofstream(path) << summary.dump(1) << '\n';
+
+  const auto& m = result.metrics;
+  const bool same = terms.value("t_f", -1.0) == m.flight_time &&
+                    terms.value("n_c", -1.0) == static_cast<double>(m.collisions) &&
+                    terms.value("n_e", -1.0) == static_cast<double>(m.emergency_stops);
+  spdlog::info("t_f {} s, n_c {}, n_e {} (stored: {}, {}, {}); wrote {}", m.flight_time,
+               m.collisions, m.emergency_stops, terms.value("t_f", -1.0), terms.value("n_c", -1.0),
+               terms.value("n_e", -1.0), out);
+  if (!same) spdlog::error("the flight flown again differs from the stored one");
+  return same ? 0 : 4;
+}
+
+void WriteTidyCsv(const std::string& store, const std::string& directory) {
+  const ReadOnlyStore db(store);
+  struct Row {
+    std::vector<std::string> fixed;
+    nlohmann::json params, terms;
+  };
+  std::map<std::string, std::vector<Row>> by_kind;
+  std::map<std::string, std::vector<std::string>> param_names, term_names;  // per kind, in order
+  db.Query(
+      "SELECT e.id, e.trial_id, e.method, t.repeat, e.kind, e.iteration, e.idx, e.status, "
+      "e.value, e.wall_s, e.map_seed, e.flight_seed, e.params, e.terms, t.map_seed "
+      "FROM evaluation e LEFT JOIN trial t ON t.id = e.trial_id "
+      "ORDER BY e.kind, e.trial_id, e.iteration, e.idx",
+      [&](sqlite3_stmt* s) {
+        Row r;
+        for (int c = 0; c < 12; ++c) r.fixed.push_back(Exact(s, c));
+        if (r.fixed[10].empty() && r.fixed[4] != "short") r.fixed[10] = Text(s, 14);
+        r.params = nlohmann::json::parse(Text(s, 12).empty() ? "{}" : Text(s, 12));
+        r.terms = nlohmann::json::parse(Text(s, 13).empty() ? "{}" : Text(s, 13));
+        const std::string kind = r.fixed[4];
+        auto note = [](std::vector<std::string>& names, const nlohmann::json& obj) {
+          for (auto it = obj.begin(); it != obj.end(); ++it) {
+            if (std::find(names.begin(), names.end(), it.key()) == names.end()) {
+              names.push_back(it.key());
+            }
+          }
+        };
+        note(param_names[kind], r.params);
+        note(term_names[kind], r.terms);
+        by_kind[kind].push_back(std::move(r));
+      });
+  const std::vector<std::string> fixed = {"id",    "trial_id",  "method",   "repeat",
+                                          "kind",  "iteration", "index",    "status",
+                                          "value", "wall_s",    "map_seed", "flight_seed"};
+  std::filesystem::create_directories(directory);
+  const std::map<std::string, std::string> files = {
+      {"long", "long_term.csv"}, {"short", "short_term.csv"}, {"validation", "validation.csv"}};
+  for (const auto& [kind, file] : files) {
+    if (kind == "validation" && !by_kind.count(kind)) continue;
+    std::ofstream csv(std::filesystem::path(directory) / file);
+    std::set<std::string> used(fixed.begin(), fixed.end());
+    std::string header;
+    for (const auto& c : fixed) {
+      if (!header.empty()) header += ',';
+      header += c;
+    }
+    auto column = [&](const std::string& name, const std::string& prefix) {
+      const std::string col = used.count(name) ? prefix + name : name;
+      used.insert(col);
+      header += ',';
+      header += Cell(col);
+    };
+    for (const auto& n : param_names[kind]) column(n, "param_");
+    for (const auto& n : term_names[kind]) column(n, "term_");
+    csv << header << '\n';
+    for (const auto& r : by_kind[kind]) {
+      for (std::size_t c = 0; c < r.fixed.size(); ++c) csv << (c ? "," : "") << Cell(r.fixed[c]);
+      for (const auto& n : param_names[kind]) {
+        csv << ',' << (r.params.contains(n) ? Cell(Number(r.params[n])) : std::string());
+      }
+      for (const auto& n : term_names[kind]) {
+        csv << ',' << (r.terms.contains(n) ? Cell(Number(r.terms[n])) : std::string());
+      }
+      csv << '\n';
+    }
+  }
+}
+
+}  // namespace quadtune::cli

@@ -1,0 +1,192 @@
+// A stored flight flown again, the tidy export and the Python reader, on one tiny tuning run
+// (experiments/tiny.yaml) through the `quadtune` program:
+//
+//   quadtune fly --from STORE --evaluation ID --out DIR   same t_f, n_c, n_e as the stored row
+//   quadtune export STORE --tidy DIR                      one row per evaluation, exact values
+//   experiments/python/quadtune load()                    the same rows as pandas DataFrames
+//   quadtune report DIR                                   a page holding the run's data
+#include <gtest/gtest.h>
+#include <sqlite3.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "../cli_util.hpp"
+
+namespace quadtune {
+namespace {
+
+namespace fs = std::filesystem;
+using test::ReadCsv;
+using test::ReadText;
+using test::RunQuadtune;
+
+/// Rows of one SQL query (every column as text).
+std::vector<std::vector<std::string>> Query(const fs::path& db, const std::string& sql) {
+  sqlite3* h = nullptr;
+  std::vector<std::vector<std::string>> rows;
+  EXPECT_EQ(sqlite3_open_v2(db.c_str(), &h, SQLITE_OPEN_READONLY, nullptr), SQLITE_OK);
+  sqlite3_stmt* s = nullptr;
+  EXPECT_EQ(sqlite3_prepare_v2(h, sql.c_str(), -1, &s, nullptr), SQLITE_OK) << sql;
+  while (s != nullptr && sqlite3_step(s) == SQLITE_ROW) {
+    std::vector<std::string> row;
+    for (int c = 0; c < sqlite3_column_count(s); ++c) {
+      const auto* t = sqlite3_column_text(s, c);
+      row.emplace_back(t ? reinterpret_cast<const char*>(t) : "");
+    }
+    rows.push_back(std::move(row));
+  }
+  sqlite3_finalize(s);
+  sqlite3_close(h);
+  return rows;
+}
+
+/// Output of a shell command (stdout).
+std::string Capture(const std::string& command) {
+  std::string out;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return out;
+  char buffer[512];
+  while (fgets(buffer, sizeof buffer, pipe) != nullptr) out += buffer;
+  pclose(pipe);
+  return out;
+}
+
+TEST(StoredFlights, FlyAgainExportLoadAndReport) {
+  const fs::path dir = fs::temp_directory_path() / "quadtune_stored_flights";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path run = dir / "run";
+  ASSERT_EQ(RunQuadtune("--log-level warn run " + std::string(QUADTUNE_SOURCE_DIR) +
+                            "/experiments/tiny.yaml --out " + run.string(),
+                        dir / "run.log"),
+            0)
+      << ReadText(dir / "run.log");
+  const fs::path store = run / "results.sqlite";
+  const auto flights = Query(store,
+                             "SELECT id, terms, value FROM evaluation WHERE kind = 'long' "
+                             "ORDER BY id");
+  ASSERT_EQ(flights.size(), 3u);  // tiny.yaml: bo_pso, 3 flights
+  // Held-out validation flights (tiny.yaml: 2 maps) belong to no trial; they fly again too.
+  auto again = flights;
+  for (auto& v : Query(store,
+                       "SELECT id, terms, value FROM evaluation WHERE kind = 'validation' "
+                       "ORDER BY id LIMIT 1")) {
+    again.push_back(v);
+  }
+  ASSERT_EQ(again.size(), 4u);
+
+  // Every stored flight flown again: the same flight time, collisions and emergency stops.
+  for (const auto& f : again) {
+    SCOPED_TRACE("evaluation " + f[0]);
+    const fs::path out = dir / ("fly_" + f[0]);
+    ASSERT_EQ(RunQuadtune("--log-level warn fly --from " + store.string() + " --evaluation " +
+                              f[0] + " --no-plot --out " + out.string(),
+                          dir / "fly.log"),
+              0)
+        << ReadText(dir / "fly.log");
+    const auto terms = nlohmann::json::parse(f[1]);
+    const auto summary = nlohmann::json::parse(ReadText(out / "summary.json"));
+    EXPECT_EQ(summary["flight_time"].get<double>(), terms["t_f"].get<double>());
+    EXPECT_EQ(summary["collisions"].get<double>(), terms["n_c"].get<double>());
+    EXPECT_EQ(summary["emergency_stops"].get<double>(), terms["n_e"].get<double>());
+    for (const char* same :
+         {"plans", "failed_attempts", "compute_units", "jerk_integral", "min_clearance"}) {
+      EXPECT_EQ(summary[same].get<double>(), terms[same].get<double>()) << same;
+    }
+    EXPECT_EQ(summary["stored"]["evaluation"].get<int>(), std::stoi(f[0]));
+    EXPECT_GT(ReadCsv(out / "flight.csv").size(), 20u);
+    EXPECT_GT(ReadCsv(out / "plans.csv").size(), 20u);
+    EXPECT_FALSE(nlohmann::json::parse(ReadText(out / "obstacles.json"))["cylinders"].empty());
+  }
+  // Rows that are not flights, and ids not stored, are refused with a clear message.
+  const auto short_id = Query(store, "SELECT min(id) FROM evaluation WHERE kind = 'short'");
+  ASSERT_EQ(RunQuadtune("fly --from " + store.string() + " --evaluation " + short_id[0][0] +
+                            " --out " + (dir / "x").string(),
+                        dir / "bad.log"),
+            2);
+  EXPECT_NE(ReadText(dir / "bad.log").find("short-term re-solve, not a flight"), std::string::npos)
+      << ReadText(dir / "bad.log");
+  ASSERT_EQ(RunQuadtune("fly --from " + store.string() + " --evaluation 999999 --out " +
+                            (dir / "x").string(),
+                        dir / "bad.log"),
+            2);
+  EXPECT_NE(ReadText(dir / "bad.log").find("no evaluation with id 999999"), std::string::npos);
+
+  // Tidy export: one row per evaluation, parameters and terms as columns, values exact.
+  ASSERT_EQ(RunQuadtune("export " + store.string() + " --tidy " + (dir / "tidy").string(),
+                        dir / "export.log"),
+            0)
+      << ReadText(dir / "export.log");
+  const auto long_rows = ReadCsv(dir / "tidy" / "long_term.csv");
+  ASSERT_EQ(long_rows.size(), flights.size());
+  for (std::size_t i = 0; i < flights.size(); ++i) {
+    EXPECT_EQ(long_rows[i].at("id"), flights[i][0]);
+    EXPECT_EQ(std::stod(long_rows[i].at("value")), std::stod(flights[i][2]));
+    EXPECT_EQ(std::stod(long_rows[i].at("t_f")),
+              nlohmann::json::parse(flights[i][1])["t_f"].get<double>());
+    for (const char* p : {"v_des", "h_pl", "t_pl", "map_seed", "flight_seed"}) {
+      EXPECT_FALSE(long_rows[i].at(p).empty()) << p;
+    }
+  }
+  const auto n_short = Query(store, "SELECT count(*) FROM evaluation WHERE kind = 'short'");
+  const auto n_validation =
+      Query(store, "SELECT count(*) FROM evaluation WHERE kind = 'validation'");
+  EXPECT_EQ(std::to_string(ReadCsv(dir / "tidy" / "validation.csv").size()), n_validation[0][0]);
+  const auto short_rows = ReadCsv(dir / "tidy" / "short_term.csv");
+  EXPECT_EQ(std::to_string(short_rows.size()), n_short[0][0]);
+  ASSERT_FALSE(short_rows.empty());
+  EXPECT_FALSE(short_rows[0].at("w_col").empty());
+  EXPECT_FALSE(short_rows[0].at("t_c").empty());
+
+  // The Python reader: the same rows as DataFrames.
+  const std::string python = "PYTHONPATH='" + std::string(QUADTUNE_SOURCE_DIR) +
+                             "/experiments/python' /usr/bin/python3 -c \"import quadtune; "
+                             "r = quadtune.load('" +
+                             run.string() +
+                             "'); "
+                             "print(len(r.long), len(r.short), repr(r.long['t_f'].sum()), "
+                             "r.long['v_des'].notna().all(), r.experiment['name'])\"";
+  double t_f_sum = 0.0;
+  for (const auto& f : flights) t_f_sum += nlohmann::json::parse(f[1])["t_f"].get<double>();
+  const std::string loaded = Capture(python);
+  std::istringstream in(loaded);
+  std::size_t n_long = 0, n_short_loaded = 0;
+  double sum = 0.0;
+  std::string all_set, name;
+  in >> n_long >> n_short_loaded >> sum >> all_set >> name;
+  EXPECT_EQ(n_long, flights.size()) << loaded;
+  EXPECT_EQ(std::to_string(n_short_loaded), n_short[0][0]) << loaded;
+  EXPECT_NEAR(sum, t_f_sum, 1e-9 * t_f_sum) << loaded;
+  EXPECT_EQ(all_set, "True") << loaded;
+  EXPECT_EQ(name, "tiny") << loaded;
+
+  // The report: the best flight flown again beside it, the run's flights in the page's data.
+  ASSERT_EQ(
+      RunQuadtune("--log-level warn report " + run.string() + " --flights 1", dir / "report.log"),
+      0)
+      << ReadText(dir / "report.log");
+  const std::string page = ReadText(run / "report.html");
+  EXPECT_GT(page.size(), 1000000u);  // plotly.js and three.js inlined
+  EXPECT_EQ(page.find("<script src="), std::string::npos);
+  const auto best = Query(store,
+                          "SELECT id FROM evaluation WHERE kind = 'long' AND status = 'ok' "
+                          "ORDER BY value, id LIMIT 1");
+  ASSERT_FALSE(best.empty());
+  EXPECT_TRUE(fs::exists(run / "report_flights" / ("run_e" + best[0][0]) / "flight.csv"));
+  const auto start = page.find("id=\"qt-data\">");
+  ASSERT_NE(start, std::string::npos);
+  const auto end = page.find("</script>", start);
+  const auto data = nlohmann::json::parse(page.substr(start + 13, end - start - 13));
+  EXPECT_EQ(data["runs"]["flights"].size(), flights.size());
+  EXPECT_EQ(data["replays"].size(), 1u);
+  EXPECT_EQ(data["runs"]["series"][0]["name"], "bo_pso");
+}
+
+}  // namespace
+}  // namespace quadtune
