@@ -62,8 +62,8 @@ struct Context {
   std::atomic<long> resolves{0};
   std::atomic<int> trials_done{0};
   std::atomic<int> trials_total{0};
-  std::mutex maps_mutex;
-  std::map<std::uint64_t, Opaque> maps;  // prepared maps by seed (shared by every method)
+  std::mutex maps_mutex{};
+  std::map<std::uint64_t, Opaque> maps{};  // prepared maps by seed (shared by every method)
 
   /// The map of `seed`, prepared on first use (deterministic: two threads preparing one seed
   /// make the same map). Throws what PrepareMap throws.

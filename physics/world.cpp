@@ -467,10 +467,16 @@ struct World::Impl {
     const Eigen::Vector3d v_air_W = ToEigen(body->getLinearVelocity()) - options.wind_W - gust_W;
     const Eigen::Vector3d drag_B = -drone.linear_drag.cwiseProduct(R.transpose() * v_air_W);
     Eigen::Vector3d force_W = R * (Eigen::Vector3d(0.0, 0.0, wrench.thrust) + drag_B);
-    // Gyroscopic torque -ω × Jω at the body rate of the start of the step, which Bullet's
-    // semi-implicit Euler step then integrates like every other applied torque.
+    // Gyroscopic torque -ω × Jω, evaluated at the midpoint estimate of the body rate
+    // (ω + dt/2 · J⁻¹(τ_rotors − ω × Jω)), so that Bullet's Euler update of ω, which holds the
+    // applied torque constant over the step, advances Euler's equations to second order.
     const Eigen::Vector3d omega_B = R.transpose() * ToEigen(body->getAngularVelocity());
-    const Eigen::Vector3d gyro_B = -omega_B.cross(body_inertia.cwiseProduct(omega_B));
+    auto gyroscopic = [this](const Eigen::Vector3d& w) -> Eigen::Vector3d {
+      return -w.cross(body_inertia.cwiseProduct(w));
+    };
+    const Eigen::Vector3d omega_mid =
+        omega_B + (0.5 * dt) * (wrench.moment_B + gyroscopic(omega_B)).cwiseQuotient(body_inertia);
+    const Eigen::Vector3d gyro_B = gyroscopic(omega_mid);
     Eigen::Vector3d torque_W = R * (wrench.moment_B + gyro_B);
     if (options.force_noise > 0.0) force_W += options.force_noise * NormalVector(force_rng);
     if (options.torque_noise > 0.0) torque_W += options.torque_noise * NormalVector(force_rng);

@@ -18,10 +18,10 @@
 /// with the first-order lag; thrust, rotor torques, the gyroscopic torque, linear drag against
 /// the air (wind and gusts included) and the optional force noise are applied; Bullet steps; the
 /// collision monitor records contacts. The gyroscopic torque -ω_B × (J ω_B) is computed in double
-/// precision from the true inertia (DroneDescription::inertia × WorldOptions::mass_scale) and the
-/// body rate at the start of the step; Bullet's own gyroscopic term is switched off on the drone
-/// (it is single precision and vanishes for inertias with det J below float epsilon). Bullet's
-/// semi-implicit Euler step makes the rigid-body error first order in the physics step.
+/// precision from the true inertia (DroneDescription::inertia × WorldOptions::mass_scale) at the
+/// midpoint estimate of the body rate over the step (so the rate follows Euler's equations to
+/// second order in the step); Bullet's own gyroscopic term is switched off on the drone (it is
+/// single precision and vanishes for inertias with det J below float epsilon).
 ///
 /// Thread safety: a World is owned by one thread at a time; distinct Worlds may step
 /// concurrently on different threads and give bit-identical results for the same inputs.
