@@ -23,6 +23,8 @@ void RegisterBench(CLI::App& app, int& exit_code);
 /// `quadtune study`: sweeps and stages of an experiment, then validation flights.
 void RegisterStudy(CLI::App& app, int& exit_code);
 void RegisterAdapt(CLI::App& app, int& exit_code);  ///< `quadtune adapt`: Sec. IV-B experiment
+/// `quadtune sweep`: Sobol' indices of the objectives over the parameter box (sweep_command.cpp).
+void RegisterSweep(CLI::App& app, int& exit_code);
 
 /// Runs the figure script with `args`; returns its exit status (0 on success).
 int RunPlotScript(const std::string& args);
