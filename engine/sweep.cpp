@@ -200,28 +200,21 @@ const std::vector<std::string>& SweepOutputNames() {
 
 namespace {
 
-/// Runs one flight into `out` on a pooled world. Never throws.
+/// Runs one flight into `out` on a pooled world (queries recorded into `queries` when given).
+/// Never throws.
 void FlySweep(const Experiment& e, WorldPool& pool, const Opaque& map, const ParamValues& params,
               std::uint64_t seed, const std::atomic<bool>* cancel, std::vector<Opaque>* queries,
               SweepFlight& out) {
   out.flight_seed = seed;
-  WorkerSlot* slot = pool.Acquire();
-  FlightRecord rec;
-  try {
-    FlightRequest req;
-    req.map = map;
-    req.params = params;
-    req.seed = seed;
-    if (queries != nullptr) req.on_query = [queries](const Opaque& q) { queries->push_back(q); };
-    if (cancel != nullptr) req.cancelled = [cancel] { return cancel->load(); };
-    rec = e.planner.Fly(req, *slot);
-  } catch (const std::exception& ex) {
-    rec = FlightRecord{};
-    rec.status = EvalStatus::kFailed;
-    rec.message = std::string("exception: ") + ex.what();
-    slot->state.reset();  // the world may be in any state: rebuild it next time
-  }
-  pool.Release(slot);
+  FlightRequest request;
+  request.map = map;
+  request.params = params;
+  request.seed = seed;
+  if (queries != nullptr) request.on_query = [queries](const Opaque& q) { queries->push_back(q); };
+  if (cancel != nullptr) request.cancelled = [cancel] { return cancel->load(); };
+  bool threw = false;
+  const FlightRecord rec = FlyOnPool(e.planner, pool, request, &threw);
+  if (threw && queries != nullptr) queries->clear();
   out.objective = LongTermObjective(rec, e.objective);
   out.status = rec.status;
   out.message = rec.message;

@@ -155,14 +155,14 @@ void WriteIndices(const std::vector<Group>& groups, const SweepArgs& a, const fs
     md << "\n## " << g.label;
     if (std::isfinite(g.spacing)) md << fmt::format(" (spacing {:g} m)", g.spacing);
     md << "\n\n"
-       << fmt::format("N = {}, d = {}, {} maps, {} flights ({} failed), {} of {} recorded queries "
+       << fmt::format("N = {}, d = {}, {} map(s), {} flights ({} failed), {} of {} recorded queries "
                       "re-solved for {} distinct θ_s. Spearman rank correlation of f_s and mean "
                       "f_l over the {} points: **{}**.\n\n",
                       n, r.names.size(), r.map_seeds.size(), r.flights.size(),
                       std::count_if(r.flights.begin(), r.flights.end(),
                                     [](const auto& f) { return f.status != engine::EvalStatus::kOk; }),
                       r.queries_used, r.queries_recorded, r.distinct_short, r.points.size(),
-                      Num(r.spearman_fs_fl));
+                      fmt::format("{:.3f}", r.spearman_fs_fl));
     md << "| output | mean | parameter | kind | S1 [95% CI] | ST [95% CI] |\n"
        << "|---|---|---|---|---|---|\n";
     for (const auto& o : r.outputs) {
@@ -175,7 +175,8 @@ void WriteIndices(const std::vector<Group>& groups, const SweepArgs& a, const fs
             << Num(o.indices.mean) << ',' << Num(o.indices.variance) << ',' << n << ','
             << r.map_seeds.size() << ',' << Num(r.spearman_fs_fl) << '\n';
         md << fmt::format("| {} | {} | {} | {} | {:.3f} [{:.3f}, {:.3f}] | {:.3f} [{:.3f}, {:.3f}] |\n",
-                          i == 0 ? o.name : "", i == 0 ? Num(o.indices.mean) : "", r.names[i],
+                          i == 0 ? o.name : "",
+                          i == 0 ? fmt::format("{:.4g}", o.indices.mean) : "", r.names[i],
                           kind, x.s1, x.s1_lo, x.s1_hi, x.st, x.st_lo, x.st_hi);
       }
     }
@@ -307,8 +308,8 @@ int RunSweepCommand(const SweepArgs& a) {
       return 130;
     }
     const auto& r = groups[i].result;
-    spdlog::info("layout {}: {} flights, {} re-solves in {:.1f} s; Spearman(f_s, f_l) = {}",
-                 groups[i].label, r.flights.size(), r.resolves, r.wall_s, Num(r.spearman_fs_fl));
+    spdlog::info("layout {}: {} flights, {} re-solves in {:.1f} s; Spearman(f_s, f_l) = {:.3f}",
+                 groups[i].label, r.flights.size(), r.resolves, r.wall_s, r.spearman_fs_fl);
   }
   const double wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

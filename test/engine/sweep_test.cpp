@@ -66,10 +66,12 @@ TEST(SaltelliDesign, PlainSequenceStartsAfterTheOriginAndTheShiftIsSeeded) {
   EXPECT_EQ(s1.a, s1_again.a);
   EXPECT_EQ(s1.b, s1_again.b);
   EXPECT_NE(s1.a, s2.a);
-  // A digital shift keeps the net: each coordinate of 8 points still hits every eighth once.
+  // A digital shift keeps the net: each coordinate of the 8 points of sequence indices 8…15
+  // (rows 7…14: row r is index r + 1, the origin skipped) still hits every eighth once.
+  const SaltelliDesign net = MakeSaltelliDesign(16, 2, 1);
   for (int j = 0; j < 2; ++j) {
     std::set<int> cells;
-    for (int r = 0; r < 8; ++r) cells.insert(static_cast<int>(s1.a(r, j) * 8));
+    for (int r = 7; r < 15; ++r) cells.insert(static_cast<int>(net.a(r, j) * 8));
     EXPECT_EQ(cells.size(), 8u) << "column " << j;
   }
   EXPECT_THROW((void)MakeSaltelliDesign(0, 2, 1), ConfigError);

@@ -71,19 +71,20 @@ void ExpectFigure(const fs::path& png) {
   EXPECT_EQ(std::string(magic + 1, 3), "PNG") << png;
 }
 
-// The toy planner (4 parameters) at two gate counts: N·(d+2)·K rows per setting.
+// The toy planner (4 parameters) at two gate counts: N·(d+2)·K rows per setting (N = 256: the
+// toy's f_l is rough, so smaller designs give estimates outside [−0.2, 1.2]).
 TEST(SweepCommand, ToySweepAtTwoSettingsWritesCheckedOutputs) {
   const fs::path dir = Fresh("toy");
   const std::string out = (dir / "out").string();
   ASSERT_EQ(RunQuadtune("sweep " + kExperiments + "toy.yaml --out " + out +
-                            " --points 16 --maps 2 --queries 5 --seed 9 --threads 2 "
+                            " --points 256 --maps 2 --queries 5 --seed 9 --threads 2 "
                             "--bootstrap 200 --layout-key planner.toy.gates --layouts 4 8",
                         dir / "sweep.log"),
             0)
       << ReadText(dir / "sweep.log");
   const std::string log = ReadText(dir / "sweep.log");
   EXPECT_NE(log.find("ETA"), std::string::npos) << log;
-  const std::size_t d = 4, n = 16, k = 2;
+  const std::size_t d = 4, n = 256, k = 2;
   const auto flights = ReadCsv(fs::path(out) / "sweep.csv");
   ASSERT_EQ(flights.size(), 2 * n * (d + 2) * k);
   std::map<std::string, int> per_layout;
@@ -100,7 +101,7 @@ TEST(SweepCommand, ToySweepAtTwoSettingsWritesCheckedOutputs) {
     EXPECT_GE(Number(f, "speed"), 0.5);
     EXPECT_LE(Number(f, "speed"), 6.0);
   }
-  EXPECT_EQ(per_layout, (std::map<std::string, int>{{"4", 192}, {"8", 192}}));
+  EXPECT_EQ(per_layout, (std::map<std::string, int>{{"4", 3072}, {"8", 3072}}));
   EXPECT_EQ(map_seeds.size(), k);  // every point flies on the same maps
   EXPECT_EQ(flight_seeds["4"].size(), n * (d + 2) * k);
   const auto points = ReadCsv(fs::path(out) / "points.csv");
