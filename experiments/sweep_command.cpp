@@ -315,6 +315,11 @@ int RunSweepCommand(const SweepArgs& a) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   fs::create_directories(a.out);
   const fs::path out(a.out);
+  // With --overwrite, no file of an earlier sweep may survive next to this one's.
+  for (const char* file : {"sweep.csv", "points.csv", "indices.csv", "indices.md", "summary.json",
+                           "sweep.png"}) {
+    fs::remove(out / file);
+  }
   WriteSweepCsv(groups, out / "sweep.csv");
   WritePointsCsv(groups, out / "points.csv");
   WriteIndices(groups, a, out / "indices.csv", out / "indices.md");

@@ -813,6 +813,10 @@ def plot_sweep(directory):
                 ax.barh(y + offset, vals, height=band * 0.5, color=c, alpha=alpha, hatch=hatch,
                         edgecolor=c, xerr=[lo, hi], error_kw={"elinewidth": 0.8, "capsize": 2},
                         label="{}: {}".format(idx, layout_name(lay)) if k == 0 else None)
+                for yy, v in zip(y + offset, vals):
+                    if v > 1.2 or v < -0.2:  # beyond the axis: print the estimate at the edge
+                        ax.text(1.19 if v > 0 else -0.19, yy, "{:.2g}".format(v), fontsize=7,
+                                ha="right" if v > 0 else "left", va="center", color="k")
         ax.set_yticks(y)
         ax.set_yticklabels(["{} ({})".format(p, "θ_s" if kinds.get(p) == "short" else "θ_l")
                             for p in params])
