@@ -73,7 +73,8 @@ std::pair<double, double> Interval(std::vector<double> values, double confidence
 std::vector<double> Ranks(const std::vector<double>& x) {
   std::vector<std::size_t> order(x.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return x[a] < x[b]; });
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return x[a] < x[b]; });
   std::vector<double> rank(x.size());
   for (std::size_t i = 0; i < order.size();) {
     std::size_t j = i;
@@ -114,11 +115,13 @@ Eigen::VectorXd SaltelliDesign::Point(int p) const {
 }
 
 SaltelliDesign MakeSaltelliDesign(int n, int d, std::uint64_t seed) {
-  if (n < 1) throw ConfigError("", "points", "the design needs at least 1 base row, got " + std::to_string(n));
+  if (n < 1)
+    throw ConfigError("", "points",
+                      "the design needs at least 1 base row, got " + std::to_string(n));
   if (d < 1 || 2 * d > 3667) {
-    throw ConfigError("", "parameters",
-                      "a Saltelli design needs 1 to 1833 parameters (Sobol' tables), got " +
-                          std::to_string(d));
+    throw ConfigError(
+        "", "parameters",
+        "a Saltelli design needs 1 to 1833 parameters (Sobol' tables), got " + std::to_string(d));
   }
   boost::random::sobol sobol(static_cast<std::size_t>(2 * d));
   std::vector<std::uint64_t> shift(static_cast<std::size_t>(2 * d), 0);
@@ -131,7 +134,8 @@ SaltelliDesign MakeSaltelliDesign(int n, int d, std::uint64_t seed) {
   design.b.resize(n, d);
   for (int r = 0; r < n; ++r) {
     for (int j = 0; j < 2 * d; ++j) {
-      const std::uint64_t bits = static_cast<std::uint64_t>(sobol()) ^ shift[static_cast<std::size_t>(j)];
+      const std::uint64_t bits =
+          static_cast<std::uint64_t>(sobol()) ^ shift[static_cast<std::size_t>(j)];
       // Top 53 bits → [0, 1), the same double on every platform.
       const double u = static_cast<double>(bits >> 11) * 0x1.0p-53;
       if (j < d) {
@@ -152,7 +156,8 @@ SobolIndices EstimateSobolIndices(const std::vector<double>& f_a, const std::vec
     throw std::invalid_argument("EstimateSobolIndices: f_a and f_b need the same N >= 2 values");
   }
   for (const auto& ab : f_ab) {
-    if (ab.size() != n) throw std::invalid_argument("EstimateSobolIndices: every f_ab needs N values");
+    if (ab.size() != n)
+      throw std::invalid_argument("EstimateSobolIndices: every f_ab needs N values");
   }
   if (bootstrap < 1) throw std::invalid_argument("EstimateSobolIndices: bootstrap >= 1");
   std::vector<int> rows(n);
@@ -228,7 +233,8 @@ void CheckOptions(const SweepOptions& o) {
   if (o.maps < 1) bad("--maps", "need at least 1 map, got " + std::to_string(o.maps));
   if (o.queries < 1) bad("--queries", "need at least 1 query, got " + std::to_string(o.queries));
   if (o.threads < 1) bad("--threads", "need at least 1 thread, got " + std::to_string(o.threads));
-  if (o.bootstrap < 1) bad("--bootstrap", "need at least 1 resample, got " + std::to_string(o.bootstrap));
+  if (o.bootstrap < 1)
+    bad("--bootstrap", "need at least 1 resample, got " + std::to_string(o.bootstrap));
 }
 
 /// Waits for `group`, reporting progress about twice a second.
@@ -291,8 +297,9 @@ SweepResult RunSweep(const Experiment& e, const SweepOptions& o) {
     for (int k = 0; k < k_maps; ++k) {
       const auto ku = static_cast<std::size_t>(k);
       scheduler.Submit(group, Priority::kFlight, [&, k, ku] {
-        FlySweep(e, pool, maps[ku], defaults, DeriveSeed(o.seed, {0xde, static_cast<std::uint64_t>(k)}),
-                 o.cancel, &recorded[ku], rec[ku]);
+        FlySweep(e, pool, maps[ku], defaults,
+                 DeriveSeed(o.seed, {0xde, static_cast<std::uint64_t>(k)}), o.cancel, &recorded[ku],
+                 rec[ku]);
       });
     }
     scheduler.Wait(group);
@@ -349,7 +356,8 @@ SweepResult RunSweep(const Experiment& e, const SweepOptions& o) {
   TaskGroup group;
   for (int p = 0; p < points; ++p) {
     ParamValues params = defaults;
-    for (const auto& [name, v] : result.points[static_cast<std::size_t>(p)].params) params[name] = v;
+    for (const auto& [name, v] : result.points[static_cast<std::size_t>(p)].params)
+      params[name] = v;
     for (int k = 0; k < k_maps; ++k) {
       SweepFlight* out = &result.flights[static_cast<std::size_t>(p * k_maps + k)];
       out->point = p;
@@ -432,11 +440,13 @@ SweepResult RunSweep(const Experiment& e, const SweepOptions& o) {
     for (int r = 0; r < n; ++r) {
       f_a.push_back(value(r));
       f_b.push_back(value(n + r));
-      for (int i = 0; i < d; ++i) f_ab[static_cast<std::size_t>(i)].push_back(value((2 + i) * n + r));
+      for (int i = 0; i < d; ++i)
+        f_ab[static_cast<std::size_t>(i)].push_back(value((2 + i) * n + r));
     }
     result.outputs.push_back(
-        {name, EstimateSobolIndices(f_a, f_b, f_ab, o.bootstrap,
-                                    DeriveSeed(o.seed, {0xb5, static_cast<std::uint64_t>(out_i)}))});
+        {name,
+         EstimateSobolIndices(f_a, f_b, f_ab, o.bootstrap,
+                              DeriveSeed(o.seed, {0xb5, static_cast<std::uint64_t>(out_i)}))});
   }
   return result;
 }

@@ -49,7 +49,7 @@ struct SweepArgs {
 /// One sweep of the command: a layout (or the experiment as given) and its result.
 struct Group {
   std::string label;
-  std::string value;   ///< the layout_key value ("" without --layouts)
+  std::string value;              ///< the layout_key value ("" without --layouts)
   double spacing = std::nan("");  ///< the layout's target spacing (m), when it has one zone
   engine::Experiment experiment;
   engine::SweepResult result;
@@ -101,8 +101,8 @@ void WriteSweepCsv(const std::vector<Group>& groups, const fs::path& path) {
   for (const auto& g : groups) {
     for (const auto& f : g.result.flights) {
       const auto& pt = g.result.points[static_cast<std::size_t>(f.point)];
-      out << g.label << ',' << f.point << ',' << BlockName(pt.block) << ',' << pt.row
-          << ',' << f.map;
+      out << g.label << ',' << f.point << ',' << BlockName(pt.block) << ',' << pt.row << ','
+          << f.map;
       for (const auto& n : names) out << ',' << Num(pt.params.at(n));
       out << ',' << Num(f.objective.value);
       for (const auto& t : terms) {
@@ -155,29 +155,30 @@ void WriteIndices(const std::vector<Group>& groups, const SweepArgs& a, const fs
     md << "\n## " << g.label;
     if (std::isfinite(g.spacing)) md << fmt::format(" (spacing {:g} m)", g.spacing);
     md << "\n\n"
-       << fmt::format("N = {}, d = {}, {} map(s), {} flights ({} failed), {} of {} recorded queries "
-                      "re-solved for {} distinct θ_s. Spearman rank correlation of f_s and mean "
-                      "f_l over the {} points: **{}**.\n\n",
-                      n, r.names.size(), r.map_seeds.size(), r.flights.size(),
-                      std::count_if(r.flights.begin(), r.flights.end(),
-                                    [](const auto& f) { return f.status != engine::EvalStatus::kOk; }),
-                      r.queries_used, r.queries_recorded, r.distinct_short, r.points.size(),
-                      fmt::format("{:.3f}", r.spearman_fs_fl));
+       << fmt::format(
+              "N = {}, d = {}, {} map(s), {} flights ({} failed), {} of {} recorded queries "
+              "re-solved for {} distinct θ_s. Spearman rank correlation of f_s and mean "
+              "f_l over the {} points: **{}**.\n\n",
+              n, r.names.size(), r.map_seeds.size(), r.flights.size(),
+              std::count_if(r.flights.begin(), r.flights.end(),
+                            [](const auto& f) { return f.status != engine::EvalStatus::kOk; }),
+              r.queries_used, r.queries_recorded, r.distinct_short, r.points.size(),
+              fmt::format("{:.3f}", r.spearman_fs_fl));
     md << "| output | mean | parameter | kind | S1 [95% CI] | ST [95% CI] |\n"
        << "|---|---|---|---|---|---|\n";
     for (const auto& o : r.outputs) {
       for (std::size_t i = 0; i < r.names.size(); ++i) {
         const auto& x = o.indices.index[i];
         const char* kind = IsShort(g.experiment, r.names[i]) ? "short" : "long";
-        csv << g.label << ',' << Num(g.spacing) << ',' << o.name << ',' << r.names[i] << ','
-            << kind << ',' << Num(x.s1) << ',' << Num(x.s1_lo) << ',' << Num(x.s1_hi) << ','
-            << Num(x.st) << ',' << Num(x.st_lo) << ',' << Num(x.st_hi) << ','
-            << Num(o.indices.mean) << ',' << Num(o.indices.variance) << ',' << n << ','
-            << r.map_seeds.size() << ',' << Num(r.spearman_fs_fl) << '\n';
-        md << fmt::format("| {} | {} | {} | {} | {:.3f} [{:.3f}, {:.3f}] | {:.3f} [{:.3f}, {:.3f}] |\n",
-                          i == 0 ? o.name : "",
-                          i == 0 ? fmt::format("{:.4g}", o.indices.mean) : "", r.names[i],
-                          kind, x.s1, x.s1_lo, x.s1_hi, x.st, x.st_lo, x.st_hi);
+        csv << g.label << ',' << Num(g.spacing) << ',' << o.name << ',' << r.names[i] << ',' << kind
+            << ',' << Num(x.s1) << ',' << Num(x.s1_lo) << ',' << Num(x.s1_hi) << ',' << Num(x.st)
+            << ',' << Num(x.st_lo) << ',' << Num(x.st_hi) << ',' << Num(o.indices.mean) << ','
+            << Num(o.indices.variance) << ',' << n << ',' << r.map_seeds.size() << ','
+            << Num(r.spearman_fs_fl) << '\n';
+        md << fmt::format(
+            "| {} | {} | {} | {} | {:.3f} [{:.3f}, {:.3f}] | {:.3f} [{:.3f}, {:.3f}] |\n",
+            i == 0 ? o.name : "", i == 0 ? fmt::format("{:.4g}", o.indices.mean) : "", r.names[i],
+            kind, x.s1, x.s1_lo, x.s1_hi, x.st, x.st_lo, x.st_hi);
       }
     }
   }
@@ -205,8 +206,9 @@ void WriteSummary(const std::vector<Group>& groups, const SweepArgs& a, std::uin
     gj["long_term"] = g.experiment.long_names;
     gj["design_points"] = g.result.points.size();
     gj["flights"] = g.result.flights.size();
-    gj["failed_flights"] = std::count_if(g.result.flights.begin(), g.result.flights.end(),
-                                         [](const auto& f) { return f.status != engine::EvalStatus::kOk; });
+    gj["failed_flights"] =
+        std::count_if(g.result.flights.begin(), g.result.flights.end(),
+                      [](const auto& f) { return f.status != engine::EvalStatus::kOk; });
     gj["map_seeds"] = g.result.map_seeds;
     gj["queries_recorded"] = g.result.queries_recorded;
     gj["queries_used"] = g.result.queries_used;
@@ -225,7 +227,8 @@ void WriteSummary(const std::vector<Group>& groups, const SweepArgs& a, std::uin
 /// 30 s (and at the end of each layout).
 std::function<void(const engine::SweepProgress&)> Printer(bool tty, bool quiet, std::size_t group,
                                                           std::size_t groups) {
-  auto last = std::make_shared<std::chrono::steady_clock::time_point>(std::chrono::steady_clock::now());
+  auto last =
+      std::make_shared<std::chrono::steady_clock::time_point>(std::chrono::steady_clock::now());
   return [=](const engine::SweepProgress& p) {
     const double work = p.flights_total + 0.01 * static_cast<double>(p.resolves_total);
     const double done = p.flights_done + 0.01 * static_cast<double>(p.resolves_done);
@@ -290,11 +293,11 @@ int RunSweepCommand(const SweepArgs& a) {
   options.bootstrap = a.bootstrap;
   options.cancel = &g_sweep_interrupted;
   const int d = first.space.Dim();
-  spdlog::info("sweep of '{}' ({}): planner {}, {} parameters, N = {} → {} points × {} maps = {} "
-               "flights per layout, {} layout(s), {} re-solved queries, seed {}, {} threads",
-               first.name, a.experiment, first.planner.Name(), d, a.points, a.points * (d + 2),
-               a.maps, a.points * (d + 2) * a.maps, groups.size(), a.queries, seed,
-               options.threads);
+  spdlog::info(
+      "sweep of '{}' ({}): planner {}, {} parameters, N = {} → {} points × {} maps = {} "
+      "flights per layout, {} layout(s), {} re-solved queries, seed {}, {} threads",
+      first.name, a.experiment, first.planner.Name(), d, a.points, a.points * (d + 2), a.maps,
+      a.points * (d + 2) * a.maps, groups.size(), a.queries, seed, options.threads);
   std::signal(SIGINT, OnSweepSignal);
   std::signal(SIGTERM, OnSweepSignal);
   const bool tty = isatty(fileno(stderr)) != 0 && !a.quiet;
@@ -316,8 +319,8 @@ int RunSweepCommand(const SweepArgs& a) {
   fs::create_directories(a.out);
   const fs::path out(a.out);
   // With --overwrite, no file of an earlier sweep may survive next to this one's.
-  for (const char* file : {"sweep.csv", "points.csv", "indices.csv", "indices.md", "summary.json",
-                           "sweep.png"}) {
+  for (const char* file :
+       {"sweep.csv", "points.csv", "indices.csv", "indices.md", "summary.json", "sweep.png"}) {
     fs::remove(out / file);
   }
   WriteSweepCsv(groups, out / "sweep.csv");
@@ -335,22 +338,27 @@ int RunSweepCommand(const SweepArgs& a) {
 void RegisterSweep(CLI::App& app, int& exit_code) {
   static SweepArgs args;
   auto* cmd = app.add_subcommand(
-      "sweep", "parameter importance: Sobol' indices (S1, ST) of f_l, its terms and f_s over the "
-               "experiment's parameter box, from a Saltelli design flown on common maps");
+      "sweep",
+      "parameter importance: Sobol' indices (S1, ST) of f_l, its terms and f_s over the "
+      "experiment's parameter box, from a Saltelli design flown on common maps");
   cmd->add_option("experiment", args.experiment, "experiment file (YAML)")->required();
   cmd->add_option("--out", args.out, "output directory (must be empty or new)")->required();
   cmd->add_option("--points", args.points, "N base rows of the design (N·(d+2) points)")
-      ->capture_default_str()->check(CLI::Range(2, 1 << 20));
+      ->capture_default_str()
+      ->check(CLI::Range(2, 1 << 20));
   cmd->add_option("--maps", args.maps, "K maps every point flies on")
-      ->capture_default_str()->check(CLI::Range(1, 1000));
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000));
   cmd->add_option("--queries", args.queries, "Q recorded planning queries re-solved per θ_s")
-      ->capture_default_str()->check(CLI::Range(1, 1 << 20));
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1 << 20));
   cmd->add_option("--seed", args.seed, "sweep seed (default: the experiment's)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--threads", args.threads, "worker threads (default: the experiment's)")
       ->check(CLI::Range(1, 1024));
   cmd->add_option("--bootstrap", args.bootstrap, "bootstrap resamples for the 95% intervals")
-      ->capture_default_str()->check(CLI::Range(1, 1000000));
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000000));
   cmd->add_option("--set", args.set,
                   "KEY=VALUE: change the experiment file's dotted KEY (repeat as needed)");
   cmd->add_option("--layouts", args.layouts,

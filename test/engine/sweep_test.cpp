@@ -177,11 +177,13 @@ std::vector<std::string> Fingerprint(const SweepResult& r) {
   for (const auto& f : r.flights) {
     std::string row = std::to_string(f.point) + "|" + std::to_string(f.map) + "|" +
                       std::to_string(f.map_seed) + "|" + std::to_string(f.flight_seed) + "|" +
-                      ToString(f.status) + "|" + f.message + "|" + std::to_string(f.objective.value);
+                      ToString(f.status) + "|" + f.message + "|" +
+                      std::to_string(f.objective.value);
     for (const auto& [k, v] : f.objective.terms) row += "|" + k + "=" + std::to_string(v);
     rows.push_back(row);
   }
-  for (const auto& p : r.points) rows.push_back(std::to_string(p.f_s) + "|" + std::to_string(p.f_l));
+  for (const auto& p : r.points)
+    rows.push_back(std::to_string(p.f_s) + "|" + std::to_string(p.f_l));
   for (const auto& o : r.outputs) {
     for (const auto& x : o.indices.index) {
       rows.push_back(o.name + "|" + std::to_string(x.s1) + "|" + std::to_string(x.st_lo));
@@ -223,7 +225,8 @@ TEST(Sweep, PointsShareTheMapsAndStayInTheBox) {
     // f_l of a point is the mean of its flights' f_l.
   }
   for (std::size_t p = 0; p < r.points.size(); ++p) {
-    const double mean = 0.5 * (r.flights[2 * p].objective.value + r.flights[2 * p + 1].objective.value);
+    const double mean =
+        0.5 * (r.flights[2 * p].objective.value + r.flights[2 * p + 1].objective.value);
     EXPECT_DOUBLE_EQ(r.points[p].f_l, mean);
   }
   EXPECT_EQ(r.queries_used, std::min(6, r.queries_recorded));
@@ -249,7 +252,8 @@ TEST(Sweep, PointsShareTheMapsAndStayInTheBox) {
 
 TEST(Sweep, FailedFlightsAreRecordedNotThrown) {
   // The toy planner throws above speed 4 m/s: about 2/5.5 of the box.
-  const Experiment e = Experiment::FromString(test::ToyYaml("[default]", ", throw_speed_above: 4.0"));
+  const Experiment e =
+      Experiment::FromString(test::ToyYaml("[default]", ", throw_speed_above: 4.0"));
   const SweepResult r = RunSweep(e, SmallSweep(2));
   ASSERT_EQ(r.status, RunStatus::kCompleted);
   int failed = 0;

@@ -24,17 +24,15 @@ using test::RunQuadtune;
 
 const std::string kExperiments = std::string(QUADTUNE_SOURCE_DIR) + "/experiments/";
 
-fs::path Fresh(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("quadtune_sweep_" + name);
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path Fresh(const std::string& name) { return test::FreshTempDir("quadtune_sweep_" + name); }
 
+/// A cell of a CSV row as a number (NaN, and a test failure, when the column is missing).
 double Number(const std::map<std::string, std::string>& row, const std::string& key) {
-  const auto it = row.find(key);
-  EXPECT_NE(it, row.end()) << key;
-  return it == row.end() ? std::nan("") : std::stod(it->second);
+  if (!row.contains(key)) {
+    ADD_FAILURE() << "no column " << key;
+    return std::nan("");
+  }
+  return std::stod(row.at(key));
 }
 
 /// The indices of f_l and f_s: in [−0.2, 1.2] with finite intervals; f_s's θ_l indices are 0.
@@ -60,15 +58,6 @@ void ExpectPlausibleIndices(const std::vector<std::map<std::string, std::string>
     EXPECT_GT(Number(r, "variance"), 0.0) << out;
   }
   EXPECT_EQ(checked, static_cast<int>(layouts * 2 * parameters));
-}
-
-void ExpectFigure(const fs::path& png) {
-  ASSERT_TRUE(fs::exists(png)) << png;
-  EXPECT_GT(fs::file_size(png), 15000u) << png;
-  std::ifstream in(png, std::ios::binary);
-  char magic[8] = {};
-  in.read(magic, 8);
-  EXPECT_EQ(std::string(magic + 1, 3), "PNG") << png;
 }
 
 // The toy planner (4 parameters) at two gate counts: N·(d+2)·K rows per setting (N = 256: the
@@ -126,7 +115,8 @@ TEST(SweepCommand, ToySweepAtTwoSettingsWritesCheckedOutputs) {
   EXPECT_EQ(summary["layouts"][0]["flights"], n * (d + 2) * k);
   EXPECT_EQ(summary["layouts"][0]["queries_used"], 5);
   EXPECT_TRUE(summary["layouts"][0]["spearman_fs_fl"].is_number());
-  ExpectFigure(fs::path(out) / "sweep.png");
+  // A drawn figure of five panels is tens of kilobytes.
+  EXPECT_GT(test::PngBytes(fs::path(out) / "sweep.png"), 15000u);
 
   // A non-empty --out is refused without --overwrite, and the message says so.
   EXPECT_EQ(RunQuadtune("sweep " + kExperiments + "toy.yaml --out " + out + " --points 2",
@@ -143,7 +133,8 @@ TEST(SweepCommand, SameSeedSameFilesAtOneAndTwoThreads) {
     const std::string out = (dir / ("t" + std::to_string(threads))).string();
     ASSERT_EQ(RunQuadtune("--log-level warn sweep " + kExperiments + "toy.yaml --out " + out +
                               " --points 8 --maps 2 --queries 4 --bootstrap 50 --no-plot "
-                              "--threads " + std::to_string(threads),
+                              "--threads " +
+                              std::to_string(threads),
                           dir / "sweep.log"),
               0)
         << ReadText(dir / "sweep.log");

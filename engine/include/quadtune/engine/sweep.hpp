@@ -97,19 +97,19 @@ double SpearmanCorrelation(const std::vector<double>& x, const std::vector<doubl
 
 /// Progress of a sweep (reported by RunSweep on its calling thread).
 struct SweepProgress {
-  int flights_done = 0, flights_total = 0;    ///< design flights (not the recording ones)
+  int flights_done = 0, flights_total = 0;  ///< design flights (not the recording ones)
   long resolves_done = 0, resolves_total = 0;
   double elapsed_s = 0.0;
 };
 
 /// How to sweep.
 struct SweepOptions {
-  int points = 64;              ///< N base rows, >= 2
-  int maps = 2;                 ///< K maps every point flies on, >= 1
-  int queries = 32;             ///< Q recorded queries re-solved per θ_s, >= 1
-  std::uint64_t seed = 1;       ///< every stream of the sweep derives from it
-  int threads = 2;              ///< worker threads, >= 1
-  int bootstrap = 1000;         ///< bootstrap resamples for the intervals, >= 1
+  int points = 64;         ///< N base rows, >= 2
+  int maps = 2;            ///< K maps every point flies on, >= 1
+  int queries = 32;        ///< Q recorded queries re-solved per θ_s, >= 1
+  std::uint64_t seed = 1;  ///< every stream of the sweep derives from it
+  int threads = 2;         ///< worker threads, >= 1
+  int bootstrap = 1000;    ///< bootstrap resamples for the intervals, >= 1
   std::function<void(const SweepProgress&)> on_progress;  ///< may be empty
   const std::atomic<bool>* cancel = nullptr;              ///< set → skip the jobs not started
 };
@@ -118,7 +118,7 @@ struct SweepOptions {
 struct SweepFlight {
   int point = 0;
   int map = 0;
-  ObjectiveValue objective;     ///< f_l and its terms
+  ObjectiveValue objective;  ///< f_l and its terms
   EvalStatus status = EvalStatus::kOk;
   std::string message;
   std::uint64_t map_seed = 0;
@@ -127,33 +127,33 @@ struct SweepFlight {
 
 /// One design point.
 struct SweepPoint {
-  int block = 0, row = 0;       ///< see SaltelliDesign::Point
-  ParamValues params;           ///< the point's tuned parameters (names of the space)
-  double f_l = 0.0;             ///< mean f_l over the K maps
+  int block = 0, row = 0;               ///< see SaltelliDesign::Point
+  ParamValues params;                   ///< the point's tuned parameters (names of the space)
+  double f_l = 0.0;                     ///< mean f_l over the K maps
   std::map<std::string, double> terms;  ///< mean of each f_l term over the K maps
   int failed_flights = 0;
-  double f_s = 0.0;             ///< mean f_s over the Q queries
+  double f_s = 0.0;  ///< mean f_s over the Q queries
   int failed_resolves = 0;
 };
 
 /// Indices of one output over all parameters (space order).
 struct SweepOutput {
-  std::string name;             ///< "f_l", "t_f", "n_c", "n_e", "f_s"
+  std::string name;  ///< "f_l", "t_f", "n_c", "n_e", "f_s"
   SobolIndices indices;
 };
 
 /// The outcome of a sweep.
 struct SweepResult {
   RunStatus status = RunStatus::kCompleted;
-  std::vector<std::string> names;         ///< parameters, space order
-  std::vector<std::uint64_t> map_seeds;   ///< the K maps
-  std::vector<SweepFlight> flights;       ///< point-major: flights[point · K + map]
-  std::vector<SweepPoint> points;         ///< N·(d + 2)
-  std::vector<SweepOutput> outputs;       ///< f_l, its terms, f_s
-  double spearman_fs_fl = 0.0;            ///< rank correlation of f_s and mean f_l over points
-  int queries_recorded = 0;               ///< by the K flights at the defaults
-  int queries_used = 0;                   ///< min(Q, recorded)
-  int distinct_short = 0;                 ///< distinct θ_s re-solved
+  std::vector<std::string> names;        ///< parameters, space order
+  std::vector<std::uint64_t> map_seeds;  ///< the K maps
+  std::vector<SweepFlight> flights;      ///< point-major: flights[point · K + map]
+  std::vector<SweepPoint> points;        ///< N·(d + 2)
+  std::vector<SweepOutput> outputs;      ///< f_l, its terms, f_s
+  double spearman_fs_fl = 0.0;           ///< rank correlation of f_s and mean f_l over points
+  int queries_recorded = 0;              ///< by the K flights at the defaults
+  int queries_used = 0;                  ///< min(Q, recorded)
+  int distinct_short = 0;                ///< distinct θ_s re-solved
   long resolves = 0;
   double wall_s = 0.0;
 };
