@@ -28,11 +28,12 @@ fs::path Fresh(const std::string& name) { return test::FreshTempDir("quadtune_sw
 
 /// A cell of a CSV row as a number (NaN, and a test failure, when the column is missing).
 double Number(const std::map<std::string, std::string>& row, const std::string& key) {
-  if (!row.contains(key)) {
+  const auto it = row.find(key);
+  if (it == row.end()) {
     ADD_FAILURE() << "no column " << key;
     return std::nan("");
   }
-  return std::stod(row.at(key));
+  return std::stod(it->second);
 }
 
 /// The indices of f_l and f_s: in [−0.2, 1.2] with finite intervals; f_s's θ_l indices are 0.
