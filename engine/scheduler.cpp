@@ -124,6 +124,30 @@ void WorldPool::Release(WorkerSlot* slot) {
   free_.push_back(slot);
 }
 
+FlightRecord FlyOnPool(const Planner& planner, WorldPool& pool, const FlightRequest& request,
+                       bool* threw) {
+  WorkerSlot* slot = pool.Acquire();
+  FlightRecord rec;
+  std::string error;
+  try {
+    rec = planner.Fly(request, *slot);
+  } catch (const std::exception& ex) {
+    error = ex.what();
+  } catch (...) {
+    error = "unknown";
+  }
+  const bool failed = !error.empty();
+  if (failed) {
+    rec = FlightRecord{};
+    rec.status = EvalStatus::kFailed;
+    rec.message = "exception: " + error;
+    slot->state.reset();  // rebuilt by the next flight in this slot
+  }
+  if (threw != nullptr) *threw = failed;
+  pool.Release(slot);
+  return rec;
+}
+
 int WorldPool::Size() const {
   std::lock_guard lock(mutex_);
   return static_cast<int>(slots_.size());

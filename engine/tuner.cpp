@@ -90,34 +90,26 @@ void FlyInto(Context& c, std::uint64_t map_seed, const ParamValues& params, std:
   out.flight_seed = seed;
   out.started = Now();
   const auto t0 = Clock::now();
-  WorkerSlot* slot = c.pool.Acquire();
-  FlightRecord rec;
-  try {
-    FlightRequest req;
-    req.map = c.Map(map_seed);
-    req.params = params;
-    req.seed = seed;
-    req.short_params_provider = std::move(provider);
-    if (record) req.on_query = [&out](const Opaque& q) { out.queries.push_back(q); };
-    if (c.options.cancel != nullptr) {
-      const std::atomic<bool>* cancel = c.options.cancel;
-      req.cancelled = [cancel] { return cancel->load(); };
-    }
-    rec = c.e.planner.Fly(req, *slot);
-  } catch (const std::exception& ex) {
-    rec = FlightRecord{};
-    rec.status = EvalStatus::kFailed;
-    rec.message = std::string("exception: ") + ex.what();
-    slot->state.reset();  // the world may be in any state: rebuild it next time
-    out.queries.clear();
-  } catch (...) {
-    rec = FlightRecord{};
-    rec.status = EvalStatus::kFailed;
-    rec.message = "exception: unknown";
-    slot->state.reset();
-    out.queries.clear();
+  FlightRequest req;
+  req.params = params;
+  req.seed = seed;
+  req.short_params_provider = std::move(provider);
+  if (record) req.on_query = [&out](const Opaque& q) { out.queries.push_back(q); };
+  if (c.options.cancel != nullptr) {
+    const std::atomic<bool>* cancel = c.options.cancel;
+    req.cancelled = [cancel] { return cancel->load(); };
   }
-  c.pool.Release(slot);
+  FlightRecord rec;
+  bool threw = false;
+  try {
+    req.map = c.Map(map_seed);
+  } catch (const std::exception& ex) {  // a layout that cannot be generated for this seed
+    rec.status = EvalStatus::kFailed;
+    rec.message = std::string("map: ") + ex.what();
+    threw = true;
+  }
+  if (!threw) rec = FlyOnPool(c.e.planner, c.pool, req, &threw);
+  if (threw) out.queries.clear();
   out.objective = LongTermObjective(rec, c.e.objective);
   out.status = rec.status;
   out.message = rec.message;

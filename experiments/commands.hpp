@@ -27,6 +27,8 @@ void RegisterStudy(CLI::App& app, int& exit_code);
 void RegisterAdapt(CLI::App& app, int& exit_code);  ///< `quadtune adapt`: Sec. IV-B experiment
 /// `quadtune report`: a self-contained HTML page of a run, study or flight directory.
 void RegisterReport(CLI::App& app, int& exit_code);
+/// `quadtune sweep`: Sobol' indices of the objectives over the parameter box (sweep_command.cpp).
+void RegisterSweep(CLI::App& app, int& exit_code);
 
 /// Runs the figure script with `args`; returns its exit status (0 on success).
 int RunPlotScript(const std::string& args);

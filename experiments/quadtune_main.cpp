@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
   quadtune::cli::RegisterAdapt(app, exit_code);
   quadtune::cli::RegisterStudy(app, exit_code);
   quadtune::cli::RegisterReport(app, exit_code);
+  quadtune::cli::RegisterSweep(app, exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,8 +1,9 @@
 #pragma once
 /// \file
-/// Helpers for tests that run the `quadtune` program end to end: run a command line, read the
-/// CSV files it writes.
+/// Helpers for tests that run the `quadtune` program end to end: make a fresh temporary directory,
+/// run a command line, read the CSV files and check the figures it writes.
 
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -31,6 +32,22 @@ inline std::string ReadText(const std::filesystem::path& path) {
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
+}
+
+/// A fresh, empty directory `name` under the system's temporary directory.
+inline std::filesystem::path FreshTempDir(const std::string& name) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / name;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+/// Size in bytes of a PNG file (0 when it is missing or not a PNG).
+inline std::uintmax_t PngBytes(const std::filesystem::path& png) {
+  std::ifstream in(png, std::ios::binary);
+  char magic[8] = {};
+  if (!in.read(magic, 8) || std::string(magic + 1, 3) != "PNG") return 0;
+  return std::filesystem::file_size(png);
 }
 
 /// Rows of a CSV file (no quoted commas) as maps column → text.

@@ -17,6 +17,7 @@ Called by `quadtune plot`, or directly:
     quadtune_plot.py scale-model CSV [--out PNG]
                                              stored evaluations/s against MPI ranks from
                                              scripts/scale_model.sh, with the ideal line
+    quadtune_plot.py sweep DIR               Sobol' indices of a `quadtune sweep` (DIR/sweep.png)
 """
 import argparse
 import csv
@@ -764,9 +765,14 @@ def main(argv):
                        "(scripts/scale_model.sh CSV)")
     p.add_argument("csv")
     p.add_argument("--out", default=None)
+    sub.add_parser("sweep", help="Sobol' index figure of a `quadtune sweep` directory"
+                   ).add_argument("directory")
     args = parser.parse_args(argv)
     if args.what == "scale-model":
         print(plot_scale_model(args.csv, args.out))
+        return 0
+    if args.what == "sweep":
+        print(plot_sweep(args.directory))
         return 0
     if args.what == "adapt":
         print(plot_adapt(args.directory))
@@ -882,6 +888,106 @@ def plot_adapt(directory):
     fig.savefig(out, dpi=120)
     plt.close(fig)
     return out
+
+
+# ---- `sweep`: Sobol' indices of a parameter sweep (`quadtune sweep` output) ---------------------
+
+_SWEEP_OUTPUT_TITLES = {
+    "f_l": "long-term objective f_l = t_f + t_f·n_c + w_e·n_e (s)",
+    "t_f": "flight time t_f (s)",
+    "n_c": "collisions n_c (count)",
+    "n_e": "emergency stops n_e (count)",
+    "f_s": "short-term objective f_s (mean over recorded queries)",
+}
+
+
+def plot_sweep(directory):
+    """DIR/sweep.png: one panel per output (f_l, its terms, f_s), horizontal bars of the first-order
+    S1 and total-effect ST Sobol' index of every parameter with 95% bootstrap whiskers, one colour
+    per layout (obstacle density)."""
+    import numpy as np
+    with open(os.path.join(directory, "indices.csv"), newline="") as f:
+        rows = list(csv.DictReader(f))
+    if not rows:
+        raise SystemExit("no rows in " + os.path.join(directory, "indices.csv"))
+    outputs, layouts, params = [], [], []
+    for r in rows:
+        for seq, key in ((outputs, "output"), (layouts, "layout"), (params, "parameter")):
+            if r[key] not in seq:
+                seq.append(r[key])
+    kinds = {r["parameter"]: r["kind"] for r in rows}
+    spacing = {r["layout"]: r["spacing"] for r in rows}
+    spearman = {r["layout"]: r["spearman_fs_fl"] for r in rows}
+    table = {(r["layout"], r["output"], r["parameter"]): r for r in rows}
+
+    def num(v):
+        try:
+            return float(v)
+        except (TypeError, ValueError):
+            return float("nan")
+
+    def layout_name(lay):
+        sp = num(spacing.get(lay))
+        return "{} ({:g} m spacing)".format(lay, sp) if math.isfinite(sp) else lay
+
+    ncols = min(3, len(outputs))
+    nrows = (len(outputs) + ncols - 1) // ncols
+    height = (0.5 * len(params) * max(1, len(layouts)) + 1.6) * nrows
+    fig, axes = plt.subplots(nrows, ncols, figsize=(5.2 * ncols, height), squeeze=False)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    y = np.arange(len(params))
+    band = 0.8 / max(1, len(layouts))
+    for k, out in enumerate(outputs):
+        ax = axes[k // ncols][k % ncols]
+        any_value = False
+        for g, lay in enumerate(layouts):
+            c = colors[g % len(colors)]
+            for j, (idx, alpha, hatch) in enumerate((("S1", 0.9, None), ("ST", 0.35, "//"))):
+                vals, lo, hi = [], [], []
+                for p in params:
+                    r = table.get((lay, out, p), {})
+                    v = num(r.get(idx))
+                    vals.append(v if math.isfinite(v) else 0.0)
+                    any_value = any_value or math.isfinite(v)
+                    lo.append(max(0.0, v - num(r.get(idx + "_lo"))) if math.isfinite(v) else 0.0)
+                    hi.append(max(0.0, num(r.get(idx + "_hi")) - v) if math.isfinite(v) else 0.0)
+                offset = -0.4 + band * g + band * (0.25 + 0.5 * j)
+                ax.barh(y + offset, vals, height=band * 0.5, color=c, alpha=alpha, hatch=hatch,
+                        edgecolor=c, xerr=[lo, hi], error_kw={"elinewidth": 0.8, "capsize": 2},
+                        label="{}: {}".format(idx, layout_name(lay)) if k == 0 else None)
+                for yy, v in zip(y + offset, vals):
+                    if v > 1.2 or v < -0.2:  # beyond the axis: print the estimate at the edge
+                        ax.text(1.19 if v > 0 else -0.19, yy, "{:.2g}".format(v), fontsize=7,
+                                ha="right" if v > 0 else "left", va="center", color="k")
+        ax.set_yticks(y)
+        ax.set_yticklabels(["{} ({})".format(p, "θ_s" if kinds.get(p) == "short" else "θ_l")
+                            for p in params])
+        ax.invert_yaxis()
+        ax.axvline(0.0, color="k", lw=0.6)
+        ax.set_xlim(-0.2, 1.2)
+        ax.set_xlabel("Sobol' index (share of output variance, dimensionless)")
+        ax.set_ylabel("parameter")
+        ax.set_title(_SWEEP_OUTPUT_TITLES.get(out, out), fontsize=10)
+        ax.grid(axis="x", alpha=0.3)
+        if not any_value:
+            ax.text(0.5, 0.5, "constant over the design: no indices", transform=ax.transAxes,
+                    ha="center", va="center", color="0.3")
+    for k in range(len(outputs), nrows * ncols):
+        axes[k // ncols][k % ncols].axis("off")
+    rho = "; ".join("{}: {}".format(lay, "{:.2f}".format(num(spearman[lay]))
+                                     if math.isfinite(num(spearman[lay])) else "n/a")
+                    for lay in layouts)
+    n = rows[0].get("N", "?")
+    maps = rows[0].get("maps", "?")
+    fig.suptitle("Parameter importance: S1 (solid) and ST (hatched), 95% bootstrap intervals; "
+                 "N = {}, {} maps per point. Spearman ρ(f_s, f_l): {}".format(n, maps, rho),
+                 fontsize=10)
+    fig.legend(loc="lower center", ncol=min(4, 2 * len(layouts)), fontsize=8)
+    fig.tight_layout(rect=(0, 0.06, 1, 0.95))
+    out_png = os.path.join(directory, "sweep.png")
+    fig.savefig(out_png, dpi=120)
+    plt.close(fig)
+    return out_png
 
 
 if __name__ == "__main__":

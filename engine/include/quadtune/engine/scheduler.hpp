@@ -115,4 +115,11 @@ class WorldPool {
   std::vector<WorkerSlot*> free_;
 };
 
+/// Flies `request` with `planner` on a slot of `pool` (acquired and released here). An exception
+/// from the planner becomes a failed FlightRecord (message "exception: …"), resets the slot's
+/// state (the world may be in any state) and sets `*threw` when given. Never throws.
+/// Thread-safe as the pool and the plug-in are.
+FlightRecord FlyOnPool(const Planner& planner, WorldPool& pool, const FlightRequest& request,
+                       bool* threw = nullptr);
+
 }  // namespace quadtune::engine

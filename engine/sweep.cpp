@@ -1,0 +1,454 @@
+#include "quadtune/engine/sweep.hpp"
+
+#include <algorithm>
+#include <boost/random/sobol.hpp>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <thread>
+
+#include "quadtune/common/error.hpp"
+#include "quadtune/common/random.hpp"
+#include "quadtune/engine/scheduler.hpp"
+
+namespace quadtune::engine {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+/// S_i and ST_i of every parameter and the variance, over the base rows `rows`.
+struct Estimate {
+  double mean = 0.0, variance = 0.0;
+  std::vector<double> s1, st;
+};
+
+Estimate EstimateOver(const std::vector<double>& f_a, const std::vector<double>& f_b,
+                      const std::vector<std::vector<double>>& f_ab, const std::vector<int>& rows) {
+  Estimate e;
+  const double n = static_cast<double>(rows.size());
+  double sum = 0.0;
+  for (int r : rows) sum += f_a[static_cast<std::size_t>(r)] + f_b[static_cast<std::size_t>(r)];
+  e.mean = sum / (2.0 * n);
+  double ss = 0.0;
+  for (int r : rows) {
+    const double da = f_a[static_cast<std::size_t>(r)] - e.mean;
+    const double db = f_b[static_cast<std::size_t>(r)] - e.mean;
+    ss += da * da + db * db;
+  }
+  e.variance = ss / (2.0 * n);
+  for (const auto& ab : f_ab) {
+    double first = 0.0, total = 0.0;
+    for (int r : rows) {
+      const auto k = static_cast<std::size_t>(r);
+      first += f_b[k] * (ab[k] - f_a[k]);
+      total += (f_a[k] - ab[k]) * (f_a[k] - ab[k]);
+    }
+    const bool flat = e.variance <= 0.0;
+    e.s1.push_back(flat ? kNaN : first / n / e.variance);
+    e.st.push_back(flat ? kNaN : total / (2.0 * n) / e.variance);
+  }
+  return e;
+}
+
+/// Linear-interpolated quantile q of sorted values.
+double Quantile(const std::vector<double>& sorted, double q) {
+  if (sorted.empty()) return kNaN;
+  const double pos = q * static_cast<double>(sorted.size() - 1);
+  const auto lo = static_cast<std::size_t>(std::floor(pos));
+  const std::size_t hi = std::min(lo + 1, sorted.size() - 1);
+  return sorted[lo] + (pos - static_cast<double>(lo)) * (sorted[hi] - sorted[lo]);
+}
+
+/// Percentile interval of `values` (NaNs dropped) at `confidence`.
+std::pair<double, double> Interval(std::vector<double> values, double confidence) {
+  values.erase(std::remove_if(values.begin(), values.end(), [](double v) { return std::isnan(v); }),
+               values.end());
+  std::sort(values.begin(), values.end());
+  const double tail = 0.5 * (1.0 - confidence);
+  return {Quantile(values, tail), Quantile(values, 1.0 - tail)};
+}
+
+std::vector<double> Ranks(const std::vector<double>& x) {
+  std::vector<std::size_t> order(x.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return x[a] < x[b]; });
+  std::vector<double> rank(x.size());
+  for (std::size_t i = 0; i < order.size();) {
+    std::size_t j = i;
+    while (j + 1 < order.size() && x[order[j + 1]] == x[order[i]]) ++j;
+    const double mean_rank = 0.5 * static_cast<double>(i + j) + 1.0;
+    for (std::size_t k = i; k <= j; ++k) rank[order[k]] = mean_rank;
+    i = j + 1;
+  }
+  return rank;
+}
+
+double Pearson(const std::vector<double>& x, const std::vector<double>& y) {
+  const double n = static_cast<double>(x.size());
+  double mx = 0.0, my = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    mx += x[i] / n;
+    my += y[i] / n;
+  }
+  double sxy = 0.0, sxx = 0.0, syy = 0.0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    sxy += (x[i] - mx) * (y[i] - my);
+    sxx += (x[i] - mx) * (x[i] - mx);
+    syy += (y[i] - my) * (y[i] - my);
+  }
+  return sxx > 0.0 && syy > 0.0 ? sxy / std::sqrt(sxx * syy) : kNaN;
+}
+
+}  // namespace
+
+Eigen::VectorXd SaltelliDesign::Point(int p) const {
+  QT_DEMAND(p >= 0 && p < Points(), "design point out of range");
+  const int block = Block(p);
+  const int row = Row(p);
+  if (block == 1) return b.row(row).transpose();
+  Eigen::VectorXd x = a.row(row).transpose();
+  if (block >= 2) x[block - 2] = b(row, block - 2);
+  return x;
+}
+
+SaltelliDesign MakeSaltelliDesign(int n, int d, std::uint64_t seed) {
+  if (n < 1)
+    throw ConfigError("", "points",
+                      "the design needs at least 1 base row, got " + std::to_string(n));
+  if (d < 1 || 2 * d > 3667) {
+    throw ConfigError(
+        "", "parameters",
+        "a Saltelli design needs 1 to 1833 parameters (Sobol' tables), got " + std::to_string(d));
+  }
+  boost::random::sobol sobol(static_cast<std::size_t>(2 * d));
+  std::vector<std::uint64_t> shift(static_cast<std::size_t>(2 * d), 0);
+  if (seed != 0) {
+    Rng rng(DeriveSeed(seed, {0x50b0}));
+    for (auto& s : shift) s = rng();
+  }
+  SaltelliDesign design;
+  design.a.resize(n, d);
+  design.b.resize(n, d);
+  for (int r = 0; r < n; ++r) {
+    for (int j = 0; j < 2 * d; ++j) {
+      const std::uint64_t bits =
+          static_cast<std::uint64_t>(sobol()) ^ shift[static_cast<std::size_t>(j)];
+      // Top 53 bits → [0, 1), the same double on every platform.
+      const double u = static_cast<double>(bits >> 11) * 0x1.0p-53;
+      if (j < d) {
+        design.a(r, j) = u;
+      } else {
+        design.b(r, j - d) = u;
+      }
+    }
+  }
+  return design;
+}
+
+SobolIndices EstimateSobolIndices(const std::vector<double>& f_a, const std::vector<double>& f_b,
+                                  const std::vector<std::vector<double>>& f_ab, int bootstrap,
+                                  std::uint64_t seed, double confidence) {
+  const std::size_t n = f_a.size();
+  if (n < 2 || f_b.size() != n) {
+    throw std::invalid_argument("EstimateSobolIndices: f_a and f_b need the same N >= 2 values");
+  }
+  for (const auto& ab : f_ab) {
+    if (ab.size() != n)
+      throw std::invalid_argument("EstimateSobolIndices: every f_ab needs N values");
+  }
+  if (bootstrap < 1) throw std::invalid_argument("EstimateSobolIndices: bootstrap >= 1");
+  std::vector<int> rows(n);
+  for (std::size_t r = 0; r < n; ++r) rows[r] = static_cast<int>(r);
+  const Estimate full = EstimateOver(f_a, f_b, f_ab, rows);
+  const std::size_t d = f_ab.size();
+  std::vector<std::vector<double>> s1(d), st(d);
+  Rng rng(DeriveSeed(seed, {0xb007}));
+  for (int b = 0; b < bootstrap; ++b) {
+    for (auto& r : rows) r = static_cast<int>(UniformInt(rng, 0, static_cast<std::int64_t>(n) - 1));
+    const Estimate e = EstimateOver(f_a, f_b, f_ab, rows);
+    for (std::size_t i = 0; i < d; ++i) {
+      s1[i].push_back(e.s1[i]);
+      st[i].push_back(e.st[i]);
+    }
+  }
+  SobolIndices out;
+  out.mean = full.mean;
+  out.variance = full.variance;
+  for (std::size_t i = 0; i < d; ++i) {
+    SobolIndex x;
+    x.s1 = full.s1[i];
+    x.st = full.st[i];
+    if (full.variance > 0.0) {
+      std::tie(x.s1_lo, x.s1_hi) = Interval(s1[i], confidence);
+      std::tie(x.st_lo, x.st_hi) = Interval(st[i], confidence);
+    } else {
+      x.s1_lo = x.s1_hi = x.st_lo = x.st_hi = kNaN;
+    }
+    out.index.push_back(x);
+  }
+  return out;
+}
+
+double SpearmanCorrelation(const std::vector<double>& x, const std::vector<double>& y) {
+  if (x.size() != y.size()) throw std::invalid_argument("SpearmanCorrelation: sizes differ");
+  if (x.size() < 2) return kNaN;
+  return Pearson(Ranks(x), Ranks(y));
+}
+
+const std::vector<std::string>& SweepOutputNames() {
+  static const std::vector<std::string> names{"f_l", "t_f", "n_c", "n_e", "f_s"};
+  return names;
+}
+
+namespace {
+
+/// Runs one flight into `out` on a pooled world (queries recorded into `queries` when given).
+/// Never throws.
+void FlySweep(const Experiment& e, WorldPool& pool, const Opaque& map, const ParamValues& params,
+              std::uint64_t seed, const std::atomic<bool>* cancel, std::vector<Opaque>* queries,
+              SweepFlight& out) {
+  out.flight_seed = seed;
+  FlightRequest request;
+  request.map = map;
+  request.params = params;
+  request.seed = seed;
+  if (queries != nullptr) request.on_query = [queries](const Opaque& q) { queries->push_back(q); };
+  if (cancel != nullptr) request.cancelled = [cancel] { return cancel->load(); };
+  bool threw = false;
+  const FlightRecord rec = FlyOnPool(e.planner, pool, request, &threw);
+  if (threw && queries != nullptr) queries->clear();
+  out.objective = LongTermObjective(rec, e.objective);
+  out.status = rec.status;
+  out.message = rec.message;
+}
+
+void CheckOptions(const SweepOptions& o) {
+  const auto bad = [](const char* key, const std::string& what) {
+    throw ConfigError("", key, what);
+  };
+  if (o.points < 2) bad("--points", "need at least 2 base rows, got " + std::to_string(o.points));
+  if (o.maps < 1) bad("--maps", "need at least 1 map, got " + std::to_string(o.maps));
+  if (o.queries < 1) bad("--queries", "need at least 1 query, got " + std::to_string(o.queries));
+  if (o.threads < 1) bad("--threads", "need at least 1 thread, got " + std::to_string(o.threads));
+  if (o.bootstrap < 1)
+    bad("--bootstrap", "need at least 1 resample, got " + std::to_string(o.bootstrap));
+}
+
+/// Waits for `group`, reporting progress about twice a second.
+void WaitReporting(Scheduler& scheduler, TaskGroup& group, const SweepOptions& o,
+                   const std::atomic<int>& flights, int flights_total,
+                   const std::atomic<long>& resolves, long resolves_total, Clock::time_point t0) {
+  const auto report = [&] {
+    if (!o.on_progress) return;
+    SweepProgress p;
+    p.flights_done = flights.load();
+    p.flights_total = flights_total;
+    p.resolves_done = resolves.load();
+    p.resolves_total = resolves_total;
+    p.elapsed_s = std::chrono::duration<double>(Clock::now() - t0).count();
+    o.on_progress(p);
+  };
+  auto last = Clock::now();
+  while (!group.Done()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (o.cancel != nullptr && o.cancel->load()) scheduler.Cancel();
+    if (Clock::now() - last >= std::chrono::milliseconds(500)) {
+      last = Clock::now();
+      report();
+    }
+  }
+  scheduler.Wait(group);
+  report();
+}
+
+}  // namespace
+
+SweepResult RunSweep(const Experiment& e, const SweepOptions& o) {
+  CheckOptions(o);
+  const auto t0 = Clock::now();
+  SweepResult result;
+  result.names = e.space.Names();
+  const int d = e.space.Dim();
+  const int n = o.points;
+  const int k_maps = o.maps;
+  const SaltelliDesign design = MakeSaltelliDesign(n, d, DeriveSeed(o.seed, {0xde5}));
+  const int points = design.Points();
+  const ParamValues defaults = e.Defaults();
+
+  std::vector<Opaque> maps;
+  for (int k = 0; k < k_maps; ++k) {
+    result.map_seeds.push_back(DeriveSeed(o.seed, {0x3a, static_cast<std::uint64_t>(k)}));
+    maps.push_back(e.planner.PrepareMap(result.map_seeds.back()));
+  }
+
+  Scheduler scheduler(o.threads);
+  WorldPool pool;
+  std::atomic<int> flights_done{0};
+  std::atomic<long> resolves_done{0};
+
+  // 1. Queries recorded at the defaults, one flight per map.
+  std::vector<std::vector<Opaque>> recorded(static_cast<std::size_t>(k_maps));
+  {
+    TaskGroup group;
+    std::vector<SweepFlight> rec(static_cast<std::size_t>(k_maps));
+    for (int k = 0; k < k_maps; ++k) {
+      const auto ku = static_cast<std::size_t>(k);
+      scheduler.Submit(group, Priority::kFlight, [&, k, ku] {
+        FlySweep(e, pool, maps[ku], defaults,
+                 DeriveSeed(o.seed, {0xde, static_cast<std::uint64_t>(k)}), o.cancel, &recorded[ku],
+                 rec[ku]);
+      });
+    }
+    scheduler.Wait(group);
+  }
+  std::vector<Opaque> pool_queries;
+  for (const auto& r : recorded) pool_queries.insert(pool_queries.end(), r.begin(), r.end());
+  result.queries_recorded = static_cast<int>(pool_queries.size());
+  {
+    // A seeded partial Fisher–Yates draw of Q indices, kept in recording order.
+    std::vector<std::size_t> idx(pool_queries.size());
+    for (std::size_t i = 0; i < idx.size(); ++i) idx[i] = i;
+    const std::size_t q = std::min(idx.size(), static_cast<std::size_t>(o.queries));
+    Rng rng(DeriveSeed(o.seed, {0x9e}));
+    for (std::size_t i = 0; i < q; ++i) {
+      const auto j = static_cast<std::size_t>(
+          UniformInt(rng, static_cast<std::int64_t>(i), static_cast<std::int64_t>(idx.size()) - 1));
+      std::swap(idx[i], idx[j]);
+    }
+    idx.resize(q);
+    std::sort(idx.begin(), idx.end());
+    std::vector<Opaque> chosen;
+    for (std::size_t i : idx) chosen.push_back(pool_queries[i]);
+    pool_queries = std::move(chosen);
+  }
+  result.queries_used = static_cast<int>(pool_queries.size());
+
+  // 2. The design points, and the distinct θ_s among them.
+  result.points.resize(static_cast<std::size_t>(points));
+  std::map<std::vector<double>, int> short_index;
+  std::vector<ParamValues> short_values;
+  std::vector<int> short_of_point(static_cast<std::size_t>(points));
+  for (int p = 0; p < points; ++p) {
+    SweepPoint& pt = result.points[static_cast<std::size_t>(p)];
+    pt.block = design.Block(p);
+    pt.row = design.Row(p);
+    pt.params = e.space.ToNamed(e.space.FromUnit(design.Point(p)));
+    std::vector<double> key;
+    ParamValues theta_s;
+    for (const auto& name : e.short_names) {
+      key.push_back(pt.params.at(name));
+      theta_s[name] = pt.params.at(name);
+    }
+    const auto [it, inserted] = short_index.emplace(key, static_cast<int>(short_values.size()));
+    if (inserted) short_values.push_back(theta_s);
+    short_of_point[static_cast<std::size_t>(p)] = it->second;
+  }
+  result.distinct_short = static_cast<int>(short_values.size());
+
+  // 3. Every flight and every re-solve, concurrently (flights first).
+  result.flights.resize(static_cast<std::size_t>(points * k_maps));
+  const std::size_t q = pool_queries.size();
+  std::vector<ObjectiveValue> solved(short_values.size() * q);
+  std::vector<char> solve_failed(short_values.size() * q, 0);
+  TaskGroup group;
+  for (int p = 0; p < points; ++p) {
+    ParamValues params = defaults;
+    for (const auto& [name, v] : result.points[static_cast<std::size_t>(p)].params)
+      params[name] = v;
+    for (int k = 0; k < k_maps; ++k) {
+      SweepFlight* out = &result.flights[static_cast<std::size_t>(p * k_maps + k)];
+      out->point = p;
+      out->map = k;
+      out->map_seed = result.map_seeds[static_cast<std::size_t>(k)];
+      const std::uint64_t seed =
+          DeriveSeed(o.seed, {0xf1, static_cast<std::uint64_t>(p), static_cast<std::uint64_t>(k)});
+      const Opaque* map = &maps[static_cast<std::size_t>(k)];
+      scheduler.Submit(group, Priority::kFlight, [&, out, params, seed, map] {
+        FlySweep(e, pool, *map, params, seed, o.cancel, nullptr, *out);
+        flights_done.fetch_add(1);
+      });
+    }
+  }
+  for (std::size_t s = 0; s < short_values.size(); ++s) {
+    for (std::size_t j = 0; j < q; ++j) {
+      const std::size_t slot = s * q + j;
+      scheduler.Submit(group, Priority::kShort, [&, s, j, slot] {
+        ResolveRecord rec;
+        try {
+          rec = e.planner.Resolve(pool_queries[j], short_values[s]);
+        } catch (const std::exception& ex) {
+          rec = ResolveRecord{};
+          rec.status = EvalStatus::kFailed;
+          rec.message = std::string("exception: ") + ex.what();
+        }
+        solved[slot] = ShortTermObjective(rec, e.objective, e.mode);
+        solve_failed[slot] = rec.status != EvalStatus::kOk ? 1 : 0;
+        resolves_done.fetch_add(1);
+      });
+    }
+  }
+  WaitReporting(scheduler, group, o, flights_done, points * k_maps, resolves_done,
+                static_cast<long>(short_values.size() * q), t0);
+  result.resolves = resolves_done.load();
+  const bool cancelled = o.cancel != nullptr && o.cancel->load();
+
+  // 4. Per-point means, in index order.
+  for (int p = 0; p < points; ++p) {
+    SweepPoint& pt = result.points[static_cast<std::size_t>(p)];
+    for (int k = 0; k < k_maps; ++k) {
+      const SweepFlight& f = result.flights[static_cast<std::size_t>(p * k_maps + k)];
+      pt.f_l += f.objective.value / k_maps;
+      for (const auto& [name, v] : f.objective.terms) pt.terms[name] += v / k_maps;
+      if (f.status != EvalStatus::kOk) ++pt.failed_flights;
+    }
+    const auto s = static_cast<std::size_t>(short_of_point[static_cast<std::size_t>(p)]);
+    if (q == 0) {
+      pt.f_s = e.objective.failure_value;
+    }
+    for (std::size_t j = 0; j < q; ++j) {
+      pt.f_s += solved[s * q + j].value / static_cast<double>(q);
+      pt.failed_resolves += solve_failed[s * q + j];
+    }
+  }
+  result.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  if (cancelled) {
+    result.status = RunStatus::kCancelled;
+    return result;
+  }
+
+  // 5. Indices of every output.
+  std::vector<double> f_l_all, f_s_all;
+  for (const auto& pt : result.points) {
+    f_l_all.push_back(pt.f_l);
+    f_s_all.push_back(pt.f_s);
+  }
+  result.spearman_fs_fl = SpearmanCorrelation(f_s_all, f_l_all);
+  for (std::size_t out_i = 0; out_i < SweepOutputNames().size(); ++out_i) {
+    const std::string& name = SweepOutputNames()[out_i];
+    const auto value = [&](int p) {
+      const SweepPoint& pt = result.points[static_cast<std::size_t>(p)];
+      if (name == "f_l") return pt.f_l;
+      if (name == "f_s") return pt.f_s;
+      const auto it = pt.terms.find(name);
+      return it == pt.terms.end() ? 0.0 : it->second;
+    };
+    std::vector<double> f_a, f_b;
+    std::vector<std::vector<double>> f_ab(static_cast<std::size_t>(d));
+    for (int r = 0; r < n; ++r) {
+      f_a.push_back(value(r));
+      f_b.push_back(value(n + r));
+      for (int i = 0; i < d; ++i)
+        f_ab[static_cast<std::size_t>(i)].push_back(value((2 + i) * n + r));
+    }
+    result.outputs.push_back(
+        {name,
+         EstimateSobolIndices(f_a, f_b, f_ab, o.bootstrap,
+                              DeriveSeed(o.seed, {0xb5, static_cast<std::uint64_t>(out_i)}))});
+  }
+  return result;
+}
+
+}  // namespace quadtune::engine
