@@ -79,10 +79,10 @@ TEST(StallDetector, HoveringStallsAndSteadyFlightDoesNot) {
 }
 
 /// Go-and-return flights (24 m each way) at default parameters, seeds 1–4. Success means the
-/// mission completed without a collision. Measured with `quadtune fly --spacing S --seed N` over
-/// seeds 1–60: 60/60 at 3.0 m spacing (mean t_f 29.1 s); at 1.3 m spacing 19/20 over seeds
-/// 1–20 (mean t_f 35.1 s; seed 4 completes after hitting an obstacle), 58/60 over seeds 1–60 and
-/// 183/200 over seeds 1–200 (16 flights with a collision, 1 stalled). The test asks for 4/4 at
+/// mission completed without a collision. Measured with `quadtune fly --layout-options L --seed N`
+/// over seeds 1–60, L a file holding only `spacing: S` (the generator's defaults, as here):
+/// 60/60 at 3.0 m spacing (7 obstacles, mean t_f 28.9 s); 57/60 at 1.3 m (36 obstacles, mean t_f
+/// 32.6 s; seeds 17, 25 and 34 complete after hitting an obstacle). The test asks for 4/4 at
 /// 3.0 m and at least 3/4 at 1.3 m.
 class GoAndReturn : public ::testing::TestWithParam<double> {};
 
