@@ -68,7 +68,7 @@ std::vector<std::string> StringList(const YamlMap& map, const std::string& key) 
 }
 
 Planner BuildPlanner(const YamlMap& p, const std::string& base_dir, std::string* type) {
-  *type = p.String("type", std::string("ipopt"), {"ipopt", "toy"});
+  *type = p.String("type", std::string("ipopt"), {"ipopt", "ego", "toy"});
   if (*type == "toy") {
     p.RejectUnknownKeys({"type", "toy"});
     const YamlMap t = p.Map("toy", true);
@@ -113,6 +113,7 @@ Planner BuildPlanner(const YamlMap& p, const std::string& base_dir, std::string*
   if (p.Has("fixed")) o.base = planning::PlannerParams::FromYaml(p.Map("fixed"));
   o.base.Validate(p.file());
   o.flight.planner.CheckParams(o.base, p.file());
+  if (*type == "ego") return Planner{EgoPlanner{{std::move(o), planning::EgoOptions{}}}};
   return Planner{IpoptPlanner{std::move(o)}};
 }
 
