@@ -62,14 +62,14 @@ struct EgoOptions {
   int segments_per_pol = 4;        ///< B-spline spans per n_pol unit over the horizon, [1, 16]
   int max_rebounds = 4;            ///< rebound rounds after the first solve, [0, 20]
   int max_reallocations = 3;       ///< time-reallocation rounds, [0, 10]
-  int lbfgs_memory = 16;           ///< L-BFGS history, [1, 64]
+  int lbfgs_memory = 8;            ///< L-BFGS history, [1, 64]
   int lbfgs_max_iterations = 200;  ///< per solve, [1, 10000]
-  double lbfgs_epsilon = 1e-5;     ///< libLBFGS relative gradient tolerance, (0, 1)
-  double lbfgs_delta = 1e-6;       ///< relative decrease over 3 iterations to stop, [0, 1)
+  double lbfgs_epsilon = 1e-3;     ///< libLBFGS relative gradient tolerance, (0, 1)
+  double lbfgs_delta = 1e-3;       ///< relative decrease over 3 iterations to stop, [0, 1)
   double fitness_along_weight = 0.1;  ///< along-track weight of the refit, (0, 1]
   double fitness_weight = 1.0;     ///< weight of the refit's fitness term, > 0
   double check_dt = 0.01;          ///< acceptance-check sample spacing (s), > 0
-  double clearance_dt = 0.05;      ///< min_clearance sample spacing (s), > 0
+  double clearance_dt = 0.1;       ///< min_clearance sample spacing (s), > 0
   double limit_tolerance = 0.05;   ///< relative tolerance on v_des and a_max, >= 0
   double gamma_search_margin = 1.5;  ///< A* box widening for Γ (m), [0, 50]
   int gamma_max_expansions = 20000;  ///< A* expansions for one Γ, >= 1
