@@ -25,12 +25,7 @@ TEST(EgoEngine, PluginFliesRecordsQueriesAndResolvesThemFromManyThreads) {
   EXPECT_EQ(e.planner.Name(), "ego");
   WorkerSlot slot;
   std::vector<Opaque> queries;
-  FlightRequest req;
-  req.map = e.planner.PrepareMap(e.MapSeed(0));
-  req.params = e.planner.Defaults();
-  req.seed = 3;
-  req.on_query = [&](const Opaque& q) { queries.push_back(q); };
-  const FlightRecord f = e.planner.Fly(req, slot);
+  const FlightRecord f = test::FlyRecordingQueries(e.planner, e.MapSeed(0), slot, &queries);
   EXPECT_EQ(f.status, EvalStatus::kOk) << f.message;
   EXPECT_TRUE(f.completed) << f.message;
   EXPECT_GT(f.plans, 0);

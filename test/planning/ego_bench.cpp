@@ -24,6 +24,7 @@
 #include "quadtune/planning/flight.hpp"
 #include "quadtune/planning/local_planner.hpp"
 #include "quadtune/planning/trajectory_backend.hpp"
+#include "bench_util.hpp"
 
 namespace {
 
@@ -144,15 +145,8 @@ void BM_ShortTermEvals(benchmark::State& state) {
   const int which = static_cast<int>(state.range(0));
   const auto& queries = Recorded(which);
   constexpr int kBatch = 256;
-  std::vector<PlannerParams> thetas;
-  quadtune::Rng rng(7);
-  for (int i = 0; i < kBatch; ++i) {
-    PlannerParams p = queries[static_cast<std::size_t>(i) % queries.size()].params;
-    p.w_col = std::exp(quadtune::Uniform(rng, std::log(0.05), std::log(5.0)));
-    p.w_dyn = std::exp(quadtune::Uniform(rng, std::log(0.01), std::log(1.0)));
-    p.n_pol = static_cast<int>(quadtune::UniformInt(rng, 3, 10));
-    thetas.push_back(p);
-  }
+  const std::vector<PlannerParams> thetas =
+      quadtune::planning::bench::RandomShortTermParams(queries, kBatch);
   const quadtune::planning::LocalPlannerOptions options;
   int ok = 0, evals = 0;
   double cpu = 0.0;

@@ -26,6 +26,7 @@
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/planning/flight.hpp"
 #include "quadtune/planning/local_planner.hpp"
+#include "bench_util.hpp"
 
 namespace {
 
@@ -149,15 +150,8 @@ BENCHMARK(BM_RecordedCold)->DenseRange(3, 8)->Iterations(1)->Unit(benchmark::kMi
 void BM_ShortTermEvals(benchmark::State& state) {
   const auto& queries = Recorded();
   constexpr int kBatch = 512;
-  std::vector<PlannerParams> thetas;
-  quadtune::Rng rng(7);
-  for (int i = 0; i < kBatch; ++i) {
-    PlannerParams p = queries[static_cast<std::size_t>(i) % queries.size()].params;
-    p.w_col = std::exp(quadtune::Uniform(rng, std::log(0.05), std::log(5.0)));
-    p.w_dyn = std::exp(quadtune::Uniform(rng, std::log(0.01), std::log(1.0)));
-    p.n_pol = static_cast<int>(quadtune::UniformInt(rng, 3, 10));
-    thetas.push_back(p);
-  }
+  const std::vector<PlannerParams> thetas =
+      quadtune::planning::bench::RandomShortTermParams(queries, kBatch);
   const int threads = static_cast<int>(state.range(0));
   tbb::task_arena arena(threads);
   std::vector<PlanOutcome> results(kBatch);
