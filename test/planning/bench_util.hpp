@@ -5,8 +5,14 @@
 #include <cstddef>
 #include <vector>
 
+#include <string>
+
 #include "quadtune/common/random.hpp"
+#include "quadtune/layout/layout.hpp"
+#include "quadtune/physics/drone.hpp"
+#include "quadtune/planning/flight.hpp"
 #include "quadtune/planning/local_planner.hpp"
+#include "quadtune/planning/trajectory_backend.hpp"
 
 namespace quadtune::planning::bench {
 
@@ -25,6 +31,30 @@ inline std::vector<PlannerParams> RandomShortTermParams(const std::vector<Planni
     thetas.push_back(p);
   }
   return thetas;
+}
+
+/// A go-and-return flight (24 m out and back) at default parameters through the CGAL forest of
+/// 1.3 m mean spacing with `seed`, planned by `backend`; `queries` (may be null) receives every
+/// planning query.
+inline FlightResult FlyForest(std::uint64_t seed, const TrajectoryBackend& backend,
+                              std::vector<PlanningQuery>* queries) {
+  const auto drone = physics::LoadDroneDescription(
+      std::string(QUADTUNE_SOURCE_DIR) + "/assets/drones/research_1kg.yaml");
+  layout::LayoutOptions options;
+  options.spacing = 1.3;
+  const layout::Layout forest = layout::GenerateLayout(options, seed);
+  physics::WorldOptions world_options;
+  world_options.seed = seed;
+  world_options.collision_response = physics::CollisionResponse::kPassThrough;
+  physics::World world(forest.obstacles, drone, world_options);
+  FlightHooks hooks;
+  if (queries != nullptr) {
+    hooks.on_plan = [&](const PlanningQuery& q, const PlanOutcome&) { queries->push_back(q); };
+  }
+  FlightOptions flight;
+  flight.log_rate_hz = 0.0;
+  return Fly(world, Mission::GoAndReturn(forest.start_W(), forest.goal_W()), PlannerParams{},
+             flight, backend, hooks);
 }
 
 }  // namespace quadtune::planning::bench

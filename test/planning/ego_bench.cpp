@@ -54,42 +54,17 @@ double ThreadCpuSeconds() {
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
-/// A go-and-return flight at 1.3 m spacing with `backend`; `queries` (may be null) receives every
-/// planning query.
-quadtune::planning::FlightResult FlyForest(std::uint64_t seed,
-                                           const quadtune::planning::TrajectoryBackend& backend,
-                                           std::vector<PlanningQuery>* queries) {
-  const auto drone = quadtune::physics::LoadDroneDescription(
-      std::string(QUADTUNE_SOURCE_DIR) + "/assets/drones/research_1kg.yaml");
-  quadtune::layout::LayoutOptions options;
-  options.spacing = 1.3;
-  const quadtune::layout::Layout forest = quadtune::layout::GenerateLayout(options, seed);
-  quadtune::physics::WorldOptions world_options;
-  world_options.seed = seed;
-  world_options.collision_response = quadtune::physics::CollisionResponse::kPassThrough;
-  quadtune::physics::World world(forest.obstacles, drone, world_options);
-  quadtune::planning::FlightHooks hooks;
-  if (queries != nullptr) {
-    hooks.on_plan = [&](const PlanningQuery& q, const PlanOutcome&) { queries->push_back(q); };
-  }
-  quadtune::planning::FlightOptions flight;
-  flight.log_rate_hz = 0.0;
-  return quadtune::planning::Fly(
-      world, quadtune::planning::Mission::GoAndReturn(forest.start_W(), forest.goal_W()),
-      PlannerParams{}, flight, backend, hooks);
-}
-
 /// Every planning query of three flights (seeds 1-3) of back end `which` (0 Ipopt, 1 EGO).
 const std::vector<PlanningQuery>& Recorded(int which) {
   static const std::vector<PlanningQuery> sets[2] = {
       [] {
         std::vector<PlanningQuery> out;
-        for (std::uint64_t seed = 1; seed <= 3; ++seed) (void)FlyForest(seed, Ipopt(), &out);
+        for (std::uint64_t seed = 1; seed <= 3; ++seed) (void)quadtune::planning::bench::FlyForest(seed, Ipopt(), &out);
         return out;
       }(),
       [] {
         std::vector<PlanningQuery> out;
-        for (std::uint64_t seed = 1; seed <= 3; ++seed) (void)FlyForest(seed, Ego(), &out);
+        for (std::uint64_t seed = 1; seed <= 3; ++seed) (void)quadtune::planning::bench::FlyForest(seed, Ego(), &out);
         return out;
       }()};
   return sets[which];
@@ -173,7 +148,7 @@ void BM_ClosedLoop(benchmark::State& state) {
   int completed = 0, flights = 0;
   for (auto _ : state) {
     const double t0 = ThreadCpuSeconds();
-    const auto result = FlyForest(1, Backend(which), nullptr);
+    const auto result = quadtune::planning::bench::FlyForest(1, Backend(which), nullptr);
     cpu += ThreadCpuSeconds() - t0;
     simulated += result.metrics.flight_time;
     completed += result.metrics.status == quadtune::planning::FlightStatus::kCompleted ? 1 : 0;

@@ -45,21 +45,9 @@ const TrajectoryOptimizer& Optimizer() {
 const std::vector<PlanningQuery>& Recorded() {
   static const std::vector<PlanningQuery> queries = [] {
     std::vector<PlanningQuery> out;
-    const auto drone = quadtune::physics::LoadDroneDescription(
-        std::string(QUADTUNE_SOURCE_DIR) + "/assets/drones/research_1kg.yaml");
+    const quadtune::planning::IpoptBackend backend(Optimizer());
     for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-      quadtune::layout::LayoutOptions options;
-      options.spacing = 1.3;
-      const quadtune::layout::Layout forest = quadtune::layout::GenerateLayout(options, seed);
-      quadtune::physics::WorldOptions world_options;
-      world_options.seed = seed;
-      world_options.collision_response = quadtune::physics::CollisionResponse::kPassThrough;
-      quadtune::physics::World world(forest.obstacles, drone, world_options);
-      quadtune::planning::FlightHooks hooks;
-      hooks.on_plan = [&](const PlanningQuery& q, const PlanOutcome&) { out.push_back(q); };
-      (void)quadtune::planning::Fly(
-          world, quadtune::planning::Mission::GoAndReturn(forest.start_W(), forest.goal_W()),
-          PlannerParams{}, quadtune::planning::FlightOptions{}, Optimizer(), hooks);
+      (void)quadtune::planning::bench::FlyForest(seed, backend, &out);
     }
     return out;
   }();
