@@ -16,6 +16,8 @@ find_package(LAPACK REQUIRED)
 pkg_check_modules(BULLET REQUIRED IMPORTED_TARGET bullet)
 # Ipopt 3.11 ships no CMake config.
 pkg_check_modules(IPOPT REQUIRED IMPORTED_TARGET ipopt)
+# libLBFGS (Debian: liblbfgs-dev) solves the EGO back end's unconstrained problem.
+pkg_check_modules(LBFGS REQUIRED IMPORTED_TARGET liblbfgs)
 
 # MPI (Debian: libopenmpi-dev, openmpi-bin) for distributed experiments. quadtune uses MPI's C
 # API only. QUADTUNE_HAVE_MPI says whether it is built in; MPIEXEC_EXECUTABLE runs the MPI tests.

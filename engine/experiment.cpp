@@ -114,7 +114,7 @@ Planner BuildSleepPlanner(const YamlMap& p) {
 }
 
 Planner BuildPlanner(const YamlMap& p, const std::string& base_dir, std::string* type) {
-  *type = p.String("type", std::string("ipopt"), {"ipopt", "toy", "sleep"});
+  *type = p.String("type", std::string("ipopt"), {"ipopt", "ego", "toy", "sleep"});
   if (*type == "sleep") return BuildSleepPlanner(p);
   if (*type == "toy") {
     p.RejectUnknownKeys({"type", "toy"});
@@ -170,6 +170,7 @@ Planner BuildPlanner(const YamlMap& p, const std::string& base_dir, std::string*
   }
   o.base.Validate(p.file());
   o.flight.planner.CheckParams(o.base, p.file());
+  if (*type == "ego") return Planner{EgoPlanner{{std::move(o), planning::EgoOptions{}}}};
   return Planner{IpoptPlanner{std::move(o)}};
 }
 

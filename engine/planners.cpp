@@ -9,6 +9,7 @@
 #include "quadtune/common/random.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/planning/local_planner.hpp"
+#include "quadtune/planning/trajectory_backend.hpp"
 
 namespace quadtune::engine {
 
@@ -45,30 +46,17 @@ std::vector<ParameterInfo> InfoOf(const planning::PlannerParams& p,
   return out;
 }
 
-}  // namespace
-
-IpoptPlanner::IpoptPlanner(IpoptPlannerOptions options)
-    : options_(std::make_shared<const IpoptPlannerOptions>(std::move(options))),
-      optimizer_(std::make_shared<const planning::TrajectoryOptimizer>(
-          options_->flight.planner.optimizer)) {}
-
-std::vector<ParameterInfo> IpoptPlanner::ShortTermParameters() const {
-  return InfoOf(options_->base, planning::PlannerParams::ShortTermNames());
-}
-std::vector<ParameterInfo> IpoptPlanner::LongTermParameters() const {
-  return InfoOf(options_->base, planning::PlannerParams::LongTermNames());
-}
-
-Opaque IpoptPlanner::PrepareMap(std::uint64_t map_seed) const {
+Opaque PrepareLayoutMap(const IpoptPlannerOptions& o, std::uint64_t map_seed) {
   IpoptMap map;
-  map.layout = layout::GenerateLayout(options_->layout, map_seed);
-  map.geometry = physics::ObstacleGeometry::Make(map.layout.obstacles, options_->world);
+  map.layout = layout::GenerateLayout(o.layout, map_seed);
+  map.geometry = physics::ObstacleGeometry::Make(map.layout.obstacles, o.world);
   return Opaque::Make(std::move(map));
 }
 
-FlightRecord IpoptPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) const {
+// One closed-loop flight of a planner built on planning::Fly with `backend`.
+FlightRecord FlyWithBackend(const IpoptPlannerOptions& o, const planning::TrajectoryBackend& backend,
+                            const FlightRequest& request, WorkerSlot& slot) {
   const IpoptMap& map = request.map.As<IpoptMap>();
-  const IpoptPlannerOptions& o = *options_;
   planning::PlannerParams params = o.base;
   for (const auto& [name, value] : request.params) params.Set(name, value);
   params.Validate("flight parameters");
@@ -110,7 +98,7 @@ FlightRecord IpoptPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) c
   planning::FlightOptions flight = o.flight;
   flight.log_rate_hz = 0.0;
   const planning::FlightResult result =
-      planning::Fly(**world, mission, params, flight, *optimizer_, hooks);
+      planning::Fly(**world, mission, params, flight, backend, hooks);
   const auto& m = result.metrics;
   FlightRecord r;
   r.status = m.status == planning::FlightStatus::kError || m.status == planning::FlightStatus::kDiverged
@@ -134,13 +122,15 @@ FlightRecord IpoptPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) c
   return r;
 }
 
-ResolveRecord IpoptPlanner::Resolve(const Opaque& query, const ParamValues& theta_s) const {
+// A re-solve of a recorded query with `backend`.
+ResolveRecord ResolveWithBackend(const planning::TrajectoryBackend& backend,
+                                 const planning::LocalPlannerOptions& options,
+                                 const Opaque& query, const ParamValues& theta_s) {
   const auto& q = query.As<planning::PlanningQuery>();
   planning::PlannerParams params = q.params;
   for (const auto& [name, value] : theta_s) params.Set(name, value);
   params.Validate("short-term parameters");
-  const planning::PlanOutcome out = planning::SolveQuery(
-      *optimizer_, q, params, options_->flight.planner);
+  const planning::PlanOutcome out = backend.Solve(q, params, options);
   ResolveRecord r;
   r.success = out.Ok();
   r.message = out.Ok() ? "" : out.result.message;
@@ -152,6 +142,60 @@ ResolveRecord IpoptPlanner::Resolve(const Opaque& query, const ParamValues& thet
   r.jerk_integral = out.result.cost.jerk;
   r.min_clearance = out.result.min_clearance;
   return r;
+}
+
+}  // namespace
+
+IpoptPlanner::IpoptPlanner(IpoptPlannerOptions options)
+    : options_(std::make_shared<const IpoptPlannerOptions>(std::move(options))),
+      optimizer_(std::make_shared<const planning::TrajectoryOptimizer>(
+          options_->flight.planner.optimizer)) {}
+
+std::vector<ParameterInfo> IpoptPlanner::ShortTermParameters() const {
+  return InfoOf(options_->base, planning::PlannerParams::ShortTermNames());
+}
+std::vector<ParameterInfo> IpoptPlanner::LongTermParameters() const {
+  return InfoOf(options_->base, planning::PlannerParams::LongTermNames());
+}
+
+Opaque IpoptPlanner::PrepareMap(std::uint64_t map_seed) const {
+  return PrepareLayoutMap(*options_, map_seed);
+}
+
+FlightRecord IpoptPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) const {
+  return FlyWithBackend(*options_, planning::IpoptBackend(*optimizer_), request, slot);
+}
+
+ResolveRecord IpoptPlanner::Resolve(const Opaque& query, const ParamValues& theta_s) const {
+  return ResolveWithBackend(planning::IpoptBackend(*optimizer_), options_->flight.planner, query,
+                            theta_s);
+}
+
+// ---------------------------------------------------------------------------------------------
+// EgoPlanner
+
+EgoPlanner::EgoPlanner(EgoPlannerOptions options)
+    : options_(std::make_shared<const EgoPlannerOptions>(std::move(options))),
+      backend_(std::make_shared<const planning::EgoBackend>(options_->ego)) {}
+
+std::vector<ParameterInfo> EgoPlanner::ShortTermParameters() const {
+  return InfoOf(options_->common.base, planning::PlannerParams::ShortTermNames());
+}
+
+std::vector<ParameterInfo> EgoPlanner::LongTermParameters() const {
+  return InfoOf(options_->common.base, planning::PlannerParams::LongTermNames());
+}
+
+Opaque EgoPlanner::PrepareMap(std::uint64_t map_seed) const {
+  return PrepareLayoutMap(options_->common, map_seed);
+}
+
+FlightRecord EgoPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) const {
+  return FlyWithBackend(options_->common, *backend_, request, slot);
+}
+
+ResolveRecord EgoPlanner::Resolve(const Opaque& query, const ParamValues& theta_s) const {
+  return ResolveWithBackend(*backend_, options_->common.flight.planner, query, theta_s);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -14,6 +14,7 @@
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/physics/world.hpp"
+#include "quadtune/planning/ego_optimizer.hpp"
 #include "quadtune/planning/flight.hpp"
 #include "quadtune/planning/parameters.hpp"
 
@@ -31,6 +32,7 @@ struct FlyArgs {
   std::string out = "results/flight";
   std::string mission = "go-and-return";
   double max_time = 120.0;
+  std::string planner = "ipopt";
   bool plot = true;
   std::string from;              ///< a results store: fly its evaluation `evaluation` again
   std::int64_t evaluation = -1;
@@ -96,6 +98,10 @@ int RunFly(const FlyArgs& a) {
   planning::FlightOptions options;
   options.max_time = a.max_time;
   const planning::TrajectoryOptimizer optimizer;
+  const planning::IpoptBackend ipopt(optimizer);
+  const planning::EgoBackend ego;
+  const planning::TrajectoryBackend& backend =
+      a.planner == "ego" ? static_cast<const planning::TrajectoryBackend&>(ego) : ipopt;
 
   spdlog::info("flying {} with {} obstacles (spacing {:.2f} m achieved {:.2f} m), drone {}",
                a.mission, layout.obstacles.size(), layout.options.spacing,
@@ -103,7 +109,7 @@ int RunFly(const FlyArgs& a) {
   physics::World world(layout.obstacles, drone, world_options,
                        physics::DroneState::Hover(drone, mission.start_W, mission.start_yaw,
                                                   world_options.gravity));
-  const planning::FlightResult result = planning::Fly(world, mission, params, options, optimizer);
+  const planning::FlightResult result = planning::Fly(world, mission, params, options, backend);
   const auto& m = result.metrics;
 
   std::filesystem::create_directories(a.out);
@@ -177,6 +183,9 @@ void RegisterFly(CLI::App& app, int& exit_code) {
                                      "--set v_des=3 --set n_pol=6");
   cmd->add_option("--mission", args.mission, "go-and-return or go-to")
       ->check(CLI::IsMember({"go-and-return", "go-to"}))->capture_default_str();
+  cmd->add_option("--planner", args.planner, "trajectory back end: ipopt or ego (EGO-Planner)")
+      ->check(CLI::IsMember({"ipopt", "ego"}))
+      ->capture_default_str();
   cmd->add_option("--max-time", args.max_time, "flight time limit (s)")->capture_default_str();
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();
   cmd->add_flag("!--no-plot", args.plot, "skip the figure");

@@ -93,6 +93,12 @@ std::optional<double> StallDetector::Update(double t, const Eigen::Vector3d& p_W
 FlightResult Fly(physics::World& world, const Mission& mission, const PlannerParams& params,
                  const FlightOptions& options, const TrajectoryOptimizer& optimizer,
                  const FlightHooks& hooks) {
+  return Fly(world, mission, params, options, IpoptBackend(optimizer), hooks);
+}
+
+FlightResult Fly(physics::World& world, const Mission& mission, const PlannerParams& params,
+                 const FlightOptions& options, const TrajectoryBackend& backend,
+                 const FlightHooks& hooks) {
   mission.Validate();
   params.Validate();
   options.Validate();
@@ -114,7 +120,7 @@ FlightResult Fly(physics::World& world, const Mission& mission, const PlannerPar
   map_options.resolution = params.map_resolution;
   map_options.inflation = params.inflation;
   LocalMap map(map_options, mission.start_W);
-  Replanner replanner(optimizer, params, options.replanner, options.planner);
+  Replanner replanner(backend, params, options.replanner, options.planner);
   if (hooks.params_provider) replanner.SetParamsProvider(hooks.params_provider);
   if (hooks.on_plan) replanner.SetQueryObserver(hooks.on_plan);
   if (hooks.adapter != nullptr) replanner.SetAdapter(hooks.adapter);

@@ -26,6 +26,7 @@ PlanRequest PlanningQuery::ToRequest(bool use_warm_start) const {
 std::size_t PlanningQuery::MemoryBytes() const {
   std::size_t bytes = sizeof(PlanningQuery) + field.MemoryBytes() - sizeof(Esdf);
   bytes += initial_path_W.capacity() * sizeof(Eigen::Vector3d);
+  if (occupancy) bytes += occupancy->MemoryBytes() + sizeof(LocalMap);
   if (previous) bytes += previous->Durations().size() * (sizeof(double) + sizeof(Trajectory::Coefficients));
   return bytes;
 }
@@ -115,6 +116,10 @@ std::optional<PlanningQuery> LocalPlanner::MakeQuery(
   const double margin = params.clearance + options_.field_margin;
   box.min() -= Eigen::Vector3d::Constant(margin);
   box.max() += Eigen::Vector3d::Constant(margin);
+  if (options_.snapshot == QuerySnapshot::kOccupancy) {
+    q.occupancy = std::make_shared<const LocalMap>(map);
+    return q;
+  }
   q.field = builder_.Build(map, box, options_.esdf);
   return q;
 }

@@ -102,9 +102,32 @@ PlanResult StopAndGoAlongPath(const TrajectoryOptimizer& optimizer, const Planni
   return result;
 }
 
+namespace {
+
+LocalPlannerOptions WithSnapshot(LocalPlannerOptions options, const TrajectoryBackend& backend) {
+  options.snapshot = backend.Snapshot();
+  return options;
+}
+
+}  // namespace
+
 Replanner::Replanner(const TrajectoryOptimizer& optimizer, const PlannerParams& params,
                      const ReplannerOptions& options, const LocalPlannerOptions& planner_options)
-    : optimizer_(optimizer), params_(params), options_(options), planner_(planner_options) {
+    : Replanner(std::make_unique<IpoptBackend>(optimizer), nullptr, params, options,
+                planner_options) {}
+
+Replanner::Replanner(const TrajectoryBackend& backend, const PlannerParams& params,
+                     const ReplannerOptions& options, const LocalPlannerOptions& planner_options)
+    : Replanner(nullptr, &backend, params, options, planner_options) {}
+
+Replanner::Replanner(std::unique_ptr<const TrajectoryBackend> owned,
+                     const TrajectoryBackend* backend, const PlannerParams& params,
+                     const ReplannerOptions& options, const LocalPlannerOptions& planner_options)
+    : owned_backend_(std::move(owned)),
+      backend_(backend != nullptr ? *backend : *owned_backend_),
+      params_(params),
+      options_(options),
+      planner_(WithSnapshot(planner_options, backend_)) {
   params_.Validate();
   options_.Validate();
   planner_.options().CheckParams(params_);
@@ -213,7 +236,7 @@ bool Replanner::PlanFrom(double t, const Eigen::Vector3d& p0, const Eigen::Vecto
   }
   query->sequence = sequence_++;
   query->time = t;
-  PlanOutcome outcome = planner_.Plan(optimizer_, *query, params_);
+  PlanOutcome outcome = backend_.Solve(*query, params_, planner_.options());
   if (observer_) observer_(*query, outcome);
 
   rec.ok = outcome.Ok();
@@ -225,17 +248,18 @@ bool Replanner::PlanFrom(double t, const Eigen::Vector3d& p0, const Eigen::Vecto
   rec.jerk = outcome.result.cost.jerk;
   rec.duration = outcome.result.duration;
   if (!rec.ok && options_.fallback_speed > 0.0 && v0.norm() < options_.fallback_start_speed) {
-    PlanResult fallback = StopAndGoAlongPath(optimizer_, *query, params_, options_.fallback_speed);
-    if (fallback.Ok()) {
+    std::optional<PlanResult> fallback =
+        backend_.Fallback(*query, params_, options_.fallback_speed);
+    if (fallback && fallback->Ok()) {
       rec.ok = true;
       rec.fallback = true;
-      rec.status = fallback.status;
+      rec.status = fallback->status;
       rec.message = "stop-and-go fallback (the back end's last attempt: " +
                     outcome.result.message + ")";
-      rec.min_clearance = fallback.min_clearance;
-      rec.jerk = fallback.cost.jerk;
-      rec.duration = fallback.duration;
-      outcome.result = std::move(fallback);
+      rec.min_clearance = fallback->min_clearance;
+      rec.jerk = fallback->cost.jerk;
+      rec.duration = fallback->duration;
+      outcome.result = std::move(*fallback);
     }
   }
   if (!rec.ok) {

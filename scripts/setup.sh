@@ -13,7 +13,7 @@ build_dir="${QUADTUNE_BUILD_DIR:-$root/build}"
 packages=(
   build-essential cmake ninja-build pkg-config git
   libeigen3-dev libbullet-dev coinor-libipopt-dev liblapack-dev libblas-dev
-  libcgal-dev libgmp-dev libmpfr-dev libboost-dev
+  liblbfgs-dev libcgal-dev libgmp-dev libmpfr-dev libboost-dev
   libtbb-dev libyaml-cpp-dev libcli11-dev libspdlog-dev libfmt-dev
   libsqlite3-dev sqlite3 nlohmann-json3-dev libmimalloc-dev
   libopenmpi-dev openmpi-bin

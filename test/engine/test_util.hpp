@@ -32,6 +32,18 @@ inline std::string ToyYaml(const std::string& methods = "[default, random, pso, 
          "hyper_restarts: 0}\n";
 }
 
+/// One flight of `planner` with its default parameters on the map of `map_seed` (flight seed 3)
+/// in `slot`; every planning query it reports is appended to *queries.
+inline FlightRecord FlyRecordingQueries(const Planner& planner, std::uint64_t map_seed,
+                                        WorkerSlot& slot, std::vector<Opaque>* queries) {
+  FlightRequest req;
+  req.map = planner.PrepareMap(map_seed);
+  req.params = planner.Defaults();
+  req.seed = 3;
+  req.on_query = [queries](const Opaque& q) { queries->push_back(q); };
+  return planner.Fly(req, slot);
+}
+
 /// A fresh temporary directory for one test.
 inline std::string TempDir(const std::string& name) {
   const auto dir = std::filesystem::temp_directory_path() / ("quadtune_engine_" + name);

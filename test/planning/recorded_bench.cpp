@@ -26,6 +26,7 @@
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/planning/flight.hpp"
 #include "quadtune/planning/local_planner.hpp"
+#include "bench_util.hpp"
 
 namespace {
 
@@ -44,21 +45,9 @@ const TrajectoryOptimizer& Optimizer() {
 const std::vector<PlanningQuery>& Recorded() {
   static const std::vector<PlanningQuery> queries = [] {
     std::vector<PlanningQuery> out;
-    const auto drone = quadtune::physics::LoadDroneDescription(
-        std::string(QUADTUNE_SOURCE_DIR) + "/assets/drones/research_1kg.yaml");
+    const quadtune::planning::IpoptBackend backend(Optimizer());
     for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-      quadtune::layout::LayoutOptions options;
-      options.spacing = 1.3;
-      const quadtune::layout::Layout forest = quadtune::layout::GenerateLayout(options, seed);
-      quadtune::physics::WorldOptions world_options;
-      world_options.seed = seed;
-      world_options.collision_response = quadtune::physics::CollisionResponse::kPassThrough;
-      quadtune::physics::World world(forest.obstacles, drone, world_options);
-      quadtune::planning::FlightHooks hooks;
-      hooks.on_plan = [&](const PlanningQuery& q, const PlanOutcome&) { out.push_back(q); };
-      (void)quadtune::planning::Fly(
-          world, quadtune::planning::Mission::GoAndReturn(forest.start_W(), forest.goal_W()),
-          PlannerParams{}, quadtune::planning::FlightOptions{}, Optimizer(), hooks);
+      (void)quadtune::planning::bench::FlyForest(seed, backend, &out);
     }
     return out;
   }();
@@ -149,15 +138,8 @@ BENCHMARK(BM_RecordedCold)->DenseRange(3, 8)->Iterations(1)->Unit(benchmark::kMi
 void BM_ShortTermEvals(benchmark::State& state) {
   const auto& queries = Recorded();
   constexpr int kBatch = 512;
-  std::vector<PlannerParams> thetas;
-  quadtune::Rng rng(7);
-  for (int i = 0; i < kBatch; ++i) {
-    PlannerParams p = queries[static_cast<std::size_t>(i) % queries.size()].params;
-    p.w_col = std::exp(quadtune::Uniform(rng, std::log(0.05), std::log(5.0)));
-    p.w_dyn = std::exp(quadtune::Uniform(rng, std::log(0.01), std::log(1.0)));
-    p.n_pol = static_cast<int>(quadtune::UniformInt(rng, 3, 10));
-    thetas.push_back(p);
-  }
+  const std::vector<PlannerParams> thetas =
+      quadtune::planning::bench::RandomShortTermParams(queries, kBatch);
   const int threads = static_cast<int>(state.range(0));
   tbb::task_arena arena(threads);
   std::vector<PlanOutcome> results(kBatch);

@@ -20,7 +20,7 @@
 ///                              # defaults fly all of them (0: no validation)
 ///     methods: [default, random, pso, bo, bo_pso]
 ///     planner:
-///       type: ipopt            # ipopt | toy
+///       type: ipopt            # ipopt | ego | toy
 ///       drone: drones/research_1kg.yaml        # ipopt: relative to the file, then assets/
 ///       layout: {spacing: 3.0, ...}            # ipopt: LayoutOptions, or layout_file: PATH
 ///       world: {...}                           # ipopt: WorldOptions (seed set per flight)
@@ -127,7 +127,7 @@ struct Experiment {
   TimingMode mode = TimingMode::kReproducible;
   int repeats = 1;         ///< >= 1
   std::vector<Method> methods;
-  std::string planner_type;  ///< "ipopt" | "toy"
+  std::string planner_type;  ///< "ipopt" | "ego" | "toy"
   Planner planner{ToyPlanner{}};  ///< the plug-in
   optimizers::ParameterSpace space;  ///< all tuned parameters
   std::vector<std::string> short_names;  ///< θ_s, in space order

@@ -4,6 +4,10 @@
 ///
 /// - IpoptPlanner: the project's online planner (physics::World + planning::Fly, Ipopt back end,
 ///   planning::SolveQuery for re-solves). θ_s = {w_col, w_dyn, n_pol}, θ_l = {v_des, h_pl, t_pl}.
+/// - EgoPlanner: the same closed loop (sensing, local map, FSM, physics) with EGO-Planner's
+///   B-spline back end (planning::EgoBackend, L-BFGS, ESDF-free collision term); recorded queries
+///   carry an occupancy snapshot. θ_s = {w_col = λ_c, w_dyn = λ_d, n_pol (B-spline spans over the
+///   horizon, in groups of EgoOptions::segments_per_pol)}, θ_l = {v_des, h_pl, t_pl}.
 /// - ToyPlanner: a deliberately simple 1-D planner (a point moving along a line through gates)
 ///   with its own parameter names, to show that the engine tunes any plug-in. θ_s = {gain,
 ///   max_iter}, θ_l = {speed, margin}.
@@ -22,6 +26,7 @@
 #include "quadtune/layout/options.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/physics/world.hpp"
+#include "quadtune/planning/ego_optimizer.hpp"
 #include "quadtune/planning/flight.hpp"
 #include "quadtune/planning/parameters.hpp"
 #include "quadtune/planning/trajectory_optimizer.hpp"
@@ -57,6 +62,34 @@ class IpoptPlanner {
  private:
   std::shared_ptr<const IpoptPlannerOptions> options_;
   std::shared_ptr<const planning::TrajectoryOptimizer> optimizer_;
+};
+
+/// Settings of EgoPlanner: the flight setting of IpoptPlanner (its `flight.planner.optimizer` is
+/// unused) and the EGO back end's.
+struct EgoPlannerOptions {
+  IpoptPlannerOptions common;
+  planning::EgoOptions ego;
+};
+
+/// EGO-Planner's back end in the project's closed loop, as a plug-in. Maps, world slots and the
+/// mission are IpoptPlanner's; Fly() flies planning::Fly with a planning::EgoBackend and Resolve()
+/// re-solves a recorded query with EgoBackend::Solve (bit-reproducible on any thread).
+class EgoPlanner {
+ public:
+  explicit EgoPlanner(EgoPlannerOptions options);
+
+  std::string Name() const { return "ego"; }
+  std::vector<ParameterInfo> ShortTermParameters() const;
+  std::vector<ParameterInfo> LongTermParameters() const;
+  Opaque PrepareMap(std::uint64_t map_seed) const;
+  FlightRecord Fly(const FlightRequest& request, WorkerSlot& slot) const;
+  ResolveRecord Resolve(const Opaque& query, const ParamValues& theta_s) const;
+
+  [[nodiscard]] const EgoPlannerOptions& options() const { return *options_; }
+
+ private:
+  std::shared_ptr<const EgoPlannerOptions> options_;
+  std::shared_ptr<const planning::EgoBackend> backend_;
 };
 
 /// Settings of ToyPlanner.

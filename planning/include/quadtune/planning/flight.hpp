@@ -158,6 +158,11 @@ class StallDetector {
 [[nodiscard]] FlightResult Fly(physics::World& world, const Mission& mission,
                                const PlannerParams& params, const FlightOptions& options,
                                const TrajectoryOptimizer& optimizer, const FlightHooks& hooks = {});
+/// The same flight with any trajectory back end (same sensing, map, FSM and physics; see
+/// Replanner's back-end constructor).
+[[nodiscard]] FlightResult Fly(physics::World& world, const Mission& mission,
+                               const PlannerParams& params, const FlightOptions& options,
+                               const TrajectoryBackend& backend, const FlightHooks& hooks = {});
 
 /// Writes a flight for people and plots into `directory` (created): flight.csv (state log),
 /// plans.csv (planned trajectories sampled at 0.05 s), plan_steps.csv (every planning step:

@@ -17,6 +17,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -29,6 +30,12 @@
 #include "quadtune/planning/trajectory_optimizer.hpp"
 
 namespace quadtune::planning {
+
+/// Which map snapshot a planning query carries (the back end's choice, TrajectoryBackend).
+enum class QuerySnapshot {
+  kDistanceField,  ///< PlanningQuery::field: a distance field around the path (Ipopt back end)
+  kOccupancy,      ///< PlanningQuery::occupancy: a copy of the local map (EGO back end)
+};
 
 /// A self-contained, copyable record of one planning problem (world frame W, SI units).
 ///
@@ -46,7 +53,10 @@ struct PlanningQuery {
   /// EGO-Planner does) instead of stopping at every local goal.
   Eigen::Vector3d goal_v_W = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector3d> initial_path_W;  ///< pruned front-end path, start → goal (m)
-  Esdf field;                                   ///< distance-field snapshot around the path
+  Esdf field;  ///< distance-field snapshot around the path (QuerySnapshot::kDistanceField)
+  /// Occupancy snapshot: the local map as it was (QuerySnapshot::kOccupancy; null otherwise).
+  /// Shared and immutable, so copies of the query are cheap.
+  std::shared_ptr<const LocalMap> occupancy;
   std::optional<Trajectory> previous;           ///< the executing trajectory, for warm starts
   double previous_time = 0.0;                   ///< time on `previous` matching p0_W (s)
   /// Parameters in force when the query was made: θ_l and the fixed ones matter; θ_s is what a
@@ -89,6 +99,8 @@ struct LocalPlannerOptions {
   /// into the clearance by a few millimetres, and a drone hovering just outside it then fails
   /// the same way on every re-plan (measured: the usual cause of stalled benchmark flights).
   double retry_collision_gain = 10.0;
+  /// The map snapshot MakeQuery records (the Replanner sets it from its back end).
+  QuerySnapshot snapshot = QuerySnapshot::kDistanceField;
 
   /// Throws ConfigError(origin, key, ...) for the first bad field.
   void Validate(const std::string& origin = "") const;

@@ -26,6 +26,7 @@
 
 #include <Eigen/Core>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -35,6 +36,7 @@
 #include "quadtune/planning/local_planner.hpp"
 #include "quadtune/planning/parameters.hpp"
 #include "quadtune/planning/trajectory.hpp"
+#include "quadtune/planning/trajectory_backend.hpp"
 #include "quadtune/planning/trajectory_optimizer.hpp"
 
 namespace quadtune::planning {
@@ -116,8 +118,14 @@ struct PlanRecord {
 /// The replanning FSM. See the file comment.
 class Replanner {
  public:
-  /// `optimizer` must outlive the Replanner. Validates all options and `params`.
+  /// Plans with the Ipopt back end (IpoptBackend). `optimizer` must outlive the Replanner.
+  /// Validates all options and `params`.
   Replanner(const TrajectoryOptimizer& optimizer, const PlannerParams& params,
+            const ReplannerOptions& options = {}, const LocalPlannerOptions& planner_options = {});
+  /// Plans with any back end; its queries record the back end's snapshot (planner_options'
+  /// `snapshot` is replaced by backend.Snapshot()); its Fallback() replaces the stop-and-go
+  /// fallback. `backend` must outlive the Replanner. Validates all options and `params`.
+  Replanner(const TrajectoryBackend& backend, const PlannerParams& params,
             const ReplannerOptions& options = {}, const LocalPlannerOptions& planner_options = {});
 
   /// Starts a mission through `waypoints_W` from rest at p_W with heading yaw at time t.
@@ -159,6 +167,9 @@ class Replanner {
   [[nodiscard]] double trajectory_start() const { return traj_t0_; }
 
  private:
+  Replanner(std::unique_ptr<const TrajectoryBackend> owned, const TrajectoryBackend* backend,
+            const PlannerParams& params, const ReplannerOptions& options,
+            const LocalPlannerOptions& planner_options);
   bool PlanFrom(double t, const Eigen::Vector3d& p0, const Eigen::Vector3d& v0,
                 const Eigen::Vector3d& a0, const LocalMap& map, bool from_trajectory,
                 bool collision_triggered);
@@ -168,7 +179,8 @@ class Replanner {
   // Executes a plan handed over by the adapter.
   void Adopt(double t, AdaptedPlan plan);
 
-  const TrajectoryOptimizer& optimizer_;
+  std::unique_ptr<const TrajectoryBackend> owned_backend_;  // the IpoptBackend of the first ctor
+  const TrajectoryBackend& backend_;
   PlannerParams params_;
   ReplannerOptions options_;
   LocalPlanner planner_;

@@ -1,0 +1,68 @@
+#pragma once
+/// \file
+/// The closed loop's plug-in point for trajectory back ends: what turns a recorded planning query
+/// (start state, local goal, front-end path, map snapshot) into a trajectory. The replanning FSM
+/// (Replanner), the closed-loop flight (Fly) and the engine's planner plug-ins take any
+/// TrajectoryBackend; the project ships two:
+///
+/// - IpoptBackend: the minimum-jerk Ipopt optimiser on the query's distance-field snapshot
+///   (SolveQuery, with its retries), and the stop-and-go fallback (StopAndGoAlongPath);
+/// - EgoBackend (ego_optimizer.hpp): EGO-Planner's B-spline optimiser on the query's occupancy
+///   snapshot, solved by L-BFGS; no fallback.
+///
+/// A back end states which map snapshot its queries need (QuerySnapshot); LocalPlanner::MakeQuery
+/// records that one, so a recorded query holds everything a later re-solve reads.
+///
+/// Thread safety: a back end is immutable after construction; Solve() and Fallback() may run
+/// concurrently from many threads on shared queries.
+
+#include <optional>
+#include <string>
+
+#include "quadtune/planning/local_planner.hpp"
+#include "quadtune/planning/parameters.hpp"
+#include "quadtune/planning/trajectory_optimizer.hpp"
+
+namespace quadtune::planning {
+
+/// A trajectory back end (see the file comment).
+class TrajectoryBackend {
+ public:
+  virtual ~TrajectoryBackend() = default;
+  /// Short name ("ipopt", "ego").
+  [[nodiscard]] virtual std::string Name() const = 0;
+  /// The map snapshot that MakeQuery must record for this back end.
+  [[nodiscard]] virtual QuerySnapshot Snapshot() const = 0;
+  /// Plans a trajectory for `query` with parameters `params` (θ_s and the rest, as in force);
+  /// `options` are the planning-step settings of the flight. The outcome's trajectory starts at
+  /// query.p0_W at time 0. Never throws for planning failures (they are the outcome's status).
+  [[nodiscard]] virtual PlanOutcome Solve(const PlanningQuery& query, const PlannerParams& params,
+                                          const LocalPlannerOptions& options) const = 0;
+  /// A slow trajectory along the front-end path for a start (nearly) at rest after every attempt
+  /// of Solve() failed, judged by the back end's own acceptance check (its status says whether
+  /// it may be flown), with peak speed `speed` (m/s, > 0); nullopt when the back end has none.
+  [[nodiscard]] virtual std::optional<PlanResult> Fallback(const PlanningQuery& query,
+                                                           const PlannerParams& params,
+                                                           double speed) const = 0;
+};
+
+/// The Ipopt minimum-jerk back end: Solve() is SolveQuery(optimizer, ...), Fallback() is
+/// StopAndGoAlongPath(optimizer, ...). Holds a reference: `optimizer` must outlive it.
+class IpoptBackend final : public TrajectoryBackend {
+ public:
+  explicit IpoptBackend(const TrajectoryOptimizer& optimizer) : optimizer_(optimizer) {}
+
+  [[nodiscard]] std::string Name() const override { return "ipopt"; }
+  [[nodiscard]] QuerySnapshot Snapshot() const override { return QuerySnapshot::kDistanceField; }
+  [[nodiscard]] PlanOutcome Solve(const PlanningQuery& query, const PlannerParams& params,
+                                  const LocalPlannerOptions& options) const override;
+  [[nodiscard]] std::optional<PlanResult> Fallback(const PlanningQuery& query,
+                                                   const PlannerParams& params,
+                                                   double speed) const override;
+  [[nodiscard]] const TrajectoryOptimizer& optimizer() const { return optimizer_; }
+
+ private:
+  const TrajectoryOptimizer& optimizer_;
+};
+
+}  // namespace quadtune::planning
