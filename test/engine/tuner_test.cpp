@@ -388,10 +388,29 @@ TEST(Cli, ExportWritesCsvAndBenchRuns) {
   int lines = 0;
   for (std::string line; std::getline(csv, line);) ++lines;
   EXPECT_EQ(lines, 1 + 6);
-  EXPECT_TRUE(std::filesystem::exists(dir + "/csv/trials.csv"));
-  EXPECT_TRUE(std::filesystem::exists(dir + "/run/summary.json"));
+  // trials.csv: the one bo trial, done; summary.json: the same trial with its 6 flights.
+  std::ifstream trials(dir + "/csv/trials.csv");
+  std::vector<std::string> trial_lines;
+  for (std::string line; std::getline(trials, line);) trial_lines.push_back(line);
+  ASSERT_EQ(trial_lines.size(), 2u);
+  EXPECT_NE(trial_lines[1].find("bo"), std::string::npos) << trial_lines[1];
+  EXPECT_NE(trial_lines[1].find("done"), std::string::npos) << trial_lines[1];
+  const auto summary = nlohmann::json::parse(std::ifstream(dir + "/run/summary.json"));
+  EXPECT_EQ(summary["status"], "completed");
+  ASSERT_EQ(summary["trials"].size(), 1u);
+  EXPECT_EQ(summary["trials"][0]["method"], "bo");
+  EXPECT_EQ(summary["trials"][0]["flights"], 6);
+  EXPECT_EQ(summary["flights"], 6);
+  const auto stored = test::Deterministic(dir + "/run/results.sqlite");
+  EXPECT_EQ(stored.size(), 6u);
+  // The bench reports its table: one row per thread count.
   EXPECT_EQ(WaitExit(Spawn({bin, "--log-level", "warn", "bench", file, "--max-threads", "2",
-                            "--flights", "4", "--resolves", "50"})), 0);
+                            "--flights", "4", "--resolves", "50", "--csv",
+                            dir + "/bench.csv"})), 0);
+  std::ifstream bench(dir + "/bench.csv");
+  int bench_lines = 0;
+  for (std::string line; std::getline(bench, line);) ++bench_lines;
+  EXPECT_EQ(bench_lines, 1 + 2);
   // A configuration error stops `run` before any work, with exit code 2.
   std::ofstream(dir + "/bad.yaml") << test::ToyYaml("[annealing]");
   EXPECT_EQ(WaitExit(Spawn({bin, "--log-level", "off", "run", dir + "/bad.yaml", "--out",

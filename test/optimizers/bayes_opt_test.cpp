@@ -5,6 +5,7 @@
 #include <algorithm>
 
 #include "test_functions.hpp"
+#include "../config_error_util.hpp"
 
 namespace quadtune::optimizers {
 namespace {
@@ -318,21 +319,21 @@ seed: 3
 TEST(BayesOpt, RejectsDiscountOutsideUnitInterval) {
   BayesOptOptions o;
   o.discount = 0.0;
-  EXPECT_THROW(BayesOpt(MixedSpace(), o), ConfigError);
-  EXPECT_THROW(BayesOptOptions::FromYaml(YamlMap::FromString("discount: 1.5")), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOpt(MixedSpace(), o); }, "@KEY1@", {"@MSG1@"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOptOptions::FromYaml(YamlMap::FromString("discount: 1.5")); }, "@KEY2@", {"@MSG2@"}));
 }
 
 TEST(BayesOpt, RejectsDampingOutsideUnitInterval) {
   BayesOptOptions o;
   o.moving_bounds.damping = 1.0;
-  EXPECT_THROW(BayesOpt(MixedSpace(), o), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOpt(MixedSpace(), o); }, "@KEY3@", {"@MSG3@"}));
 }
 
 TEST(BayesOpt, RejectsUnknownYamlKey) {
-  EXPECT_THROW(BayesOptOptions::FromYaml(YamlMap::FromString("kernal: matern52")), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOptOptions::FromYaml(YamlMap::FromString("kernal: matern52")); }, "@KEY4@", {"@MSG4@"}));
 }
 
-TEST(BayesOpt, RejectsEmptySpace) { EXPECT_THROW(BayesOpt(ParameterSpace(), {}), ConfigError); }
+TEST(BayesOpt, RejectsEmptySpace) { EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOpt(ParameterSpace(), {}); }, "@KEY5@", {"@MSG5@"})); }
 
 TEST(BayesOpt, RejectsCrossedSearchBounds) {
   BayesOpt bo(MixedSpace(), {});

@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 
 #include "quadtune/common/error.hpp"
+#include "../config_error_util.hpp"
 
 namespace quadtune::optimizers {
 namespace {
@@ -203,7 +204,7 @@ TEST(GaussianProcess, RejectsBadData) {
 TEST(GaussianProcess, RejectsBadOptions) {
   GaussianProcessOptions o;
   o.max_lengthscale = o.min_lengthscale / 2;
-  EXPECT_THROW(GaussianProcess<Matern52Kernel>(2, o), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { GaussianProcess<Matern52Kernel>(2, o); }, "@KEY1@", {"@MSG1@"}));
 }
 
 }  // namespace

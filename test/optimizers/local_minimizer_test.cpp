@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "quadtune/common/error.hpp"
+#include "../config_error_util.hpp"
 
 namespace quadtune::optimizers {
 namespace {
@@ -42,7 +43,7 @@ TEST(MinimizeBox, RejectsBadOptions) {
   Eigen::VectorXd x = Eigen::VectorXd::Zero(1);
   BoxLbfgsOptions o;
   o.max_iterations = 0;
-  EXPECT_THROW(MinimizeBox(Rosen, x, x, x, o), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { MinimizeBox(Rosen, x, x, x, o); }, "@KEY1@", {"@MSG1@"}));
   EXPECT_THROW(MinimizeBox(Rosen, x, Eigen::VectorXd::Zero(2), Eigen::VectorXd::Ones(2)), std::invalid_argument);
 }
 

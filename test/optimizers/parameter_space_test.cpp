@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include "../config_error_util.hpp"
 
 namespace quadtune::optimizers {
 namespace {
@@ -67,36 +68,31 @@ TEST(ParameterSpace, ContainsAndNamed) {
 }
 
 TEST(ParameterSpace, RejectsLowerAboveUpper) {
-  EXPECT_THROW(ParameterSpace::FromYaml(YamlMap::FromString("parameters: [{name: a, lower: 2, upper: 1}]")),
-               ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { ParameterSpace::FromYaml(YamlMap::FromString("parameters: [{name: a, lower: 2, upper: 1}]")); }, "@KEY1@", {"@MSG1@"}));
 }
 
 TEST(ParameterSpace, RejectsEmptySpace) {
-  EXPECT_THROW(ParameterSpace(std::vector<Parameter>{}), ConfigError);
-  EXPECT_THROW(ParameterSpace::FromYaml(YamlMap::FromString("parameters: []")), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { ParameterSpace(std::vector<Parameter>{}); }, "@KEY2@", {"@MSG2@"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { ParameterSpace::FromYaml(YamlMap::FromString("parameters: []")); }, "@KEY3@", {"@MSG3@"}));
 }
 
 TEST(ParameterSpace, RejectsLogScaleWithNonPositiveLower) {
-  EXPECT_THROW(ParameterSpace::FromYaml(YamlMap::FromString("parameters: [{name: a, lower: 0, upper: 1, log: true}]")),
-               ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { ParameterSpace::FromYaml(YamlMap::FromString("parameters: [{name: a, lower: 0, upper: 1, log: true}]")); }, "@KEY4@", {"@MSG4@"}));
 }
 
 TEST(ParameterSpace, RejectsNonIntegerIntegerBounds) {
-  EXPECT_THROW(ParameterSpace::FromYaml(
-                   YamlMap::FromString("parameters: [{name: a, lower: 0.5, upper: 3, type: integer}]")),
-               ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { ParameterSpace::FromYaml(
+                   YamlMap::FromString("parameters: [{name: a, lower: 0.5, upper: 3, type: integer}]")); }, "@KEY5@", {"@MSG5@"}));
 }
 
 TEST(ParameterSpace, RejectsDefaultOutsideBounds) {
-  EXPECT_THROW(ParameterSpace::FromYaml(
-                   YamlMap::FromString("parameters: [{name: a, lower: 0, upper: 1, default: 2}]")),
-               ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { ParameterSpace::FromYaml(
+                   YamlMap::FromString("parameters: [{name: a, lower: 0, upper: 1, default: 2}]")); }, "@KEY6@", {"@MSG6@"}));
 }
 
 TEST(ParameterSpace, RejectsDuplicateNames) {
-  EXPECT_THROW(ParameterSpace::FromYaml(YamlMap::FromString(
-                   "parameters: [{name: a, lower: 0, upper: 1}, {name: a, lower: 0, upper: 2}]")),
-               ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { ParameterSpace::FromYaml(YamlMap::FromString(
+                   "parameters: [{name: a, lower: 0, upper: 1}, {name: a, lower: 0, upper: 2}]")); }, "@KEY7@", {"@MSG7@"}));
 }
 
 TEST(ParameterSpace, RejectsUnknownYamlKey) {

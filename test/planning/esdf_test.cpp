@@ -8,6 +8,7 @@
 #include "analytic_fields.hpp"
 #include "mapping_scenes.hpp"
 #include "quadtune/common/random.hpp"
+#include "../config_error_util.hpp"
 
 namespace quadtune::planning {
 namespace {
@@ -305,10 +306,10 @@ TEST(EsdfOptions, ValidateRejectsEachBadValue) {
   EXPECT_NO_THROW(EsdfOptions{}.Validate());
   EsdfOptions o;
   o.max_distance = 0.0;
-  EXPECT_THROW(o.Validate(), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { o.Validate(); }, "@KEY1@", {"@MSG1@"}));
   o.max_distance = 40.0;
-  EXPECT_THROW(o.Validate(), ConfigError);
-  EXPECT_THROW((void)EsdfOptions::FromYaml(YamlMap::FromString("max_dist: 1\n")), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { o.Validate(); }, "@KEY2@", {"@MSG2@"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { (void)EsdfOptions::FromYaml(YamlMap::FromString("max_dist: 1\n")); }, "@KEY3@", {"@MSG3@"}));
   EXPECT_DOUBLE_EQ(EsdfOptions::FromYaml(YamlMap::FromString("max_distance: 1.5\n")).max_distance,
                    1.5);
   LocalMap map(LocalMapOptions{});

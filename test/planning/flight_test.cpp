@@ -11,6 +11,7 @@
 
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
+#include "../config_error_util.hpp"
 
 namespace quadtune::planning {
 namespace {
@@ -234,21 +235,19 @@ TEST(Flight, BadArgumentsThrowConfigError) {
   const physics::DroneDescription drone = ResearchDrone();
   physics::World world(f.forest.obstacles, drone, f.world_options);
   Mission empty;
-  EXPECT_THROW((void)Fly(world, empty, PlannerParams{}, FlightOptions{}, f.optimizer), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { (void)Fly(world, empty, PlannerParams{}, FlightOptions{}, f.optimizer); }, "@KEY1@", {"@MSG1@"}));
   FlightOptions options;
   options.tick_rate_hz = 300.0;  // does not divide 1000 Hz
-  EXPECT_THROW((void)Fly(world, f.mission, PlannerParams{}, options, f.optimizer), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { (void)Fly(world, f.mission, PlannerParams{}, options, f.optimizer); }, "@KEY2@", {"@MSG2@"}));
   PlannerParams params;
   params.h_pl = -1.0;
-  EXPECT_THROW((void)Fly(world, f.mission, params, FlightOptions{}, f.optimizer), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { (void)Fly(world, f.mission, params, FlightOptions{}, f.optimizer); }, "@KEY3@", {"@MSG3@"}));
   FlightOptions no_stall_time;
   no_stall_time.stall_time = 0.0;
-  EXPECT_THROW((void)Fly(world, f.mission, PlannerParams{}, no_stall_time, f.optimizer),
-               ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { (void)Fly(world, f.mission, PlannerParams{}, no_stall_time, f.optimizer); }, "@KEY4@", {"@MSG4@"}));
   FlightOptions negative_stall_distance;
   negative_stall_distance.stall_distance = -1.0;
-  EXPECT_THROW((void)Fly(world, f.mission, PlannerParams{}, negative_stall_distance, f.optimizer),
-               ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { (void)Fly(world, f.mission, PlannerParams{}, negative_stall_distance, f.optimizer); }, "@KEY5@", {"@MSG5@"}));
 }
 
 }  // namespace

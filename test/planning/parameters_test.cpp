@@ -2,6 +2,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include "../config_error_util.hpp"
 
 namespace quadtune::planning {
 namespace {
@@ -23,8 +24,8 @@ TEST(PlannerParams, NamedAccessRoundTrips) {
 
 TEST(PlannerParams, UnknownNameThrows) {
   PlannerParams p;
-  EXPECT_THROW(p.Set("w_colision", 1.0), ConfigError);
-  EXPECT_THROW((void)p.Get("speed"), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { p.Set("w_colision", 1.0); }, "@KEY1@", {"@MSG1@"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { (void)p.Get("speed"); }, "@KEY2@", {"@MSG2@"}));
 }
 
 TEST(PlannerParams, OutOfRangeNamesKey) {
@@ -39,10 +40,10 @@ TEST(PlannerParams, OutOfRangeNamesKey) {
   }
   p = PlannerParams{};
   p.v_des = 0.0;
-  EXPECT_THROW(p.Validate(), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { p.Validate(); }, "@KEY3@", {"@MSG3@"}));
   p = PlannerParams{};
   p.w_col = -1.0;
-  EXPECT_THROW(p.Validate(), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { p.Validate(); }, "@KEY4@", {"@MSG4@"}));
 }
 
 TEST(PlannerParams, FromYamlOverridesDefaultsAndRejectsUnknownKeys) {
@@ -50,8 +51,8 @@ TEST(PlannerParams, FromYamlOverridesDefaultsAndRejectsUnknownKeys) {
   EXPECT_DOUBLE_EQ(p.v_des, 3.5);
   EXPECT_EQ(p.n_pol, 6);
   EXPECT_DOUBLE_EQ(p.h_pl, PlannerParams{}.h_pl);
-  EXPECT_THROW(PlannerParams::FromYaml(YamlMap::FromString("vdes: 3\n", "e.yaml")), ConfigError);
-  EXPECT_THROW(PlannerParams::FromYaml(YamlMap::FromString("h_pl: 100\n", "e.yaml")), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { PlannerParams::FromYaml(YamlMap::FromString("vdes: 3\n", "e.yaml")); }, "@KEY5@", {"@MSG5@"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { PlannerParams::FromYaml(YamlMap::FromString("h_pl: 100\n", "e.yaml")); }, "@KEY6@", {"@MSG6@"}));
 }
 
 }  // namespace
