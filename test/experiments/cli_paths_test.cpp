@@ -163,7 +163,7 @@ TEST(CliFly, LayoutDroneWorldSetAndGoTo) {
   ASSERT_GT(flight.size(), 10u);
   const auto& last = flight.back();
   EXPECT_LT(std::hypot(Num(last, "x") - 8.0, Num(last, "y")), 0.5);
-  EXPECT_NEAR(Num(last, "t"), summary["flight_time"].get<double>(), 0.05);
+  EXPECT_NEAR(Num(last, "t"), summary["flight_time"].get<double>(), 0.1);  // logged at 20 Hz
   // v_des = 1.0 (the default is 2.0): the drone never flies much faster.
   EXPECT_LE(summary["max_speed"].get<double>(), 1.0 * 1.3);
   double max_row_speed = 0.0;

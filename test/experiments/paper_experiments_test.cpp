@@ -339,7 +339,7 @@ TEST(PaperExperiments, FlightWritesTopDownFigure) {
   // The flight log ends where the summary says: its time is the flight time.
   const auto flight = ReadCsv(dir / "f" / "flight.csv");
   ASSERT_FALSE(flight.empty());
-  EXPECT_NEAR(Number(flight.back(), "t"), summary["flight_time"].get<double>(), 0.05);
+  EXPECT_NEAR(Number(flight.back(), "t"), summary["flight_time"].get<double>(), 0.1);  // 20 Hz log
 }
 
 }  // namespace

@@ -306,10 +306,10 @@ TEST(EsdfOptions, ValidateRejectsEachBadValue) {
   EXPECT_NO_THROW(EsdfOptions{}.Validate());
   EsdfOptions o;
   o.max_distance = 0.0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { o.Validate(); }, "@KEY1@", {"@MSG1@"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { o.Validate(); }, "max_distance", {"allowed: a number in (0, 30]"}));
   o.max_distance = 40.0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { o.Validate(); }, "@KEY2@", {"@MSG2@"}));
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { (void)EsdfOptions::FromYaml(YamlMap::FromString("max_dist: 1\n")); }, "@KEY3@", {"@MSG3@"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { o.Validate(); }, "max_distance", {"allowed: a number in (0, 30]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { (void)EsdfOptions::FromYaml(YamlMap::FromString("max_dist: 1\n")); }, "max_dist", {"unknown key; allowed keys"}));
   EXPECT_DOUBLE_EQ(EsdfOptions::FromYaml(YamlMap::FromString("max_distance: 1.5\n")).max_distance,
                    1.5);
   LocalMap map(LocalMapOptions{});
