@@ -265,12 +265,12 @@ TEST(Pso, SaveRestoreContinuesExactly) {
 TEST(Pso, RejectsBadOptions) {
   PsoOptions o;
   o.num_particles = 0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Pso(BoxSpace(2, 0.0, 1.0), o); }, "@KEY1@", {"@MSG1@"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Pso(BoxSpace(2, 0.0, 1.0), o); }, "num_particles", {"must be an integer"}));
   o = {};
   o.max_velocity = 0.0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Pso(BoxSpace(2, 0.0, 1.0), o); }, "@KEY2@", {"@MSG2@"}));
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { PsoOptions::FromYaml(YamlMap::FromString("inertia: 3")); }, "@KEY3@", {"@MSG3@"}));
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { PsoOptions::FromYaml(YamlMap::FromString("particles: 3")); }, "@KEY4@", {"@MSG4@"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Pso(BoxSpace(2, 0.0, 1.0), o); }, "max_velocity", {"must be a number"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { PsoOptions::FromYaml(YamlMap::FromString("inertia: 3")); }, "inertia", {"allowed: a number in [0, 1.5]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { PsoOptions::FromYaml(YamlMap::FromString("particles: 3")); }, "particles", {"unknown key; allowed keys"}));
 }
 
 TEST(Pso, RejectsStateWithOtherSwarmSize) {
