@@ -11,7 +11,6 @@
 
 #include "quadtune/common/error.hpp"
 #include "quadtune/layout/footprint.hpp"
-#include "../config_error_util.hpp"
 
 namespace quadtune::layout {
 namespace {
@@ -370,31 +369,31 @@ TEST(Layout, ValidateRejectsOverlappingObstacles) {
   ASSERT_GE(l.obstacles.cylinders.size(), 2u);
   l.obstacles.cylinders[1].center_W =
       l.obstacles.cylinders[0].center_W + Eigen::Vector2d(l.obstacles.cylinders[0].radius, 0.0);
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { l.Validate(); }, "@KEY1@", {"@MSG1@"}));
+  EXPECT_THROW(l.Validate(), ConfigError);
 }
 
 TEST(Layout, ValidateRejectsObstacleInKeepOutZone) {
   Layout l = GenerateLayout(Asset("forest_3p0.yaml"), 1);
   l.obstacles.cylinders.push_back({l.start_W().head<2>() + Eigen::Vector2d(0.5, 0.0), 0.2, 0, 3});
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { l.Validate(); }, "@KEY2@", {"@MSG2@"}));
+  EXPECT_THROW(l.Validate(), ConfigError);
 }
 
 TEST(Layout, ValidateRejectsObstacleOutsideRegion) {
   Layout l = GenerateLayout(Asset("forest_3p0.yaml"), 1);
   l.obstacles.rings.push_back({Eigen::Vector3d(12.0, 4.5, 1.5), 0.0, 1.0, 0.1});
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { l.Validate(); }, "@KEY3@", {"@MSG3@"}));
+  EXPECT_THROW(l.Validate(), ConfigError);
 }
 
 TEST(Layout, LoadRejectsUnknownKey) {
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Layout::FromYamlString("obstacles: {cylinders: [], trees: []}"); }, "@KEY4@", {"@MSG4@"}));
+  EXPECT_THROW(Layout::FromYamlString("obstacles: {cylinders: [], trees: []}"), ConfigError);
 }
 
 TEST(Layout, LoadRejectsWrongFormat) {
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Layout::FromYamlString("format: quadtune.layout/99"); }, "@KEY5@", {"@MSG5@"}));
+  EXPECT_THROW(Layout::FromYamlString("format: quadtune.layout/99"), ConfigError);
 }
 
 TEST(Layout, LoadRejectsMissingFile) {
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Layout::Load("/nonexistent/quadtune/layout.yaml"); }, "@KEY6@", {"@MSG6@"}));
+  EXPECT_THROW(Layout::Load("/nonexistent/quadtune/layout.yaml"), ConfigError);
 }
 
 TEST(GenerateLayout, UnreachableDensityFailsWithClearError) {
@@ -434,7 +433,7 @@ TEST(GenerateLayout, ZoneCoveredByKeepOutFailsNamingTheZone) {
 TEST(GenerateLayout, InvalidOptionsThrow) {
   LayoutOptions o;
   o.min_gap = -1.0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { (void)GenerateLayout(o, 1); }, "@KEY7@", {"@MSG7@"}));
+  EXPECT_THROW((void)GenerateLayout(o, 1), ConfigError);
 }
 
 }  // namespace

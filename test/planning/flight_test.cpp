@@ -11,7 +11,6 @@
 
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
-#include "../config_error_util.hpp"
 
 namespace quadtune::planning {
 namespace {
@@ -235,19 +234,21 @@ TEST(Flight, BadArgumentsThrowConfigError) {
   const physics::DroneDescription drone = ResearchDrone();
   physics::World world(f.forest.obstacles, drone, f.world_options);
   Mission empty;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { (void)Fly(world, empty, PlannerParams{}, FlightOptions{}, f.optimizer); }, "@KEY1@", {"@MSG1@"}));
+  EXPECT_THROW((void)Fly(world, empty, PlannerParams{}, FlightOptions{}, f.optimizer), ConfigError);
   FlightOptions options;
   options.tick_rate_hz = 300.0;  // does not divide 1000 Hz
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { (void)Fly(world, f.mission, PlannerParams{}, options, f.optimizer); }, "@KEY2@", {"@MSG2@"}));
+  EXPECT_THROW((void)Fly(world, f.mission, PlannerParams{}, options, f.optimizer), ConfigError);
   PlannerParams params;
   params.h_pl = -1.0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { (void)Fly(world, f.mission, params, FlightOptions{}, f.optimizer); }, "@KEY3@", {"@MSG3@"}));
+  EXPECT_THROW((void)Fly(world, f.mission, params, FlightOptions{}, f.optimizer), ConfigError);
   FlightOptions no_stall_time;
   no_stall_time.stall_time = 0.0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { (void)Fly(world, f.mission, PlannerParams{}, no_stall_time, f.optimizer); }, "@KEY4@", {"@MSG4@"}));
+  EXPECT_THROW((void)Fly(world, f.mission, PlannerParams{}, no_stall_time, f.optimizer),
+               ConfigError);
   FlightOptions negative_stall_distance;
   negative_stall_distance.stall_distance = -1.0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { (void)Fly(world, f.mission, PlannerParams{}, negative_stall_distance, f.optimizer); }, "@KEY5@", {"@MSG5@"}));
+  EXPECT_THROW((void)Fly(world, f.mission, PlannerParams{}, negative_stall_distance, f.optimizer),
+               ConfigError);
 }
 
 }  // namespace
