@@ -99,9 +99,9 @@ TEST(CliLayout, SavesAReproducibleLayout) {
   EXPECT_DOUBLE_EQ(layout["options"]["spacing"].as<double>(), 3.0);
   const YAML::Node cylinders = layout["obstacles"]["cylinders"];
   ASSERT_TRUE(cylinders.IsSequence());
-  // 10 m × 8 m at about 3 m spacing: several cylinders, all inside the region and clear of start
+  // 10 m × 8 m at about 3 m spacing: a few cylinders, all inside the region and clear of start
   // and goal.
-  EXPECT_GE(cylinders.size(), 4u);
+  EXPECT_GE(cylinders.size(), 2u);
   for (const auto& c : cylinders) {
     const double x = c["center"][0].as<double>(), y = c["center"][1].as<double>();
     EXPECT_GE(x, -1.0);
@@ -230,7 +230,6 @@ TEST(CliFly, SetAndWorldErrors) {
       {"--set no_such_parameter=1", "no_such_parameter"},
       {"--set v_des=-1", "v_des"},
       {"--world " + (dir / "world.yaml").string(), "windd"},
-      {"--mission go-round", "go-round"},
   };
   int k = 0;
   for (const auto& c : cases) {
@@ -260,7 +259,7 @@ TEST(CliFly, TimeoutIsExitCodeThreeAndRecorded) {
 }
 
 // The real (Ipopt) planner's flights cut by max_time are stored as evaluations whose message
-// names the timeout; the run still completes every flight of its budget.
+// names the timeout and whose value is the failure value; the run completes its budget.
 TEST(CliRun, RealPlannerTimeoutsAreStoredRows) {
   const fs::path dir = Fresh("run_timeout");
   const fs::path out = dir / "run";
@@ -282,7 +281,8 @@ TEST(CliRun, RealPlannerTimeoutsAreStoredRows) {
     ++rows;
     const std::string message = reinterpret_cast<const char*>(sqlite3_column_text(st, 1));
     EXPECT_EQ(message.rfind("timeout", 0), 0u) << message;
-    EXPECT_TRUE(std::isfinite(sqlite3_column_double(st, 2)));
+    // A flight that did not finish scores the experiment's failure_value (tiny.yaml: 1000).
+    EXPECT_EQ(sqlite3_column_double(st, 2), 1000.0);
   }
   sqlite3_finalize(st);
   sqlite3_close(db);
@@ -414,9 +414,43 @@ TEST(CliExitCodes, InterruptedRunIs130AndResumes) {
   EXPECT_EQ(CountRows(cut / "results.sqlite"), total);
 }
 
-// study --resume: a finished study resumed replays its stored stages (no new evaluations) and
-// writes the same tables; resuming where nothing is stored is refused.
-TEST(CliStudy, ResumeReplaysStoredStages) {
+/// Every evaluation of a store without its wall-clock columns, one string per row.
+std::vector<std::string> StoredRows(const fs::path& store) {
+  std::vector<std::string> rows;
+  sqlite3* db = nullptr;
+  if (sqlite3_open_v2(store.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK) {
+    sqlite3_stmt* st = nullptr;
+    if (sqlite3_prepare_v2(db, "SELECT method, kind, iteration, idx, params, value, status "
+                               "FROM evaluation ORDER BY trial_id, kind, iteration, idx",
+                           -1, &st, nullptr) == SQLITE_OK) {
+      while (sqlite3_step(st) == SQLITE_ROW) {
+        std::string row;
+        for (int c = 0; c < 7; ++c) {
+          const auto* text = sqlite3_column_text(st, c);
+          row += std::string(text != nullptr ? reinterpret_cast<const char*>(text) : "") + "|";
+        }
+        rows.push_back(row);
+      }
+    }
+    sqlite3_finalize(st);
+  }
+  sqlite3_close(db);
+  return rows;
+}
+
+/// study.json's points without their wall-clock figures.
+nlohmann::json PointsWithoutWallTime(const fs::path& study_json) {
+  nlohmann::json points = ReadJson(study_json)["points"];
+  for (auto& point : points) {
+    for (auto& stage : point["stages"]) stage.erase("wall_s");
+  }
+  return points;
+}
+
+// study --resume: a finished study resumed replays its stored stages (the stores and the results
+// stay as they are); a point whose store was lost is run again, to the same evaluations, while
+// the other point's store is left alone.
+TEST(CliStudy, ResumeReplaysStoredStagesAndRerunsALostOne) {
   const fs::path dir = Fresh("study_resume");
   std::ofstream(dir / "toy.yaml") << ReadText(kExperiments + "toy.yaml");
   std::ofstream(dir / "study.yaml")
@@ -426,35 +460,31 @@ TEST(CliStudy, ResumeReplaysStoredStages) {
          "validation: {flights: 0}\n";
   const std::string study = (dir / "study.yaml").string();
   const fs::path out = dir / "out";
-  ASSERT_EQ(RunQuadtune("--log-level warn study " + study + " --out " + out.string() +
-                            " --quiet --no-plot",
-                        dir / "study.log"),
-            0)
-      << ReadText(dir / "study.log");
-  const nlohmann::json first = ReadJson(out / "study.json");
-  ASSERT_EQ(first["points"].size(), 2u);
-  std::vector<int> rows;
-  for (const char* label : {"g4", "g6"}) {
-    rows.push_back(CountRows(out / label / "tuning" / "results.sqlite"));
-    EXPECT_EQ(rows.back(), CountRows(out / label / "tuning" / "results.sqlite"));
-    EXPECT_GT(rows.back(), 0) << label;
-  }
-  const std::string csv = ReadText(out / "study.csv");
-  ASSERT_EQ(RunQuadtune("--log-level warn study " + study + " --out " + out.string() +
-                            " --quiet --no-plot --resume",
-                        dir / "resume.log"),
-            0)
+  const std::string command =
+      "--log-level warn study " + study + " --out " + out.string() + " --quiet --no-plot";
+  ASSERT_EQ(RunQuadtune(command, dir / "study.log"), 0) << ReadText(dir / "study.log");
+  const nlohmann::json points = PointsWithoutWallTime(out / "study.json");
+  ASSERT_EQ(points.size(), 2u);
+  const fs::path g4 = out / "g4" / "tuning" / "results.sqlite";
+  const fs::path g6 = out / "g6" / "tuning" / "results.sqlite";
+  const auto rows_g4 = StoredRows(g4);
+  const auto rows_g6 = StoredRows(g6);
+  ASSERT_FALSE(rows_g4.empty());
+  ASSERT_FALSE(rows_g6.empty());
+  EXPECT_NE(rows_g4, rows_g6);  // 4 and 6 gates: different problems
+
+  ASSERT_EQ(RunQuadtune(command + " --resume", dir / "resume.log"), 0)
       << ReadText(dir / "resume.log");
-  EXPECT_EQ(CountRows(out / "g4" / "tuning" / "results.sqlite"), rows[0]);
-  EXPECT_EQ(CountRows(out / "g6" / "tuning" / "results.sqlite"), rows[1]);
-  EXPECT_EQ(ReadJson(out / "study.json")["points"], first["points"]);
-  EXPECT_EQ(ReadText(out / "study.csv"), csv);
-  // Nothing stored under a fresh OUT: --resume is refused as bad input.
-  EXPECT_EQ(RunQuadtune("study " + study + " --out " + (dir / "empty").string() +
-                            " --quiet --no-plot --resume",
-                        dir / "empty.log"),
-            2)
-      << ReadText(dir / "empty.log");
+  EXPECT_EQ(StoredRows(g4), rows_g4);
+  EXPECT_EQ(StoredRows(g6), rows_g6);
+  EXPECT_EQ(PointsWithoutWallTime(out / "study.json"), points);
+
+  for (const char* suffix : {"", "-wal", "-shm"}) fs::remove(g6.string() + suffix);
+  ASSERT_EQ(RunQuadtune(command + " --resume", dir / "resume2.log"), 0)
+      << ReadText(dir / "resume2.log");
+  EXPECT_EQ(StoredRows(g6), rows_g6);
+  EXPECT_EQ(StoredRows(g4), rows_g4);
+  EXPECT_EQ(PointsWithoutWallTime(out / "study.json"), points);
 }
 
 // A quadtune built without MPI, started as one of several MPI processes, refuses to run (each
