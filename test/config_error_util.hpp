@@ -29,8 +29,7 @@ inline ::testing::AssertionResult ThrowsConfigError(const std::function<void()>&
     }
     for (std::string_view w : words) {
       if (what.find(w) == std::string::npos) {
-        return ::testing::AssertionFailure()
-               << "ConfigError message lacks '" << w << "': " << what;
+        return ::testing::AssertionFailure() << "ConfigError message lacks '" << w << "': " << what;
       }
     }
     return ::testing::AssertionSuccess();

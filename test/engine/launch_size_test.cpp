@@ -13,7 +13,8 @@ namespace {
 // Clears the launchers' variables for the test's duration and restores none (tests run in their
 // own process under ctest).
 void ClearLauncherEnvironment() {
-  for (const char* v : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "SLURM_STEP_NUM_TASKS", "SLURM_PROCID"}) {
+  for (const char* v :
+       {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "SLURM_STEP_NUM_TASKS", "SLURM_PROCID"}) {
     unsetenv(v);
   }
 }

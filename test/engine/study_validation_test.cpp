@@ -97,8 +97,8 @@ TEST(StudyValidation, RejectsStartFromAnUnknownOrLaterStage) {
 
 TEST(ResultStoreErrors, ResumeWithoutAStore) {
   const std::string dir = test::TempDir("store_no_resume");
-  const Experiment e = Experiment::FromString(test::ToyYaml("[random]"), "toy.yaml",
-                                              QUADTUNE_SOURCE_DIR);
+  const Experiment e =
+      Experiment::FromString(test::ToyYaml("[random]"), "toy.yaml", QUADTUNE_SOURCE_DIR);
   const std::string path = dir + "/results.sqlite";
   EXPECT_TRUE(ThrowsConfigError([&] { ResultStore s(path, e, 1, /*resume=*/true); }, "--resume",
                                 {"no results file to resume from"}));
@@ -108,12 +108,12 @@ TEST(ResultStoreErrors, ResumeWithoutAStore) {
 TEST(ResultStoreErrors, ResumeWithAnotherConfiguration) {
   const std::string dir = test::TempDir("store_other_config");
   const std::string path = dir + "/results.sqlite";
-  const Experiment e = Experiment::FromString(test::ToyYaml("[random]"), "toy.yaml",
-                                              QUADTUNE_SOURCE_DIR);
+  const Experiment e =
+      Experiment::FromString(test::ToyYaml("[random]"), "toy.yaml", QUADTUNE_SOURCE_DIR);
   { ResultStore s(path, e, 1, false); }
   EXPECT_NO_THROW(ResultStore(path, e, 1, true));
-  const Experiment other = Experiment::FromString(test::ToyYaml("[random]", "", 8), "toy.yaml",
-                                                  QUADTUNE_SOURCE_DIR);
+  const Experiment other =
+      Experiment::FromString(test::ToyYaml("[random]", "", 8), "toy.yaml", QUADTUNE_SOURCE_DIR);
   EXPECT_TRUE(ThrowsConfigError([&] { ResultStore s(path, other, 1, true); }, "--resume",
                                 {"another configuration"}));
 }
@@ -125,8 +125,8 @@ TEST(ResultStoreErrors, OpeningAMissingStoreForExport) {
 }
 
 int RunCli(const std::string& args, const std::string& log) {
-  const std::string cmd = std::string(QUADTUNE_BINARY_DIR) + "/experiments/quadtune " + args +
-                          " > '" + log + "' 2>&1";
+  const std::string cmd =
+      std::string(QUADTUNE_BINARY_DIR) + "/experiments/quadtune " + args + " > '" + log + "' 2>&1";
   const int status = std::system(cmd.c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
@@ -142,24 +142,31 @@ TEST(ResultStoreErrors, ResumedRunThatIsNotAPrefixOfTheStoredOne) {
   const std::string dir = test::TempDir("store_not_prefix");
   const std::string file = dir + "/toy.yaml";
   std::ofstream(file) << test::ToyYaml("[random]");
-  ASSERT_EQ(RunCli("--log-level warn run " + file + " --out " + dir + "/run --quiet",
-                   dir + "/run.log"), 0) << ReadAll(dir + "/run.log");
+  ASSERT_EQ(
+      RunCli("--log-level warn run " + file + " --out " + dir + "/run --quiet", dir + "/run.log"),
+      0)
+      << ReadAll(dir + "/run.log");
   const std::string store = dir + "/run/results.sqlite";
   // The unedited store resumes (every row replayed).
   ASSERT_EQ(RunCli("--log-level warn run " + file + " --out " + dir + "/run --quiet --resume",
-                   dir + "/resume_ok.log"), 0) << ReadAll(dir + "/resume_ok.log");
+                   dir + "/resume_ok.log"),
+            0)
+      << ReadAll(dir + "/resume_ok.log");
   sqlite3* db = nullptr;
   ASSERT_EQ(sqlite3_open(store.c_str(), &db), SQLITE_OK);
   char* error = nullptr;
   ASSERT_EQ(sqlite3_exec(db,
                          "UPDATE evaluation SET params = '{\"margin\":0.25,\"speed\":1.0}' WHERE "
                          "id = (SELECT MIN(id) FROM evaluation WHERE kind = 'long')",
-                         nullptr, nullptr, &error), SQLITE_OK) << (error ? error : "");
+                         nullptr, nullptr, &error),
+            SQLITE_OK)
+      << (error ? error : "");
   ASSERT_EQ(sqlite3_changes(db), 1);
   sqlite3_close(db);
   const auto before = test::Deterministic(store);
   EXPECT_EQ(RunCli("--log-level warn run " + file + " --out " + dir + "/run --quiet --resume",
-                   dir + "/resume.log"), 2);
+                   dir + "/resume.log"),
+            2);
   const std::string log = ReadAll(dir + "/resume.log");
   EXPECT_NE(log.find("--resume"), std::string::npos) << log;
   EXPECT_NE(log.find("not a prefix"), std::string::npos) << log;

@@ -1,3 +1,5 @@
+#include "quadtune/engine/tuner.hpp"
+
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sqlite3.h>
@@ -11,9 +13,9 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "../process_util.hpp"
 #include "quadtune/engine/planners.hpp"
 #include "quadtune/engine/result_store.hpp"
-#include "quadtune/engine/tuner.hpp"
 #include "test_util.hpp"
 
 namespace quadtune::engine {
@@ -117,7 +119,8 @@ TEST(Tuner, RefinementStartOnTheBoundsOfAnIntegerParameterRuns) {
 
 TEST(Tuner, ToyPlannerIsTunedBelowItsDefaults) {
   RunOptions o;
-  const Experiment e = Experiment::FromString(test::ToyYaml("[default, bo_pso]", "", 16), "toy.yaml");
+  const Experiment e =
+      Experiment::FromString(test::ToyYaml("[default, bo_pso]", "", 16), "toy.yaml");
   const RunSummary s = RunExperiment(e, o);
   ASSERT_EQ(s.trials.size(), 2u);
   EXPECT_LT(s.trials[1].best_value, s.trials[0].best_value);
@@ -302,40 +305,11 @@ INSTANTIATE_TEST_SUITE_P(
                       std::make_pair("[bo_pso]", 1),    // after the θ_s-first phase
                       std::make_pair("[bo_pso]", 3)));  // mid bo_pso: flights re-flown for queries
 
-int CountRows(const std::string& path) {
-  sqlite3* db = nullptr;
-  if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
-    sqlite3_close(db);
-    return 0;
-  }
-  int n = 0;
-  sqlite3_stmt* st = nullptr;
-  if (sqlite3_prepare_v2(db, "SELECT COUNT(*) FROM evaluation", -1, &st, nullptr) == SQLITE_OK &&
-      sqlite3_step(st) == SQLITE_ROW) {
-    n = sqlite3_column_int(st, 0);
-  }
-  sqlite3_finalize(st);
-  sqlite3_close(db);
-  return n;
-}
+using ::quadtune::test::CountEvaluations;
+using ::quadtune::test::Spawn;
+using ::quadtune::test::WaitExit;
 
-pid_t Spawn(const std::vector<std::string>& args) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    std::vector<char*> argv;
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    execv(argv[0], argv.data());
-    _exit(127);
-  }
-  return pid;
-}
-
-int WaitExit(pid_t pid) {
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+int CountRows(const std::string& path) { return CountEvaluations(path); }
 
 TEST(Resume, KillMinus9MidRunThenResumeEqualsUninterruptedRun) {
   const std::string bin = std::string(QUADTUNE_BINARY_DIR) + "/experiments/quadtune";
@@ -405,8 +379,8 @@ TEST(Cli, ExportWritesCsvAndBenchRuns) {
   EXPECT_EQ(stored.size(), 6u);
   // The bench reports its table: one row per thread count.
   EXPECT_EQ(WaitExit(Spawn({bin, "--log-level", "warn", "bench", file, "--max-threads", "2",
-                            "--flights", "4", "--resolves", "50", "--csv",
-                            dir + "/bench.csv"})), 0);
+                            "--flights", "4", "--resolves", "50", "--csv", dir + "/bench.csv"})),
+            0);
   std::ifstream bench(dir + "/bench.csv");
   int bench_lines = 0;
   for (std::string line; std::getline(bench, line);) ++bench_lines;

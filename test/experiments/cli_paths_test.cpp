@@ -3,11 +3,11 @@
 // exit codes 1 (an unexpected error), 2 (bad input), 3 (a flight that did not complete) and 130
 // (interrupted), study --resume, and the real planner's timeout in a stored evaluation.
 // Small scenes and short flights; outputs are checked for content, not only existence.
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sqlite3.h>
 #include <sys/wait.h>
-#include <fcntl.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "../cli_util.hpp"
+#include "../process_util.hpp"
 
 namespace quadtune {
 namespace {
@@ -115,7 +116,8 @@ TEST(CliLayout, SavesAReproducibleLayout) {
   EXPECT_EQ(RunQuadtune("--log-level warn layout --spacing -1 --out " + (dir / "bad.yaml").string(),
                         dir / "bad.log"),
             2);
-  EXPECT_NE(ReadText(dir / "bad.log").find("spacing"), std::string::npos) << ReadText(dir / "bad.log");
+  EXPECT_NE(ReadText(dir / "bad.log").find("spacing"), std::string::npos)
+      << ReadText(dir / "bad.log");
   EXPECT_FALSE(fs::exists(dir / "bad.yaml"));
 }
 
@@ -131,12 +133,13 @@ TEST(CliFly, LayoutDroneWorldSetAndGoTo) {
       << ReadText(dir / "layout.log");
   std::ofstream(dir / "world.yaml") << "wind: [0.3, 0.0, 0.0]\n";
   const fs::path f = dir / "f";
-  const int code = RunQuadtune(
-      "--log-level warn fly --layout " + (dir / "layout.yaml").string() +
-          " --drone drones/agile_small.yaml --world " + (dir / "world.yaml").string() +
-          " --set v_des=1.0 --set h_pl=5.0 --mission go-to --seed 3 --max-time 60 --no-plot --out " +
-          f.string(),
-      dir / "fly.log");
+  const int code =
+      RunQuadtune("--log-level warn fly --layout " + (dir / "layout.yaml").string() +
+                      " --drone drones/agile_small.yaml --world " + (dir / "world.yaml").string() +
+                      " --set v_des=1.0 --set h_pl=5.0 --mission go-to --seed 3 --max-time 60 "
+                      "--no-plot --out " +
+                      f.string(),
+                  dir / "fly.log");
   const nlohmann::json summary = ReadJson(f / "summary.json");
   ASSERT_FALSE(summary.is_null()) << ReadText(dir / "fly.log");
   EXPECT_EQ(summary["status"], "completed") << ReadText(dir / "fly.log");
@@ -168,9 +171,9 @@ TEST(CliFly, LayoutDroneWorldSetAndGoTo) {
   EXPECT_LE(summary["max_speed"].get<double>(), 1.0 * 1.3);
   double max_row_speed = 0.0;
   for (const auto& row : flight) {
-    max_row_speed = std::max(max_row_speed, std::sqrt(Num(row, "vx") * Num(row, "vx") +
-                                                      Num(row, "vy") * Num(row, "vy") +
-                                                      Num(row, "vz") * Num(row, "vz")));
+    max_row_speed = std::max(
+        max_row_speed, std::sqrt(Num(row, "vx") * Num(row, "vx") + Num(row, "vy") * Num(row, "vy") +
+                                 Num(row, "vz") * Num(row, "vz")));
   }
   EXPECT_LE(max_row_speed, 1.0 * 1.3);
   // plans.csv: its columns, samples of every plan counted in the summary, in time order.
@@ -189,15 +192,17 @@ TEST(CliFly, LayoutDroneWorldSetAndGoTo) {
 
   // A second flight (the default drone and mission at 3 m spacing), then the summary figures.
   const fs::path g = dir / "g";
-  ASSERT_EQ(RunQuadtune("--log-level warn fly --spacing 3.0 --seed 2 --no-plot --max-time 60 --out " +
-                            g.string(),
-                        dir / "fly2.log"),
-            0)
+  ASSERT_EQ(
+      RunQuadtune(
+          "--log-level warn fly --spacing 3.0 --seed 2 --no-plot --max-time 60 --out " + g.string(),
+          dir / "fly2.log"),
+      0)
       << ReadText(dir / "fly2.log");
   const fs::path plots = dir / "plots";
-  ASSERT_EQ(RunQuadtune("plot flights " + f.string() + " " + g.string() + " --out " + plots.string(),
-                        dir / "plot.log"),
-            0)
+  ASSERT_EQ(
+      RunQuadtune("plot flights " + f.string() + " " + g.string() + " --out " + plots.string(),
+                  dir / "plot.log"),
+      0)
       << ReadText(dir / "plot.log");
   for (const char* png : {"flights_topdown.png", "flight_time_vs_spacing.png"}) {
     EXPECT_GT(fs::file_size(plots / png), 10000u) << png;
@@ -235,10 +240,10 @@ TEST(CliFly, SetAndWorldErrors) {
   for (const auto& c : cases) {
     const fs::path out = dir / ("out" + std::to_string(k));
     const fs::path log = dir / ("log" + std::to_string(k++));
-    EXPECT_EQ(RunQuadtune("fly --spacing 3.0 --max-time 1 --no-plot " + c.args + " --out " +
-                              out.string(),
-                          log),
-              2)
+    EXPECT_EQ(
+        RunQuadtune("fly --spacing 3.0 --max-time 1 --no-plot " + c.args + " --out " + out.string(),
+                    log),
+        2)
         << c.args << ": " << ReadText(log);
     EXPECT_NE(ReadText(log).find(c.words), std::string::npos) << c.args << ": " << ReadText(log);
     EXPECT_FALSE(fs::exists(out / "summary.json")) << c.args;
@@ -248,10 +253,11 @@ TEST(CliFly, SetAndWorldErrors) {
 // A flight cut by --max-time: exit code 3 and the status in summary.json.
 TEST(CliFly, TimeoutIsExitCodeThreeAndRecorded) {
   const fs::path dir = Fresh("fly_timeout");
-  EXPECT_EQ(RunQuadtune("--log-level warn fly --spacing 3.0 --seed 2 --max-time 2 --no-plot --out " +
-                            (dir / "f").string(),
-                        dir / "fly.log"),
-            3)
+  EXPECT_EQ(
+      RunQuadtune("--log-level warn fly --spacing 3.0 --seed 2 --max-time 2 --no-plot --out " +
+                      (dir / "f").string(),
+                  dir / "fly.log"),
+      3)
       << ReadText(dir / "fly.log");
   const nlohmann::json summary = ReadJson(dir / "f" / "summary.json");
   EXPECT_EQ(summary["status"], "timeout");
@@ -273,8 +279,10 @@ TEST(CliRun, RealPlannerTimeoutsAreStoredRows) {
   ASSERT_EQ(sqlite3_open_v2((out / "results.sqlite").c_str(), &db, SQLITE_OPEN_READONLY, nullptr),
             SQLITE_OK);
   sqlite3_stmt* st = nullptr;
-  ASSERT_EQ(sqlite3_prepare_v2(db, "SELECT status, message, value FROM evaluation WHERE kind = "
-                                   "'long'", -1, &st, nullptr),
+  ASSERT_EQ(sqlite3_prepare_v2(db,
+                               "SELECT status, message, value FROM evaluation WHERE kind = "
+                               "'long'",
+                               -1, &st, nullptr),
             SQLITE_OK);
   int rows = 0;
   while (sqlite3_step(st) == SQLITE_ROW) {
@@ -308,15 +316,15 @@ TEST(CliExitCodes, UnexpectedErrorIsOneMissingInputIsTwo) {
   const fs::path dir = Fresh("exit_codes");
   std::ofstream(dir / "garbage.sqlite") << "this is not a database, just text long enough to "
                                            "fill a page header of sixteen bytes or more\n";
-  EXPECT_EQ(RunQuadtune("export " + (dir / "garbage.sqlite").string() + " --csv " +
-                            (dir / "csv").string(),
-                        dir / "garbage.log"),
+  EXPECT_EQ(RunQuadtune(
+                "export " + (dir / "garbage.sqlite").string() + " --csv " + (dir / "csv").string(),
+                dir / "garbage.log"),
             1)
       << ReadText(dir / "garbage.log");
-  EXPECT_EQ(RunQuadtune("export " + (dir / "none.sqlite").string() + " --csv " +
-                            (dir / "csv").string(),
-                        dir / "none.log"),
-            2)
+  EXPECT_EQ(
+      RunQuadtune("export " + (dir / "none.sqlite").string() + " --csv " + (dir / "csv").string(),
+                  dir / "none.log"),
+      2)
       << ReadText(dir / "none.log");
   EXPECT_NE(ReadText(dir / "none.log").find("no such results file"), std::string::npos);
   // run --resume without a store: bad input, nothing created.
@@ -329,43 +337,7 @@ TEST(CliExitCodes, UnexpectedErrorIsOneMissingInputIsTwo) {
   EXPECT_FALSE(fs::exists(dir / "fresh" / "results.sqlite"));
 }
 
-pid_t Spawn(const std::vector<std::string>& args, const fs::path& log) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (fd >= 0) {
-      dup2(fd, 1);
-      dup2(fd, 2);
-    }
-    std::vector<char*> argv;
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    execv(argv[0], argv.data());
-    _exit(127);
-  }
-  return pid;
-}
-
-int WaitExit(pid_t pid) {
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-int CountRows(const fs::path& store) {
-  sqlite3* db = nullptr;
-  int n = 0;
-  if (sqlite3_open_v2(store.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK) {
-    sqlite3_stmt* st = nullptr;
-    if (sqlite3_prepare_v2(db, "SELECT COUNT(*) FROM evaluation", -1, &st, nullptr) == SQLITE_OK &&
-        sqlite3_step(st) == SQLITE_ROW) {
-      n = sqlite3_column_int(st, 0);
-    }
-    sqlite3_finalize(st);
-  }
-  sqlite3_close(db);
-  return n;
-}
+int CountRows(const fs::path& store) { return test::CountEvaluations(store.string()); }
 
 // The toy experiment with a delay per flight, so a run can be interrupted part-way.
 std::string SlowToy() {
@@ -383,33 +355,33 @@ TEST(CliExitCodes, InterruptedRunIs130AndResumes) {
   const fs::path dir = Fresh("interrupt");
   std::ofstream(dir / "toy.yaml") << SlowToy();
   const std::string file = (dir / "toy.yaml").string();
-  ASSERT_EQ(RunQuadtune("--log-level warn run " + file + " --out " + (dir / "full").string() +
-                            " --quiet",
-                        dir / "full.log"),
-            0);
+  ASSERT_EQ(
+      RunQuadtune("--log-level warn run " + file + " --out " + (dir / "full").string() + " --quiet",
+                  dir / "full.log"),
+      0);
   const int total = CountRows(dir / "full" / "results.sqlite");
   ASSERT_GT(total, 20);
 
   const fs::path cut = dir / "cut";
-  const pid_t pid = Spawn({QuadtuneBinary(), "--log-level", "warn", "run", file, "--out",
-                           cut.string(), "--quiet"},
-                          dir / "cut.log");
+  const pid_t pid = test::Spawn(
+      {QuadtuneBinary(), "--log-level", "warn", "run", file, "--out", cut.string(), "--quiet"},
+      (dir / "cut.log").string());
   int seen = 0;
   for (int i = 0; i < 6000 && seen < 8; ++i) {
     seen = CountRows(cut / "results.sqlite");
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   kill(pid, SIGINT);
-  const int code = WaitExit(pid);
+  const int code = test::WaitExit(pid);
   ASSERT_EQ(code, 130) << ReadText(dir / "cut.log");
   EXPECT_EQ(ReadJson(cut / "summary.json")["status"], "cancelled");
   const int stored = CountRows(cut / "results.sqlite");
   EXPECT_GT(stored, 0);
   EXPECT_LT(stored, total);
-  ASSERT_EQ(RunQuadtune("--log-level warn run " + file + " --out " + cut.string() +
-                            " --resume --quiet",
-                        dir / "resume.log"),
-            0)
+  ASSERT_EQ(
+      RunQuadtune("--log-level warn run " + file + " --out " + cut.string() + " --resume --quiet",
+                  dir / "resume.log"),
+      0)
       << ReadText(dir / "resume.log");
   EXPECT_EQ(ReadJson(cut / "summary.json")["status"], "completed");
   EXPECT_EQ(CountRows(cut / "results.sqlite"), total);
@@ -421,8 +393,9 @@ std::vector<std::string> StoredRows(const fs::path& store) {
   sqlite3* db = nullptr;
   if (sqlite3_open_v2(store.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) == SQLITE_OK) {
     sqlite3_stmt* st = nullptr;
-    if (sqlite3_prepare_v2(db, "SELECT method, kind, iteration, idx, params, value, status "
-                               "FROM evaluation ORDER BY trial_id, kind, iteration, idx",
+    if (sqlite3_prepare_v2(db,
+                           "SELECT method, kind, iteration, idx, params, value, status "
+                           "FROM evaluation ORDER BY trial_id, kind, iteration, idx",
                            -1, &st, nullptr) == SQLITE_OK) {
       while (sqlite3_step(st) == SQLITE_ROW) {
         std::string row;

@@ -14,8 +14,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -89,8 +89,9 @@ std::vector<std::pair<std::string, std::vector<double>>> LongValues(const fs::pa
     index[t[0]] = trials.size();
     trials.push_back({t[1], {}});
   }
-  for (const auto& e : Query(db, "SELECT trial_id, value FROM evaluation WHERE kind = 'long' "
-                                 "ORDER BY trial_id, id")) {
+  for (const auto& e : Query(db,
+                             "SELECT trial_id, value FROM evaluation WHERE kind = 'long' "
+                             "ORDER BY trial_id, id")) {
     trials[index.at(e[0])].second.push_back(std::stod(e[1]));
   }
   return trials;
@@ -168,7 +169,8 @@ TEST(PaperExperiments, BenchmarkComparisonScaledDown) {
     EXPECT_TRUE(std::isfinite(final_mean) && final_mean > 0.0) << m;
     EXPECT_NEAR(final_mean, Mean(finals[m]), 1e-9 * final_mean) << m;
     EXPECT_NEAR(Number(r, "final_min"), *std::min_element(finals[m].begin(), finals[m].end()),
-                1e-9 * final_mean) << m;
+                1e-9 * final_mean)
+        << m;
     if (m != "default") EXPECT_DOUBLE_EQ(Number(r, "flights_to_90pct"), Mean(k90[m])) << m;
   }
   EXPECT_EQ(methods, (std::set<std::string>{"default", "random", "pso", "bo", "bo_pso"}));
@@ -224,7 +226,8 @@ TEST(PaperExperiments, DensityStudyScaledDown) {
     ASSERT_EQ(default_time.size(), 2u) << p;
     EXPECT_NEAR(Number(r, "flight_time_mean"), Mean(tuned_time), 1e-9 * Mean(tuned_time)) << p;
     EXPECT_NEAR(Number(r, "default_flight_time_mean"), Mean(default_time),
-                1e-9 * Mean(default_time)) << p;
+                1e-9 * Mean(default_time))
+        << p;
     EXPECT_EQ(Number(r, "max_emergency_stops"), max_stops) << p;
     const auto& last = study["points"][p]["stages"].back();
     const fs::path store = fs::path(out) / std::string(last["store"]);
@@ -235,9 +238,11 @@ TEST(PaperExperiments, DensityStudyScaledDown) {
     ASSERT_EQ(k90.size(), 1u) << p;
     EXPECT_DOUBLE_EQ(Number(r, "long_evals_to_90pct_mean"), k90[0]) << p;
     // f_s evaluations before that flight: at most all the trial's short-term evaluations.
-    EXPECT_LE(Number(r, "short_evals_to_90pct_mean"),
-              std::stod(Query(store, "SELECT COUNT(*) FROM evaluation WHERE kind = 'short'")[0][0]) *
-                  2.0 + 1e-9);
+    EXPECT_LE(
+        Number(r, "short_evals_to_90pct_mean"),
+        std::stod(Query(store, "SELECT COUNT(*) FROM evaluation WHERE kind = 'short'")[0][0]) *
+                2.0 +
+            1e-9);
   }
   ExpectFigure(fs::path(out) / "study_sweep.png");
   EXPECT_NE(ReadText(fs::path(out) / "study.md").find("90% optimum"), std::string::npos);

@@ -4,8 +4,8 @@
 
 #include <algorithm>
 
-#include "test_functions.hpp"
 #include "../config_error_util.hpp"
+#include "test_functions.hpp"
 
 namespace quadtune::optimizers {
 namespace {
@@ -319,21 +319,30 @@ seed: 3
 TEST(BayesOpt, RejectsDiscountOutsideUnitInterval) {
   BayesOptOptions o;
   o.discount = 0.0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOpt(MixedSpace(), o); }, "discount", {"must be a number"}));
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOptOptions::FromYaml(YamlMap::FromString("discount: 1.5")); }, "discount", {"allowed: a number in (0, 1]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOpt(MixedSpace(), o); }, "discount",
+                                                  {"must be a number"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { BayesOptOptions::FromYaml(YamlMap::FromString("discount: 1.5")); }, "discount",
+      {"allowed: a number in (0, 1]"}));
 }
 
 TEST(BayesOpt, RejectsDampingOutsideUnitInterval) {
   BayesOptOptions o;
   o.moving_bounds.damping = 1.0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOpt(MixedSpace(), o); }, "moving_bounds.damping", {"must be a number"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOpt(MixedSpace(), o); },
+                                                  "moving_bounds.damping", {"must be a number"}));
 }
 
 TEST(BayesOpt, RejectsUnknownYamlKey) {
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOptOptions::FromYaml(YamlMap::FromString("kernal: matern52")); }, "kernal", {"unknown key; allowed keys"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { BayesOptOptions::FromYaml(YamlMap::FromString("kernal: matern52")); }, "kernal",
+      {"unknown key; allowed keys"}));
 }
 
-TEST(BayesOpt, RejectsEmptySpace) { EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOpt(ParameterSpace(), {}); }, "parameters", {"the parameter space must"})); }
+TEST(BayesOpt, RejectsEmptySpace) {
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOpt(ParameterSpace(), {}); },
+                                                  "parameters", {"the parameter space must"}));
+}
 
 TEST(BayesOpt, RejectsCrossedSearchBounds) {
   BayesOpt bo(MixedSpace(), {});

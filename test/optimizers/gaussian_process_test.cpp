@@ -4,8 +4,8 @@
 
 #include <Eigen/Dense>
 
-#include "quadtune/common/error.hpp"
 #include "../config_error_util.hpp"
+#include "quadtune/common/error.hpp"
 
 namespace quadtune::optimizers {
 namespace {
@@ -204,7 +204,8 @@ TEST(GaussianProcess, RejectsBadData) {
 TEST(GaussianProcess, RejectsBadOptions) {
   GaussianProcessOptions o;
   o.max_lengthscale = o.min_lengthscale / 2;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { GaussianProcess<Matern52Kernel>(2, o); }, "gp.max_lengthscale", {"must be a finite"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { GaussianProcess<Matern52Kernel>(2, o); },
+                                                  "gp.max_lengthscale", {"must be a finite"}));
 }
 
 }  // namespace

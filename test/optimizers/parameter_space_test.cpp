@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+
 #include "../config_error_util.hpp"
 
 namespace quadtune::optimizers {
@@ -68,31 +69,56 @@ TEST(ParameterSpace, ContainsAndNamed) {
 }
 
 TEST(ParameterSpace, RejectsLowerAboveUpper) {
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { ParameterSpace::FromYaml(YamlMap::FromString("parameters: [{name: a, lower: 2, upper: 1}]")); }, "parameters[0].upper", {"parameter 'a': upper bound"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] {
+        ParameterSpace::FromYaml(
+            YamlMap::FromString("parameters: [{name: a, lower: 2, upper: 1}]"));
+      },
+      "parameters[0].upper", {"parameter 'a': upper bound"}));
 }
 
 TEST(ParameterSpace, RejectsEmptySpace) {
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { ParameterSpace(std::vector<Parameter>{}); }, "parameters", {"the parameter space must"}));
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { ParameterSpace::FromYaml(YamlMap::FromString("parameters: []")); }, "parameters", {"expected a non-empty sequence"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { ParameterSpace(std::vector<Parameter>{}); },
+                                                  "parameters", {"the parameter space must"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { ParameterSpace::FromYaml(YamlMap::FromString("parameters: []")); }, "parameters",
+      {"expected a non-empty sequence"}));
 }
 
 TEST(ParameterSpace, RejectsLogScaleWithNonPositiveLower) {
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { ParameterSpace::FromYaml(YamlMap::FromString("parameters: [{name: a, lower: 0, upper: 1, log: true}]")); }, "parameters[0].lower", {"parameter 'a': a log-scale"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] {
+        ParameterSpace::FromYaml(
+            YamlMap::FromString("parameters: [{name: a, lower: 0, upper: 1, log: true}]"));
+      },
+      "parameters[0].lower", {"parameter 'a': a log-scale"}));
 }
 
 TEST(ParameterSpace, RejectsNonIntegerIntegerBounds) {
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { ParameterSpace::FromYaml(
-                   YamlMap::FromString("parameters: [{name: a, lower: 0.5, upper: 3, type: integer}]")); }, "parameters[0].lower", {"parameter 'a': integer parameter"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] {
+        ParameterSpace::FromYaml(
+            YamlMap::FromString("parameters: [{name: a, lower: 0.5, upper: 3, type: integer}]"));
+      },
+      "parameters[0].lower", {"parameter 'a': integer parameter"}));
 }
 
 TEST(ParameterSpace, RejectsDefaultOutsideBounds) {
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { ParameterSpace::FromYaml(
-                   YamlMap::FromString("parameters: [{name: a, lower: 0, upper: 1, default: 2}]")); }, "parameters[0].default", {"parameter 'a': default must"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] {
+        ParameterSpace::FromYaml(
+            YamlMap::FromString("parameters: [{name: a, lower: 0, upper: 1, default: 2}]"));
+      },
+      "parameters[0].default", {"parameter 'a': default must"}));
 }
 
 TEST(ParameterSpace, RejectsDuplicateNames) {
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { ParameterSpace::FromYaml(YamlMap::FromString(
-                   "parameters: [{name: a, lower: 0, upper: 1}, {name: a, lower: 0, upper: 2}]")); }, "parameters[1].name", {"duplicate parameter name 'a'"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] {
+        ParameterSpace::FromYaml(YamlMap::FromString(
+            "parameters: [{name: a, lower: 0, upper: 1}, {name: a, lower: 0, upper: 2}]"));
+      },
+      "parameters[1].name", {"duplicate parameter name 'a'"}));
 }
 
 TEST(ParameterSpace, RejectsUnknownYamlKey) {

@@ -5,9 +5,9 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "../config_error_util.hpp"
 #include "quadtune/optimizers/random_search.hpp"
 #include "test_functions.hpp"
-#include "../config_error_util.hpp"
 
 namespace quadtune::optimizers {
 namespace {
@@ -92,8 +92,8 @@ TEST(PsoPerformance, NoisySphereWithReevaluationReachesRegret) {
   EXPECT_LE(r[9], 1.0);
   // The bound is one that uniform random search with the same 3000 noisy evaluations misses:
   // its median regret lies above it (and so does its best seed's).
-  const auto random = RandomSearchOverSeeds(BoxSpace(3, -5.0, 5.0), Sphere, 150, o.num_particles,
-                                            0.5);
+  const auto random =
+      RandomSearchOverSeeds(BoxSpace(3, -5.0, 5.0), Sphere, 150, o.num_particles, 0.5);
   EXPECT_GT(random[4], kMedianBound);
 }
 
@@ -265,12 +265,18 @@ TEST(Pso, SaveRestoreContinuesExactly) {
 TEST(Pso, RejectsBadOptions) {
   PsoOptions o;
   o.num_particles = 0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Pso(BoxSpace(2, 0.0, 1.0), o); }, "num_particles", {"must be an integer"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Pso(BoxSpace(2, 0.0, 1.0), o); },
+                                                  "num_particles", {"must be an integer"}));
   o = {};
   o.max_velocity = 0.0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Pso(BoxSpace(2, 0.0, 1.0), o); }, "max_velocity", {"must be a number"}));
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { PsoOptions::FromYaml(YamlMap::FromString("inertia: 3")); }, "inertia", {"allowed: a number in [0, 1.5]"}));
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { PsoOptions::FromYaml(YamlMap::FromString("particles: 3")); }, "particles", {"unknown key; allowed keys"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Pso(BoxSpace(2, 0.0, 1.0), o); },
+                                                  "max_velocity", {"must be a number"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { PsoOptions::FromYaml(YamlMap::FromString("inertia: 3")); }, "inertia",
+      {"allowed: a number in [0, 1.5]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { PsoOptions::FromYaml(YamlMap::FromString("particles: 3")); }, "particles",
+      {"unknown key; allowed keys"}));
 }
 
 TEST(Pso, RejectsStateWithOtherSwarmSize) {

@@ -7,9 +7,9 @@
 #include <string>
 #include <string_view>
 
+#include "../config_error_util.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/yaml.hpp"
-#include "../config_error_util.hpp"
 
 namespace quadtune::physics {
 namespace {
@@ -110,8 +110,8 @@ using test::ThrowsConfigError;
 
 TEST(DroneDescription, RejectsMissingFile) {
   const std::string path = kDrones + "no_such_drone.yaml";
-  EXPECT_TRUE(ThrowsConfigError([&] { LoadDroneDescription(path); }, "", {"no_such_drone.yaml",
-                                                                          "cannot open"}));
+  EXPECT_TRUE(ThrowsConfigError([&] { LoadDroneDescription(path); }, "",
+                                {"no_such_drone.yaml", "cannot open"}));
 }
 TEST(DroneDescription, RejectsMalformedYaml) {
   EXPECT_TRUE(ThrowsConfigError(

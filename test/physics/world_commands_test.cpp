@@ -77,7 +77,8 @@ TEST(WorldCommands, LastControlIsTheControllersOutput) {
   world.Advance(0.5);
   EXPECT_EQ(world.control_mode(), ControlMode::kTracking);
   const ControlOutput& c = world.LastControl();
-  for (double rpm : c.rotor_speeds) EXPECT_NEAR(rpm, d.HoverRotorSpeed(), 0.03 * d.HoverRotorSpeed());
+  for (double rpm : c.rotor_speeds)
+    EXPECT_NEAR(rpm, d.HoverRotorSpeed(), 0.03 * d.HoverRotorSpeed());
   EXPECT_FALSE(c.saturated);
   // A reference 2 m up: the controller asks for more than hover thrust at first.
   TrackingReference up;

@@ -6,9 +6,9 @@
 
 #include <thread>
 
+#include "../config_error_util.hpp"
 #include "resampled_figures.hpp"
 #include "scene_util.hpp"
-#include "../config_error_util.hpp"
 
 namespace quadtune::planning {
 namespace {
@@ -168,8 +168,9 @@ TEST(LocalPlanner, RetriesAfterACollisionWeightTheCollisionCostMore) {
       testing::Resample(on.result.trajectory, testing::SmallForest().cylinders).min_clearance;
   EXPECT_GE(true_clearance, p.inflation + optimizer.Options().collision_margin - voxel);
   // The failed attempts without the gain really cut into the clearance.
-  EXPECT_LT(testing::Resample(off.result.trajectory, testing::SmallForest().cylinders).min_clearance,
-            p.inflation + optimizer.Options().collision_margin);
+  EXPECT_LT(
+      testing::Resample(off.result.trajectory, testing::SmallForest().cylinders).min_clearance,
+      p.inflation + optimizer.Options().collision_margin);
   // The first attempt is the same either way (the gain applies only after a failure).
   PlannerParams one = p;
   one.max_attempts = 1;
@@ -199,19 +200,23 @@ TEST(LocalPlanner, RefusesAClearanceBeyondTheDistanceFieldsTruncation) {
   p.clearance = 1.5;
   EXPECT_NO_THROW(longer.CheckParams(p));
   p.clearance = 2.0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { longer.CheckParams(p); }, "clearance", {"must lie below", "esdf.max_distance"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { longer.CheckParams(p); }, "clearance",
+                                                  {"must lie below", "esdf.max_distance"}));
 }
 
 TEST(LocalPlannerOptions, BadValuesNameTheKey) {
   LocalPlannerOptions o;
   o.retry_slowdown = 0.0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { o.Validate(); }, "retry_slowdown", {"allowed: a number in (0, 1]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { o.Validate(); }, "retry_slowdown",
+                                                  {"allowed: a number in (0, 1]"}));
   o = LocalPlannerOptions{};
   o.field_margin = -1.0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { o.Validate(); }, "field_margin", {"allowed: a number in [0, inf)"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { o.Validate(); }, "field_margin",
+                                                  {"allowed: a number in [0, inf)"}));
   o = LocalPlannerOptions{};
   o.retry_collision_gain = 0.5;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { o.Validate(); }, "retry_collision_gain", {"allowed: a number in [1, 1e+06]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { o.Validate(); }, "retry_collision_gain",
+                                                  {"allowed: a number in [1, 1e+06]"}));
 }
 
 }  // namespace

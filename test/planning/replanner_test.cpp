@@ -2,8 +2,8 @@
 
 #include <gtest/gtest.h>
 
-#include "scene_util.hpp"
 #include "../config_error_util.hpp"
+#include "scene_util.hpp"
 
 namespace quadtune::planning {
 namespace {
@@ -269,17 +269,23 @@ TEST(Replanner, InvalidOptionsNameTheKey) {
   TrajectoryOptimizer optimizer;
   ReplannerOptions options;
   options.brake_factor = 1.5;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Replanner(optimizer, PlannerParams{}, options); }, "brake_factor", {"allowed: a number in (0, 1]"}));
+  EXPECT_TRUE(
+      ::quadtune::test::ThrowsConfigError([&] { Replanner(optimizer, PlannerParams{}, options); },
+                                          "brake_factor", {"allowed: a number in (0, 1]"}));
   options = ReplannerOptions{};
   options.fallback_speed = -0.5;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Replanner(optimizer, PlannerParams{}, options); }, "fallback_speed", {"allowed: a number in [0, inf)"}));
+  EXPECT_TRUE(
+      ::quadtune::test::ThrowsConfigError([&] { Replanner(optimizer, PlannerParams{}, options); },
+                                          "fallback_speed", {"allowed: a number in [0, inf)"}));
   PlannerParams bad;
   bad.t_pl = 0.0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Replanner(optimizer, bad); }, "t_pl", {"allowed: a number in [0.05, 10]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Replanner(optimizer, bad); }, "t_pl",
+                                                  {"allowed: a number in [0.05, 10]"}));
   // A clearance the distance field does not reach fails at construction, not mid-flight.
   bad = PlannerParams{};
   bad.clearance = 1.5;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Replanner(optimizer, bad); }, "clearance", {"must lie below", "esdf.max_distance"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Replanner(optimizer, bad); }, "clearance",
+                                                  {"must lie below", "esdf.max_distance"}));
 }
 
 }  // namespace

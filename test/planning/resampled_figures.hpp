@@ -19,7 +19,8 @@ namespace quadtune::planning::testing {
 struct ResampledFigures {
   double max_speed = 0.0;         ///< max |Δp / Δt| (central differences, m/s)
   double max_acceleration = 0.0;  ///< max |Δ²p / Δt²| (m/s²)
-  double min_clearance = std::numeric_limits<double>::infinity();  ///< to the cylinders' surface (m)
+  double min_clearance =
+      std::numeric_limits<double>::infinity();  ///< to the cylinders' surface (m)
 };
 
 /// Distance from `p` to the nearest cylinder's surface (negative inside), from the geometry:
@@ -56,11 +57,12 @@ inline ResampledFigures Resample(const Trajectory& trajectory,
     const Eigen::Vector3d here = p(t);
     const Eigen::Vector3d after = p(t + h);
     f.max_speed = std::max(f.max_speed, (after - before).norm() / (2.0 * h));
-    f.max_acceleration = std::max(f.max_acceleration, (after - 2.0 * here + before).norm() / (h * h));
+    f.max_acceleration =
+        std::max(f.max_acceleration, (after - 2.0 * here + before).norm() / (h * h));
     f.min_clearance = std::min(f.min_clearance, TrueClearance(cylinders, here));
   }
-  f.min_clearance = std::min({f.min_clearance, TrueClearance(cylinders, p(0.0)),
-                              TrueClearance(cylinders, p(duration))});
+  f.min_clearance = std::min(
+      {f.min_clearance, TrueClearance(cylinders, p(0.0)), TrueClearance(cylinders, p(duration))});
   return f;
 }
 

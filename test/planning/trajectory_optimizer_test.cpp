@@ -9,11 +9,11 @@
 #include <string>
 #include <vector>
 
+#include "../config_error_util.hpp"
 #include "analytic_fields.hpp"
 #include "forest_scene.hpp"
 #include "quadtune/common/error.hpp"
 #include "resampled_figures.hpp"
-#include "../config_error_util.hpp"
 
 namespace quadtune::planning {
 namespace {
@@ -76,7 +76,8 @@ TEST(TrajectoryOptimizer, AvoidsPillarsOnTheStraightLine) {
     params.n_pol = n_pol;
     const PlanResult r = optimizer.Solve(StraightRequest(), field, params);
     ASSERT_EQ(r.status, PlanStatus::kSuccess) << r.message;
-    ExpectResampledWithinLimits(r, ThreePillarCylinders(), params, "n_pol " + std::to_string(n_pol));
+    ExpectResampledWithinLimits(r, ThreePillarCylinders(), params,
+                                "n_pol " + std::to_string(n_pol));
     const double clearance = testing::Resample(r.trajectory, ThreePillarCylinders()).min_clearance;
     EXPECT_GT(clearance, 0.5 * params.clearance) << "n_pol " << n_pol;
     EXPECT_LT(clearance, 1.5 * params.clearance);
@@ -328,19 +329,25 @@ TEST(TrajectoryOptimizer, ReportsInvalidInputWithoutThrowing) {
 TEST(TrajectoryOptimizer, RejectsBadOptions) {
   TrajectoryOptimizerOptions o;
   o.sample_spacing = 0.0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { TrajectoryOptimizer{o}; }, "sample_spacing", {"must be finite and"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { TrajectoryOptimizer{o}; }, "sample_spacing",
+                                                  {"must be finite and"}));
   o = {};
   o.tolerance = 0.1;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { TrajectoryOptimizer{o}; }, "tolerance", {"must be in"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { TrajectoryOptimizer{o}; }, "tolerance",
+                                                  {"must be in"}));
   o = {};
   o.max_iterations = 0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { TrajectoryOptimizer{o}; }, "max_iterations", {"must be >="}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { TrajectoryOptimizer{o}; }, "max_iterations",
+                                                  {"must be >="}));
   o = {};
   o.max_samples_per_piece = 1;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { TrajectoryOptimizer{o}; }, "max_samples_per_piece", {"must be >= min_samples_per_piece"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { TrajectoryOptimizer{o}; },
+                                                  "max_samples_per_piece",
+                                                  {"must be >= min_samples_per_piece"}));
   o = {};
   o.stall_relative_change = 0.0;
-  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { TrajectoryOptimizer{o}; }, "stall_relative_change", {"must be in"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { TrajectoryOptimizer{o}; },
+                                                  "stall_relative_change", {"must be in"}));
 }
 
 TEST(TrajectoryOptimizer, AllocatesMoreTimeWhereItAcceleratesFromRest) {
