@@ -1,5 +1,3 @@
-#include "quadtune/engine/tuner.hpp"
-
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sqlite3.h>
@@ -16,6 +14,7 @@
 #include "../process_util.hpp"
 #include "quadtune/engine/planners.hpp"
 #include "quadtune/engine/result_store.hpp"
+#include "quadtune/engine/tuner.hpp"
 #include "test_util.hpp"
 
 namespace quadtune::engine {
@@ -119,8 +118,7 @@ TEST(Tuner, RefinementStartOnTheBoundsOfAnIntegerParameterRuns) {
 
 TEST(Tuner, ToyPlannerIsTunedBelowItsDefaults) {
   RunOptions o;
-  const Experiment e =
-      Experiment::FromString(test::ToyYaml("[default, bo_pso]", "", 16), "toy.yaml");
+  const Experiment e = Experiment::FromString(test::ToyYaml("[default, bo_pso]", "", 16), "toy.yaml");
   const RunSummary s = RunExperiment(e, o);
   ASSERT_EQ(s.trials.size(), 2u);
   EXPECT_LT(s.trials[1].best_value, s.trials[0].best_value);
