@@ -98,6 +98,33 @@ TEST(AdaptCli, SmallExperimentWritesCsvsSummaryAndFigure) {
       EXPECT_TRUE(fs::exists(out / dir / f)) << dir << "/" << f;
     }
   }
+  // Their content: both flights flew the same obstacles; the fixed flight's v_des is 2 m/s all
+  // along; each flight log ends at its summary's flight time, which the top summary repeats.
+  const nlohmann::json top = nlohmann::json::parse(std::ifstream(out / "summary.json"));
+  const nlohmann::json adapted_obstacles =
+      nlohmann::json::parse(std::ifstream(out / "adapted" / "obstacles.json"));
+  const nlohmann::json fixed_obstacles =
+      nlohmann::json::parse(std::ifstream(out / "fixed_2" / "obstacles.json"));
+  EXPECT_GT(fixed_obstacles["cylinders"].size(), 0u);
+  EXPECT_EQ(fixed_obstacles, adapted_obstacles);
+  const auto fixed_path = ReadCsv(out / "fixed_2" / "path.csv");
+  ASSERT_GT(fixed_path.size(), 50u);
+  for (const auto& r : fixed_path) EXPECT_DOUBLE_EQ(std::stod(r.at("v_des")), 2.0);
+  for (const char* dir : {"adapted", "fixed_2"}) {
+    const nlohmann::json flight_summary =
+        nlohmann::json::parse(std::ifstream(out / dir / "summary.json"));
+    const auto log = ReadCsv(out / dir / "flight.csv");
+    ASSERT_FALSE(log.empty()) << dir;
+    EXPECT_NEAR(std::stod(log.back().at("t")), flight_summary["flight_time"].get<double>(), 0.1)
+        << dir;
+    EXPECT_FALSE(ReadCsv(out / dir / "plans.csv").empty()) << dir;
+    bool listed = false;
+    for (const auto& f : top["flights"]) {
+      listed = listed || f["flight_time"] == flight_summary["flight_time"];
+    }
+    EXPECT_TRUE(listed) << dir << " flight time not in summary.json";
+  }
+
   const auto path = ReadCsv(out / "adapted" / "path.csv");
   ASSERT_GT(path.size(), 50u);
   for (const auto& r : path) {

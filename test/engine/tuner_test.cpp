@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "../process_util.hpp"
 #include "quadtune/engine/planners.hpp"
 #include "quadtune/engine/result_store.hpp"
 #include "quadtune/engine/tuner.hpp"
@@ -309,40 +310,11 @@ INSTANTIATE_TEST_SUITE_P(
                       std::make_pair("[bo_pso]", 1),    // after the θ_s-first phase
                       std::make_pair("[bo_pso]", 3)));  // mid bo_pso: flights re-flown for queries
 
-int CountRows(const std::string& path) {
-  sqlite3* db = nullptr;
-  if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
-    sqlite3_close(db);
-    return 0;
-  }
-  int n = 0;
-  sqlite3_stmt* st = nullptr;
-  if (sqlite3_prepare_v2(db, "SELECT COUNT(*) FROM evaluation", -1, &st, nullptr) == SQLITE_OK &&
-      sqlite3_step(st) == SQLITE_ROW) {
-    n = sqlite3_column_int(st, 0);
-  }
-  sqlite3_finalize(st);
-  sqlite3_close(db);
-  return n;
-}
+using ::quadtune::test::CountEvaluations;
+using ::quadtune::test::Spawn;
+using ::quadtune::test::WaitExit;
 
-pid_t Spawn(const std::vector<std::string>& args) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    std::vector<char*> argv;
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    execv(argv[0], argv.data());
-    _exit(127);
-  }
-  return pid;
-}
-
-int WaitExit(pid_t pid) {
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+int CountRows(const std::string& path) { return CountEvaluations(path); }
 
 TEST(Resume, KillMinus9MidRunThenResumeEqualsUninterruptedRun) {
   const std::string bin = std::string(QUADTUNE_BINARY_DIR) + "/experiments/quadtune";
@@ -395,10 +367,29 @@ TEST(Cli, ExportWritesCsvAndBenchRuns) {
   int lines = 0;
   for (std::string line; std::getline(csv, line);) ++lines;
   EXPECT_EQ(lines, 1 + 6);
-  EXPECT_TRUE(std::filesystem::exists(dir + "/csv/trials.csv"));
-  EXPECT_TRUE(std::filesystem::exists(dir + "/run/summary.json"));
+  // trials.csv: the one bo trial, done; summary.json: the same trial with its 6 flights.
+  std::ifstream trials(dir + "/csv/trials.csv");
+  std::vector<std::string> trial_lines;
+  for (std::string line; std::getline(trials, line);) trial_lines.push_back(line);
+  ASSERT_EQ(trial_lines.size(), 2u);
+  EXPECT_NE(trial_lines[1].find("bo"), std::string::npos) << trial_lines[1];
+  EXPECT_NE(trial_lines[1].find("done"), std::string::npos) << trial_lines[1];
+  const auto summary = nlohmann::json::parse(std::ifstream(dir + "/run/summary.json"));
+  EXPECT_EQ(summary["status"], "completed");
+  ASSERT_EQ(summary["trials"].size(), 1u);
+  EXPECT_EQ(summary["trials"][0]["method"], "bo");
+  EXPECT_EQ(summary["trials"][0]["flights"], 6);
+  EXPECT_EQ(summary["flights"], 6);
+  const auto stored = test::Deterministic(dir + "/run/results.sqlite");
+  EXPECT_EQ(stored.size(), 6u);
+  // The bench reports its table: one row per thread count.
   EXPECT_EQ(WaitExit(Spawn({bin, "--log-level", "warn", "bench", file, "--max-threads", "2",
-                            "--flights", "4", "--resolves", "50"})), 0);
+                            "--flights", "4", "--resolves", "50", "--csv", dir + "/bench.csv"})),
+            0);
+  std::ifstream bench(dir + "/bench.csv");
+  int bench_lines = 0;
+  for (std::string line; std::getline(bench, line);) ++bench_lines;
+  EXPECT_EQ(bench_lines, 1 + 2);
   // A configuration error stops `run` before any work, with exit code 2.
   std::ofstream(dir + "/bad.yaml") << test::ToyYaml("[annealing]");
   EXPECT_EQ(WaitExit(Spawn({bin, "--log-level", "off", "run", dir + "/bad.yaml", "--out",

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "../config_error_util.hpp"
 #include "test_functions.hpp"
 
 namespace quadtune::optimizers {
@@ -318,21 +319,30 @@ seed: 3
 TEST(BayesOpt, RejectsDiscountOutsideUnitInterval) {
   BayesOptOptions o;
   o.discount = 0.0;
-  EXPECT_THROW(BayesOpt(MixedSpace(), o), ConfigError);
-  EXPECT_THROW(BayesOptOptions::FromYaml(YamlMap::FromString("discount: 1.5")), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOpt(MixedSpace(), o); }, "discount",
+                                                  {"must be a number"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { BayesOptOptions::FromYaml(YamlMap::FromString("discount: 1.5")); }, "discount",
+      {"allowed: a number in (0, 1]"}));
 }
 
 TEST(BayesOpt, RejectsDampingOutsideUnitInterval) {
   BayesOptOptions o;
   o.moving_bounds.damping = 1.0;
-  EXPECT_THROW(BayesOpt(MixedSpace(), o), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOpt(MixedSpace(), o); },
+                                                  "moving_bounds.damping", {"must be a number"}));
 }
 
 TEST(BayesOpt, RejectsUnknownYamlKey) {
-  EXPECT_THROW(BayesOptOptions::FromYaml(YamlMap::FromString("kernal: matern52")), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { BayesOptOptions::FromYaml(YamlMap::FromString("kernal: matern52")); }, "kernal",
+      {"unknown key; allowed keys"}));
 }
 
-TEST(BayesOpt, RejectsEmptySpace) { EXPECT_THROW(BayesOpt(ParameterSpace(), {}), ConfigError); }
+TEST(BayesOpt, RejectsEmptySpace) {
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOpt(ParameterSpace(), {}); },
+                                                  "parameters", {"the parameter space must"}));
+}
 
 TEST(BayesOpt, RejectsCrossedSearchBounds) {
   BayesOpt bo(MixedSpace(), {});

@@ -4,6 +4,7 @@
 
 #include <Eigen/Dense>
 
+#include "../config_error_util.hpp"
 #include "quadtune/common/error.hpp"
 
 namespace quadtune::optimizers {
@@ -203,7 +204,8 @@ TEST(GaussianProcess, RejectsBadData) {
 TEST(GaussianProcess, RejectsBadOptions) {
   GaussianProcessOptions o;
   o.max_lengthscale = o.min_lengthscale / 2;
-  EXPECT_THROW(GaussianProcess<Matern52Kernel>(2, o), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { GaussianProcess<Matern52Kernel>(2, o); },
+                                                  "gp.max_lengthscale", {"must be a finite"}));
 }
 
 }  // namespace

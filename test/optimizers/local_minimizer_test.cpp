@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "../config_error_util.hpp"
 #include "quadtune/common/error.hpp"
 
 namespace quadtune::optimizers {
@@ -42,7 +43,8 @@ TEST(MinimizeBox, RejectsBadOptions) {
   Eigen::VectorXd x = Eigen::VectorXd::Zero(1);
   BoxLbfgsOptions o;
   o.max_iterations = 0;
-  EXPECT_THROW(MinimizeBox(Rosen, x, x, x, o), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { MinimizeBox(Rosen, x, x, x, o); },
+                                                  "max_iterations", {"must be an integer"}));
   EXPECT_THROW(MinimizeBox(Rosen, x, Eigen::VectorXd::Zero(2), Eigen::VectorXd::Ones(2)), std::invalid_argument);
 }
 

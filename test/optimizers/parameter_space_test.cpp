@@ -4,6 +4,8 @@
 
 #include <cmath>
 
+#include "../config_error_util.hpp"
+
 namespace quadtune::optimizers {
 namespace {
 
@@ -67,36 +69,56 @@ TEST(ParameterSpace, ContainsAndNamed) {
 }
 
 TEST(ParameterSpace, RejectsLowerAboveUpper) {
-  EXPECT_THROW(ParameterSpace::FromYaml(YamlMap::FromString("parameters: [{name: a, lower: 2, upper: 1}]")),
-               ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] {
+        ParameterSpace::FromYaml(
+            YamlMap::FromString("parameters: [{name: a, lower: 2, upper: 1}]"));
+      },
+      "parameters[0].upper", {"parameter 'a': upper bound"}));
 }
 
 TEST(ParameterSpace, RejectsEmptySpace) {
-  EXPECT_THROW(ParameterSpace(std::vector<Parameter>{}), ConfigError);
-  EXPECT_THROW(ParameterSpace::FromYaml(YamlMap::FromString("parameters: []")), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { ParameterSpace(std::vector<Parameter>{}); },
+                                                  "parameters", {"the parameter space must"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { ParameterSpace::FromYaml(YamlMap::FromString("parameters: []")); }, "parameters",
+      {"expected a non-empty sequence"}));
 }
 
 TEST(ParameterSpace, RejectsLogScaleWithNonPositiveLower) {
-  EXPECT_THROW(ParameterSpace::FromYaml(YamlMap::FromString("parameters: [{name: a, lower: 0, upper: 1, log: true}]")),
-               ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] {
+        ParameterSpace::FromYaml(
+            YamlMap::FromString("parameters: [{name: a, lower: 0, upper: 1, log: true}]"));
+      },
+      "parameters[0].lower", {"parameter 'a': a log-scale"}));
 }
 
 TEST(ParameterSpace, RejectsNonIntegerIntegerBounds) {
-  EXPECT_THROW(ParameterSpace::FromYaml(
-                   YamlMap::FromString("parameters: [{name: a, lower: 0.5, upper: 3, type: integer}]")),
-               ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] {
+        ParameterSpace::FromYaml(
+            YamlMap::FromString("parameters: [{name: a, lower: 0.5, upper: 3, type: integer}]"));
+      },
+      "parameters[0].lower", {"parameter 'a': integer parameter"}));
 }
 
 TEST(ParameterSpace, RejectsDefaultOutsideBounds) {
-  EXPECT_THROW(ParameterSpace::FromYaml(
-                   YamlMap::FromString("parameters: [{name: a, lower: 0, upper: 1, default: 2}]")),
-               ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] {
+        ParameterSpace::FromYaml(
+            YamlMap::FromString("parameters: [{name: a, lower: 0, upper: 1, default: 2}]"));
+      },
+      "parameters[0].default", {"parameter 'a': default must"}));
 }
 
 TEST(ParameterSpace, RejectsDuplicateNames) {
-  EXPECT_THROW(ParameterSpace::FromYaml(YamlMap::FromString(
-                   "parameters: [{name: a, lower: 0, upper: 1}, {name: a, lower: 0, upper: 2}]")),
-               ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] {
+        ParameterSpace::FromYaml(YamlMap::FromString(
+            "parameters: [{name: a, lower: 0, upper: 1}, {name: a, lower: 0, upper: 2}]"));
+      },
+      "parameters[1].name", {"duplicate parameter name 'a'"}));
 }
 
 TEST(ParameterSpace, RejectsUnknownYamlKey) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "../config_error_util.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/physics/world.hpp"
 
@@ -153,16 +154,20 @@ TEST(DepthSensor, NoiseIsSeeded) {
 TEST(DepthSensor, RejectsBadOptions) {
   DepthSensorOptions o;
   o.max_range = 0.05;  // below min_range
-  EXPECT_THROW(DepthSensor{o}, ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { DepthSensor{o}; }, "max_range",
+                                                  {"allowed: a number in (0.1, inf)"}));
   o = {};
   o.horizontal_fov_deg = 180.0;
-  EXPECT_THROW(DepthSensor{o}, ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { DepthSensor{o}; }, "horizontal_fov_deg",
+                                                  {"allowed: a number in (0, 170]"}));
   o = {};
   o.width = 0;
-  EXPECT_THROW(DepthSensor{o}, ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { DepthSensor{o}; }, "width",
+                                                  {"allowed: a number in [1, 4096]"}));
   o = {};
   o.rate_hz = 0.0;
-  EXPECT_THROW(DepthSensor{o}, ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { DepthSensor{o}; }, "rate_hz",
+                                                  {"allowed: a number in (0, inf)"}));
 }
 
 }  // namespace

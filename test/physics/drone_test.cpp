@@ -5,7 +5,9 @@
 
 #include <functional>
 #include <string>
+#include <string_view>
 
+#include "../config_error_util.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/yaml.hpp"
 
@@ -95,100 +97,127 @@ TEST(DroneDescription, ErrorsNameFileAndKey) {
   EXPECT_EQ(ErrorFor([](YAML::Node& n) { n["inertia"][1] = 0.0; }).key(), "inertia[1]");
 }
 
-// One EXPECT_THROW per documented bad input.
+// One test per documented bad input: the error names the key of the rule that rejects it (so a
+// deleted rule cannot hide behind a later one) and says what is allowed.
+using test::ThrowsConfigError;
+
+// The edit is rejected with a ConfigError naming `key` whose message holds `words`.
+::testing::AssertionResult Rejects(const std::function<void(YAML::Node&)>& edit,
+                                   std::string_view key,
+                                   std::initializer_list<std::string_view> words) {
+  return ThrowsConfigError([&] { LoadEdited(edit); }, key, words);
+}
+
 TEST(DroneDescription, RejectsMissingFile) {
-  EXPECT_THROW(LoadDroneDescription(kDrones + "no_such_drone.yaml"), ConfigError);
+  const std::string path = kDrones + "no_such_drone.yaml";
+  EXPECT_TRUE(ThrowsConfigError([&] { LoadDroneDescription(path); }, "",
+                                {"no_such_drone.yaml", "cannot open"}));
 }
 TEST(DroneDescription, RejectsMalformedYaml) {
-  EXPECT_THROW(DroneDescription::FromYaml(YamlMap::FromString("mass: [1, 2", "bad.yaml")),
-               ConfigError);
+  EXPECT_TRUE(ThrowsConfigError(
+      [] { DroneDescription::FromYaml(YamlMap::FromString("mass: [1, 2", "bad.yaml")); }, "",
+      {"bad.yaml", "malformed YAML at line"}));
 }
 TEST(DroneDescription, RejectsUnknownTopLevelKey) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["masss"] = 1.0; }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["masss"] = 1.0; }, "masss",
+                      {"unknown key", "mass", "arm_length"}));
 }
 TEST(DroneDescription, RejectsUnknownRotorKey) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["rotor"]["kf"] = 1.0; }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["rotor"]["kf"] = 1.0; }, "rotor.kf",
+                      {"unknown key", "thrust_coefficient"}));
 }
 TEST(DroneDescription, RejectsUnknownControllerKey) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["controller"]["ki"] = 1.0; }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["controller"]["ki"] = 1.0; }, "controller.ki",
+                      {"unknown key", "position_gain"}));
 }
 TEST(DroneDescription, RejectsMissingMass) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n.remove("mass"); }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n.remove("mass"); }, "mass", {"missing"}));
 }
 TEST(DroneDescription, RejectsNonPositiveMass) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["mass"] = 0.0; }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["mass"] = 0.0; }, "mass", {"got 0", "(0, "}));
 }
 TEST(DroneDescription, RejectsNonNumericMass) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["mass"] = "heavy"; }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["mass"] = "heavy"; }, "mass", {"heavy"}));
 }
 TEST(DroneDescription, RejectsInertiaOfWrongLength) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["inertia"].push_back(1.0); }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["inertia"].push_back(1.0); }, "inertia", {"3"}));
 }
 TEST(DroneDescription, RejectsNonPositiveInertia) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["inertia"][0] = -1e-3; }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["inertia"][0] = -1e-3; }, "inertia[0]", {"(0, "}));
 }
 TEST(DroneDescription, RejectsInertiaViolatingTriangleInequality) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["inertia"][2] = 1.0; }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["inertia"][2] = 1.0; }, "inertia",
+                      {"triangle inequality", "I[2]"}));
 }
 TEST(DroneDescription, RejectsNonPositiveArm) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["arm_length"] = 0.0; }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["arm_length"] = 0.0; }, "arm_length", {"(0, "}));
 }
 TEST(DroneDescription, RejectsUnknownConfiguration) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["configuration"] = "hexa"; }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["configuration"] = "hexa"; }, "configuration",
+                      {"hexa", "x", "plus"}));
 }
 TEST(DroneDescription, RejectsNegativeMinRotorSpeed) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["rotor"]["min_speed_rpm"] = -1.0; }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["rotor"]["min_speed_rpm"] = -1.0; },
+                      "rotor.min_speed_rpm", {"got -1", "[0, "}));
 }
+// min >= max also makes the descent check fail (thrust at min_speed_rpm >= thrust at max >
+// weight), so only the key and the message tell the order rule from the descent rule.
 TEST(DroneDescription, RejectsMinNotBelowMaxRotorSpeed) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["rotor"]["min_speed_rpm"] = 35000.0; }),
-               ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["rotor"]["min_speed_rpm"] = 35000.0; },
+                      "rotor.max_speed_rpm", {"got 35000", "(35000, "}));
 }
 TEST(DroneDescription, RejectsThrustToWeightAtMostOne) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["rotor"]["thrust_coefficient"] = 1e-9; }),
-               ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["rotor"]["thrust_coefficient"] = 1e-9; },
+                      "rotor.thrust_coefficient", {"thrust-to-weight", "must exceed 1"}));
 }
 TEST(DroneDescription, RejectsMinSpeedThatCannotDescend) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["rotor"]["min_speed_rpm"] = 25000.0; }),
-               ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["rotor"]["min_speed_rpm"] = 25000.0; },
+                      "rotor.min_speed_rpm", {"descend"}));
 }
 TEST(DroneDescription, RejectsNonPositiveThrustCoefficient) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["rotor"]["thrust_coefficient"] = 0.0; }),
-               ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["rotor"]["thrust_coefficient"] = 0.0; },
+                      "rotor.thrust_coefficient", {"got 0", "(0, "}));
 }
 TEST(DroneDescription, RejectsNonPositiveTorqueCoefficient) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["rotor"]["torque_coefficient"] = -1e-10; }),
-               ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["rotor"]["torque_coefficient"] = -1e-10; },
+                      "rotor.torque_coefficient", {"(0, "}));
 }
 TEST(DroneDescription, RejectsNonPositiveMotorTimeConstant) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["rotor"]["time_constant"] = 0.0; }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["rotor"]["time_constant"] = 0.0; },
+                      "rotor.time_constant", {"got 0", "(0, "}));
 }
 TEST(DroneDescription, RejectsNegativeDrag) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["drag"][2] = -0.1; }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["drag"][2] = -0.1; }, "drag[2]", {"got -0.1", "[0, "}));
 }
 TEST(DroneDescription, RejectsUnknownCollisionShape) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["collision"]["shape"] = "cone"; }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["collision"]["shape"] = "cone"; }, "collision.shape",
+                      {"cone", "sphere", "box"}));
 }
 TEST(DroneDescription, RejectsNonPositiveCollisionRadius) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["collision"]["radius"] = 0.0; }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["collision"]["radius"] = 0.0; }, "collision.radius",
+                      {"got 0", "(0, "}));
 }
 TEST(DroneDescription, RejectsNonPositiveBoxHalfExtent) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) {
-                 n["collision"] = YAML::Load("{shape: box, half_extents: [0.2, 0.0, 0.05]}");
-               }),
-               ConfigError);
+  EXPECT_TRUE(Rejects(
+      [](YAML::Node& n) {
+        n["collision"] = YAML::Load("{shape: box, half_extents: [0.2, 0.0, 0.05]}");
+      },
+      "collision.half_extents[1]", {"got 0", "(0, "}));
 }
+// A complete box (half_extents given) with a stray radius: only the unknown-key rule rejects it.
 TEST(DroneDescription, RejectsRadiusKeyOnBox) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) {
-                 n["collision"] = YAML::Load("{shape: box, radius: 0.2}");
-               }),
-               ConfigError);
+  EXPECT_TRUE(Rejects(
+      [](YAML::Node& n) {
+        n["collision"] = YAML::Load("{shape: box, half_extents: [0.2, 0.2, 0.05], radius: 0.2}");
+      },
+      "collision.radius", {"unknown key", "half_extents"}));
 }
 TEST(DroneDescription, RejectsNonPositiveMaxSpeed) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["max_speed"] = 0.0; }), ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["max_speed"] = 0.0; }, "max_speed", {"(0, "}));
 }
 TEST(DroneDescription, RejectsNonPositiveGain) {
-  EXPECT_THROW(LoadEdited([](YAML::Node& n) { n["controller"]["attitude_gain"][0] = 0.0; }),
-               ConfigError);
+  EXPECT_TRUE(Rejects([](YAML::Node& n) { n["controller"]["attitude_gain"][0] = 0.0; },
+                      "controller.attitude_gain[0]", {"(0, "}));
 }
 
 TEST(DroneDescription, AcceptsBoxCollisionShape) {

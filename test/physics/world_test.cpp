@@ -8,6 +8,7 @@
 #include <cstring>
 #include <vector>
 
+#include "../config_error_util.hpp"
 #include "physics_test_util.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/yaml.hpp"
@@ -340,19 +341,25 @@ TEST(World, RejectsBadOptions) {
   const DroneDescription d;
   WorldOptions o;
   o.controller_rate_hz = 300.0;  // does not divide 1000 Hz
-  EXPECT_THROW(World(ObstacleSet{}, d, o), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { World(ObstacleSet{}, d, o); }, "controller_rate_hz", {"must divide physics_rate_hz"}));
   o = {};
   o.physics_rate_hz = 50.0;
-  EXPECT_THROW(World(ObstacleSet{}, d, o), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { World(ObstacleSet{}, d, o); },
+                                                  "physics_rate_hz",
+                                                  {"allowed: a number in [100, 20000]"}));
   o = {};
   o.mass_scale = 0.0;
-  EXPECT_THROW(World(ObstacleSet{}, d, o), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { World(ObstacleSet{}, d, o); }, "mass_scale",
+                                                  {"allowed: a number in [0.2, 5]"}));
   o = {};
   o.gust_stddev = -1.0;
-  EXPECT_THROW(World(ObstacleSet{}, d, o), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { World(ObstacleSet{}, d, o); }, "gust_stddev", {"allowed: a number in [0, inf)"}));
   DroneDescription bad = d;
   bad.mass = -1.0;
-  EXPECT_THROW(World(ObstacleSet{}, bad, {}), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { World(ObstacleSet{}, bad, {}); }, "mass",
+                                                  {"allowed: a number in (0, inf)"}));
 }
 
 TEST(World, OptionsFromYamlNameNestedKeys) {
@@ -371,7 +378,9 @@ TEST(World, OptionsFromYamlNameNestedKeys) {
     EXPECT_EQ(e.key(), "world.gust_stddev");
     EXPECT_EQ(e.file(), "w.yaml");
   }
-  EXPECT_THROW(WorldOptions::FromYaml(YamlMap::FromString("physics_hz: 1", "w.yaml")), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { WorldOptions::FromYaml(YamlMap::FromString("physics_hz: 1", "w.yaml")); }, "physics_hz",
+      {"unknown key; allowed keys"}));
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <thread>
 
+#include "../config_error_util.hpp"
 #include "analytic_fields.hpp"
 #include "mapping_scenes.hpp"
 #include "quadtune/common/random.hpp"
@@ -305,10 +306,14 @@ TEST(EsdfOptions, ValidateRejectsEachBadValue) {
   EXPECT_NO_THROW(EsdfOptions{}.Validate());
   EsdfOptions o;
   o.max_distance = 0.0;
-  EXPECT_THROW(o.Validate(), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { o.Validate(); }, "max_distance",
+                                                  {"allowed: a number in (0, 30]"}));
   o.max_distance = 40.0;
-  EXPECT_THROW(o.Validate(), ConfigError);
-  EXPECT_THROW((void)EsdfOptions::FromYaml(YamlMap::FromString("max_dist: 1\n")), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { o.Validate(); }, "max_distance",
+                                                  {"allowed: a number in (0, 30]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { (void)EsdfOptions::FromYaml(YamlMap::FromString("max_dist: 1\n")); }, "max_dist",
+      {"unknown key; allowed keys"}));
   EXPECT_DOUBLE_EQ(EsdfOptions::FromYaml(YamlMap::FromString("max_distance: 1.5\n")).max_distance,
                    1.5);
   LocalMap map(LocalMapOptions{});

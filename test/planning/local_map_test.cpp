@@ -5,6 +5,7 @@
 #include <set>
 #include <tuple>
 
+#include "../config_error_util.hpp"
 #include "mapping_scenes.hpp"
 #include "quadtune/common/random.hpp"
 
@@ -241,15 +242,33 @@ TEST(LocalMapOptions, ValidateRejectsEachBadValue) {
     return o;
   };
   EXPECT_NO_THROW(LocalMapOptions{}.Validate());
-  EXPECT_THROW(bad([](auto& o) { o.resolution = 0.0; }).Validate(), ConfigError);
-  EXPECT_THROW(bad([](auto& o) { o.resolution = 2.0; }).Validate(), ConfigError);
-  EXPECT_THROW(bad([](auto& o) { o.size.x() = 0.1; }).Validate(), ConfigError);
-  EXPECT_THROW(bad([](auto& o) { o.size = Vector3d(400, 400, 100); }).Validate(), ConfigError);
-  EXPECT_THROW(bad([](auto& o) { o.inflation = -0.1; }).Validate(), ConfigError);
-  EXPECT_THROW(bad([](auto& o) { o.inflation = 2.0; }).Validate(), ConfigError);
-  EXPECT_THROW(bad([](auto& o) { o.max_range = 0.0; }).Validate(), ConfigError);
-  EXPECT_THROW(bad([](auto& o) { o.misses_to_free = 0; }).Validate(), ConfigError);
-  EXPECT_THROW(bad([](auto& o) { o.ground_height = std::nan(""); }).Validate(), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { bad([](auto& o) { o.resolution = 0.0; }).Validate(); }, "resolution",
+      {"allowed: a number in (0, 1]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { bad([](auto& o) { o.resolution = 2.0; }).Validate(); }, "resolution",
+      {"allowed: a number in (0, 1]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { bad([](auto& o) { o.size.x() = 0.1; }).Validate(); }, "size.x",
+      {"allowed: a number in [0.2, 409.6]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { bad([](auto& o) { o.size = Vector3d(400, 400, 100); }).Validate(); }, "size",
+      {"the window holds"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { bad([](auto& o) { o.inflation = -0.1; }).Validate(); }, "inflation",
+      {"allowed: a number in [0, 1.5]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { bad([](auto& o) { o.inflation = 2.0; }).Validate(); }, "inflation",
+      {"allowed: a number in [0, 1.5]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { bad([](auto& o) { o.max_range = 0.0; }).Validate(); }, "max_range",
+      {"allowed: a number in (0, inf)"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { bad([](auto& o) { o.misses_to_free = 0; }).Validate(); }, "misses_to_free",
+      {"allowed: a number in [1, 100]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { bad([](auto& o) { o.ground_height = std::nan(""); }).Validate(); }, "ground_height",
+      {"allowed: a finite number"}));
   try {
     bad([](auto& o) { o.inflation = 5.0; }).Validate("map.yaml");
     FAIL();
@@ -257,7 +276,9 @@ TEST(LocalMapOptions, ValidateRejectsEachBadValue) {
     EXPECT_EQ(e.key(), "inflation");
     EXPECT_EQ(e.file(), "map.yaml");
   }
-  EXPECT_THROW((void)LocalMap(bad([](auto& o) { o.resolution = -1.0; })), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { (void)LocalMap(bad([](auto& o) { o.resolution = -1.0; })); }, "resolution",
+      {"allowed: a number in (0, 1]"}));
 }
 
 TEST(LocalMapOptions, ReadsYamlAndPlannerParams) {
@@ -266,7 +287,9 @@ TEST(LocalMapOptions, ReadsYamlAndPlannerParams) {
   EXPECT_DOUBLE_EQ(o.resolution, 0.2);
   EXPECT_DOUBLE_EQ(o.size.y(), 8.0);
   EXPECT_DOUBLE_EQ(o.inflation, 0.3);
-  EXPECT_THROW(LocalMapOptions::FromYaml(YamlMap::FromString("resolutoin: 0.2\n")), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { LocalMapOptions::FromYaml(YamlMap::FromString("resolutoin: 0.2\n")); }, "resolutoin",
+      {"unknown key; allowed keys"}));
   PlannerParams p;
   p.map_resolution = 0.15;
   p.inflation = 0.2;

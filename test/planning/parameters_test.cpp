@@ -3,6 +3,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "../config_error_util.hpp"
+
 namespace quadtune::planning {
 namespace {
 
@@ -23,8 +25,10 @@ TEST(PlannerParams, NamedAccessRoundTrips) {
 
 TEST(PlannerParams, UnknownNameThrows) {
   PlannerParams p;
-  EXPECT_THROW(p.Set("w_colision", 1.0), ConfigError);
-  EXPECT_THROW((void)p.Get("speed"), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { p.Set("w_colision", 1.0); }, "w_colision",
+                                                  {"allowed: w_col, w_dyn, n_pol, v_des, h_p"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { (void)p.Get("speed"); }, "speed",
+                                                  {"allowed: w_col, w_dyn, n_pol, v_des, h_p"}));
 }
 
 TEST(PlannerParams, OutOfRangeNamesKey) {
@@ -39,10 +43,12 @@ TEST(PlannerParams, OutOfRangeNamesKey) {
   }
   p = PlannerParams{};
   p.v_des = 0.0;
-  EXPECT_THROW(p.Validate(), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { p.Validate(); }, "v_des",
+                                                  {"allowed: a number in (0, 15]"}));
   p = PlannerParams{};
   p.w_col = -1.0;
-  EXPECT_THROW(p.Validate(), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { p.Validate(); }, "w_col",
+                                                  {"allowed: a number in (0, inf)"}));
 }
 
 TEST(PlannerParams, FromYamlOverridesDefaultsAndRejectsUnknownKeys) {
@@ -50,8 +56,12 @@ TEST(PlannerParams, FromYamlOverridesDefaultsAndRejectsUnknownKeys) {
   EXPECT_DOUBLE_EQ(p.v_des, 3.5);
   EXPECT_EQ(p.n_pol, 6);
   EXPECT_DOUBLE_EQ(p.h_pl, PlannerParams{}.h_pl);
-  EXPECT_THROW(PlannerParams::FromYaml(YamlMap::FromString("vdes: 3\n", "e.yaml")), ConfigError);
-  EXPECT_THROW(PlannerParams::FromYaml(YamlMap::FromString("h_pl: 100\n", "e.yaml")), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { PlannerParams::FromYaml(YamlMap::FromString("vdes: 3\n", "e.yaml")); }, "vdes",
+      {"unknown key; allowed keys"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { PlannerParams::FromYaml(YamlMap::FromString("h_pl: 100\n", "e.yaml")); }, "h_pl",
+      {"allowed: a number in [1, 30]"}));
 }
 
 }  // namespace

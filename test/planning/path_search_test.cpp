@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "../config_error_util.hpp"
 #include "mapping_scenes.hpp"
 
 namespace quadtune::planning {
@@ -170,7 +171,9 @@ TEST(PathSearch, LocalGoalFollowsPlanningHorizon) {
   EXPECT_FALSE(ChooseLocalGoal(blocked, Vector3d(0.02, 0, 1), Vector3d(5, 0, 1), 0.05).found);
   EXPECT_EQ(searcher.Plan(blocked, Vector3d(0.02, 0, 1), Vector3d(5, 0, 1), 0.05).status,
             PathSearchStatus::kNoFreeLocalGoal);
-  EXPECT_THROW((void)ChooseLocalGoal(empty, s, mission, 0.0), ConfigError);
+  EXPECT_TRUE(
+      ::quadtune::test::ThrowsConfigError([&] { (void)ChooseLocalGoal(empty, s, mission, 0.0); },
+                                          "h_pl", {"allowed: a number in (0, inf)"}));
 }
 
 TEST(PathSearch, ForestPathIsCollisionFreeAndDeterministic) {
@@ -230,19 +233,37 @@ TEST(PathSearchOptions, ValidateRejectsEachBadValue) {
     return o;
   };
   EXPECT_NO_THROW(PathSearchOptions{}.Validate());
-  EXPECT_THROW(bad([](auto& o) { o.max_expansions = 0; }).Validate(), ConfigError);
-  EXPECT_THROW(bad([](auto& o) { o.search_margin = -1.0; }).Validate(), ConfigError);
-  EXPECT_THROW(bad([](auto& o) { o.z_max = 0.1; }).Validate(), ConfigError);
-  EXPECT_THROW(bad([](auto& o) { o.z_min = std::nan(""); }).Validate(), ConfigError);
-  EXPECT_THROW(bad([](auto& o) { o.heuristic_weight = 0.5; }).Validate(), ConfigError);
-  EXPECT_THROW(bad([](auto& o) { o.start_escape_radius = 3.0; }).Validate(), ConfigError);
-  EXPECT_THROW(bad([](auto& o) { o.max_search_cells = 0; }).Validate(), ConfigError);
-  EXPECT_THROW(PathSearcher(bad([](auto& o) { o.max_expansions = -3; })), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { bad([](auto& o) { o.max_expansions = 0; }).Validate(); }, "max_expansions",
+      {"allowed: a number in [1, 1e+08]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { bad([](auto& o) { o.search_margin = -1.0; }).Validate(); }, "search_margin",
+      {"allowed: a number in [0, 50]"}));
+  EXPECT_TRUE(
+      ::quadtune::test::ThrowsConfigError([&] { bad([](auto& o) { o.z_max = 0.1; }).Validate(); },
+                                          "z_max", {"allowed: a number in (0.2, inf)"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { bad([](auto& o) { o.z_min = std::nan(""); }).Validate(); }, "z_min",
+      {"allowed: a finite number"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { bad([](auto& o) { o.heuristic_weight = 0.5; }).Validate(); }, "heuristic_weight",
+      {"allowed: a number in [1, 10]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { bad([](auto& o) { o.start_escape_radius = 3.0; }).Validate(); }, "start_escape_radius",
+      {"allowed: a number in [0, 2]"}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { bad([](auto& o) { o.max_search_cells = 0; }).Validate(); }, "max_search_cells",
+      {"allowed: a number in [1, "}));
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { PathSearcher(bad([](auto& o) { o.max_expansions = -3; })); }, "max_expansions",
+      {"allowed: a number in [1, 1e+08]"}));
   const PathSearchOptions y =
       PathSearchOptions::FromYaml(YamlMap::FromString("max_expansions: 500\nz_max: 2.5\n"));
   EXPECT_EQ(y.max_expansions, 500);
   EXPECT_DOUBLE_EQ(y.z_max, 2.5);
-  EXPECT_THROW((void)PathSearchOptions::FromYaml(YamlMap::FromString("zmax: 2\n")), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] { (void)PathSearchOptions::FromYaml(YamlMap::FromString("zmax: 2\n")); }, "zmax",
+      {"unknown key; allowed keys"}));
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "../config_error_util.hpp"
 #include "scene_util.hpp"
 
 namespace quadtune::planning {
@@ -140,9 +141,16 @@ TEST(Replanner, NoEmergencyStopWhenReplanningSucceeds) {
   physics::ObstacleSet pillar;
   pillar.cylinders.push_back({{f.p.x() + 4.0, 0.0}, 0.3, 0.0, 3.0});
   f.map.Insert(f.p, testing::SurfacePoints(pillar));
-  for (int i = 0; i < 300; ++i) f.Step();
+  const double pillar_x = pillar.cylinders[0].center_W.x();
+  // Closest approach over the whole flight past the pillar (not where the drone ends up).
+  double min_distance = pillar.Distance(f.p);
+  for (int i = 0; i < 300; ++i) {
+    f.Step();
+    min_distance = std::min(min_distance, pillar.Distance(f.p));
+  }
   EXPECT_EQ(f.replanner.emergency_stops(), 0);
-  EXPECT_GT(pillar.Distance(f.p), 0.0);
+  EXPECT_GT(f.p.x(), pillar_x + 1.0) << "the drone has flown past the pillar";
+  EXPECT_GT(min_distance, 0.15);
 }
 
 /// A query in a 6 × 3 × 1.5 m box at 0.1 m whose only obstacle is a vertical column of cells
@@ -261,17 +269,23 @@ TEST(Replanner, InvalidOptionsNameTheKey) {
   TrajectoryOptimizer optimizer;
   ReplannerOptions options;
   options.brake_factor = 1.5;
-  EXPECT_THROW(Replanner(optimizer, PlannerParams{}, options), ConfigError);
+  EXPECT_TRUE(
+      ::quadtune::test::ThrowsConfigError([&] { Replanner(optimizer, PlannerParams{}, options); },
+                                          "brake_factor", {"allowed: a number in (0, 1]"}));
   options = ReplannerOptions{};
   options.fallback_speed = -0.5;
-  EXPECT_THROW(Replanner(optimizer, PlannerParams{}, options), ConfigError);
+  EXPECT_TRUE(
+      ::quadtune::test::ThrowsConfigError([&] { Replanner(optimizer, PlannerParams{}, options); },
+                                          "fallback_speed", {"allowed: a number in [0, inf)"}));
   PlannerParams bad;
   bad.t_pl = 0.0;
-  EXPECT_THROW(Replanner(optimizer, bad), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Replanner(optimizer, bad); }, "t_pl",
+                                                  {"allowed: a number in [0.05, 10]"}));
   // A clearance the distance field does not reach fails at construction, not mid-flight.
   bad = PlannerParams{};
   bad.clearance = 1.5;
-  EXPECT_THROW(Replanner(optimizer, bad), ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Replanner(optimizer, bad); }, "clearance",
+                                                  {"must lie below", "esdf.max_distance"}));
 }
 
 }  // namespace

@@ -9,9 +9,11 @@
 #include <string>
 #include <vector>
 
+#include "../config_error_util.hpp"
 #include "analytic_fields.hpp"
 #include "forest_scene.hpp"
 #include "quadtune/common/error.hpp"
+#include "resampled_figures.hpp"
 
 namespace quadtune::planning {
 namespace {
@@ -27,9 +29,27 @@ physics::CylinderObstacle Cylinder(double x, double y, double r) {
 }
 
 // Three pillars on and near the straight line from the start to the goal.
-CylinderField ThreePillars() {
-  return CylinderField(
-      {Cylinder(2.5, 0.1, 0.3), Cylinder(4.5, -0.2, 0.25), Cylinder(3.6, 1.3, 0.3)});
+std::vector<physics::CylinderObstacle> ThreePillarCylinders() {
+  return {Cylinder(2.5, 0.1, 0.3), Cylinder(4.5, -0.2, 0.25), Cylinder(3.6, 1.3, 0.3)};
+}
+CylinderField ThreePillars() { return CylinderField(ThreePillarCylinders()); }
+
+// The plan, resampled independently of the optimiser's acceptance check (positions differenced,
+// clearance from the cylinders themselves): within v_des and a_max (the check's 5% tolerance and
+// the differencing error), and the optimiser's reported figures agree with the resampled ones.
+void ExpectResampledWithinLimits(const PlanResult& r,
+                                 const std::vector<physics::CylinderObstacle>& cylinders,
+                                 const PlannerParams& params, const std::string& what = "") {
+  ASSERT_FALSE(r.trajectory.Empty()) << what;
+  const testing::ResampledFigures f = testing::Resample(r.trajectory, cylinders);
+  EXPECT_LE(f.max_speed, params.v_des * 1.05 + 1e-6) << what;
+  EXPECT_LE(f.max_acceleration, params.a_max * 1.05 + 1e-3) << what;
+  EXPECT_NEAR(r.max_speed, f.max_speed, 0.01 * f.max_speed + 1e-6) << what;
+  EXPECT_NEAR(r.max_acceleration, f.max_acceleration, 0.02 * f.max_acceleration + 1e-3) << what;
+  if (!cylinders.empty()) {
+    EXPECT_GT(f.min_clearance, 0.0) << what;
+    EXPECT_NEAR(r.min_clearance, f.min_clearance, 0.01) << what;
+  }
 }
 
 PlanRequest StraightRequest() {
@@ -56,9 +76,11 @@ TEST(TrajectoryOptimizer, AvoidsPillarsOnTheStraightLine) {
     params.n_pol = n_pol;
     const PlanResult r = optimizer.Solve(StraightRequest(), field, params);
     ASSERT_EQ(r.status, PlanStatus::kSuccess) << r.message;
-    EXPECT_GT(r.min_clearance, 0.0);
-    EXPECT_GT(r.min_clearance, 0.5 * params.clearance) << "n_pol " << n_pol;
-    EXPECT_LT(r.min_clearance, 1.5 * params.clearance);
+    ExpectResampledWithinLimits(r, ThreePillarCylinders(), params,
+                                "n_pol " + std::to_string(n_pol));
+    const double clearance = testing::Resample(r.trajectory, ThreePillarCylinders()).min_clearance;
+    EXPECT_GT(clearance, 0.5 * params.clearance) << "n_pol " << n_pol;
+    EXPECT_LT(clearance, 1.5 * params.clearance);
     EXPECT_LT((r.trajectory.Position(r.trajectory.Duration()) - StraightRequest().goal_W).norm(),
               1e-9);
     EXPECT_GT(r.iterations, 0);
@@ -75,9 +97,7 @@ TEST(TrajectoryOptimizer, PlansThroughForestQueries) {
     ASSERT_FALSE(q.request.initial_path_W.empty());
     const PlanResult r = optimizer.Solve(q.request, *q.field, params);
     EXPECT_EQ(r.status, PlanStatus::kSuccess) << "seed " << seed << ": " << r.message;
-    EXPECT_GT(r.min_clearance, 0.0) << "seed " << seed;
-    EXPECT_LE(r.max_speed, params.v_des * 1.05);
-    EXPECT_LE(r.max_acceleration, params.a_max * 1.05);
+    ExpectResampledWithinLimits(r, q.cylinders, params, "seed " + std::to_string(seed));
   }
 }
 
@@ -153,7 +173,9 @@ TEST(TrajectoryOptimizer, PlansWithAFieldWithoutCurvature) {
   PlannerParams params;
   const PlanResult r = optimizer.Solve(StraightRequest(), field, params);
   ASSERT_EQ(r.status, PlanStatus::kSuccess) << r.message;
-  EXPECT_GT(r.min_clearance, 0.5 * params.clearance);
+  ExpectResampledWithinLimits(r, ThreePillarCylinders(), params);
+  EXPECT_GT(testing::Resample(r.trajectory, ThreePillarCylinders()).min_clearance,
+            0.5 * params.clearance);
   const PlanResult again = optimizer.Solve(StraightRequest(), field, params);
   ExpectSameResult(r, again);
 }
@@ -171,9 +193,13 @@ TEST(TrajectoryOptimizer, RespectsVelocityAndAccelerationLimits) {
   request.goal_W = Eigen::Vector3d(6.0, 3.0, 1.5);
   const PlanResult r = optimizer.Solve(request, field, params);
   ASSERT_EQ(r.status, PlanStatus::kSuccess) << r.message;
-  EXPECT_LE(r.max_speed, params.v_des * 1.05);
-  EXPECT_LE(r.max_acceleration, params.a_max * 1.05);
-  EXPECT_GT(r.max_speed, 0.7 * params.v_des) << "time weight should make it fly near v_des";
+  ExpectResampledWithinLimits(r, {}, params);
+  EXPECT_GT(testing::Resample(r.trajectory, {}).max_speed, 0.7 * params.v_des)
+      << "time weight should make it fly near v_des";
+  // The same limits through the Trajectory's own maxima.
+  EXPECT_NEAR(r.trajectory.MaxSpeed(0.001), testing::Resample(r.trajectory, {}).max_speed, 1e-3);
+  EXPECT_NEAR(r.trajectory.MaxAcceleration(0.001),
+              testing::Resample(r.trajectory, {}).max_acceleration, 1e-2);
   // The start state is met exactly.
   EXPECT_LT((r.trajectory.Velocity(0.0) - request.v0_W).norm(), 1e-9);
   EXPECT_LT((r.trajectory.Acceleration(0.0) - request.a0_W).norm(), 1e-9);
@@ -195,7 +221,7 @@ TEST(TrajectoryOptimizer, SpeedScaleSlowsTheAllocationAndKeepsTheLimits) {
   EXPECT_GT(slow.duration, full.duration * 1.15);
   EXPECT_LT((slow.trajectory.Velocity(slow.duration) - Eigen::Vector3d(1.5, 0.0, 0.0)).norm(),
             1e-6);
-  EXPECT_LE(slow.max_speed, 0.75 * params.v_des * 1.05);
+  EXPECT_LE(testing::Resample(slow.trajectory, {}).max_speed, 0.75 * params.v_des * 1.05);
   for (double bad : {0.0, -0.5, 1.5, std::nan("")}) {
     request.speed_scale = bad;
     EXPECT_EQ(optimizer.Solve(request, field, params).status, PlanStatus::kInvalidInput) << bad;
@@ -215,7 +241,12 @@ TEST(TrajectoryOptimizer, DivergingTimeScaleIsReportedNotSampled) {
     EXPECT_NE(r.message.find("time scale"), std::string::npos) << r.message;
     EXPECT_TRUE(r.trajectory.Empty());
   } else {
+    // Any other outcome is a checked plan: success, or a sampled trajectory judged too slow/fast.
+    EXPECT_TRUE(r.status == PlanStatus::kSuccess || r.status == PlanStatus::kDynamicsViolated)
+        << ToString(r.status) << ": " << r.message;
+    ASSERT_FALSE(r.trajectory.Empty()) << r.message;
     EXPECT_LT(r.duration, 100.0 * 4.5) << ToString(r.status) << ": " << r.message;
+    EXPECT_DOUBLE_EQ(r.duration, r.trajectory.Duration());
   }
 }
 
@@ -241,6 +272,7 @@ TEST(TrajectoryOptimizer, SameInputsGiveBitIdenticalResults) {
   PlannerParams params;
   params.n_pol = 5;
   const PlanResult a = optimizer.Solve(q.request, *q.field, params);
+  ASSERT_EQ(a.status, PlanStatus::kSuccess) << a.message;  // a failure is trivially repeatable
   const PlanResult b = optimizer.Solve(q.request, *q.field, params);
   ExpectSameResult(a, b);
 }
@@ -297,19 +329,25 @@ TEST(TrajectoryOptimizer, ReportsInvalidInputWithoutThrowing) {
 TEST(TrajectoryOptimizer, RejectsBadOptions) {
   TrajectoryOptimizerOptions o;
   o.sample_spacing = 0.0;
-  EXPECT_THROW(TrajectoryOptimizer{o}, ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { TrajectoryOptimizer{o}; }, "sample_spacing",
+                                                  {"must be finite and"}));
   o = {};
   o.tolerance = 0.1;
-  EXPECT_THROW(TrajectoryOptimizer{o}, ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { TrajectoryOptimizer{o}; }, "tolerance",
+                                                  {"must be in"}));
   o = {};
   o.max_iterations = 0;
-  EXPECT_THROW(TrajectoryOptimizer{o}, ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { TrajectoryOptimizer{o}; }, "max_iterations",
+                                                  {"must be >="}));
   o = {};
   o.max_samples_per_piece = 1;
-  EXPECT_THROW(TrajectoryOptimizer{o}, ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { TrajectoryOptimizer{o}; },
+                                                  "max_samples_per_piece",
+                                                  {"must be >= min_samples_per_piece"}));
   o = {};
   o.stall_relative_change = 0.0;
-  EXPECT_THROW(TrajectoryOptimizer{o}, ConfigError);
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { TrajectoryOptimizer{o}; },
+                                                  "stall_relative_change", {"must be in"}));
 }
 
 TEST(TrajectoryOptimizer, AllocatesMoreTimeWhereItAcceleratesFromRest) {
@@ -396,8 +434,18 @@ TEST(TrajectoryOptimizer, ConcurrentSolvesMatchSingleThreaded) {
     params.push_back(p);
   }
   std::vector<PlanResult> reference;
-  for (int k = 0; k < kQueries; ++k)
+  int reference_ok = 0;
+  for (int k = 0; k < kQueries; ++k) {
     reference.push_back(optimizer.Solve(requests[k], field, params[k]));
+    // Equal failures would prove little: every reference is a converged, checked trajectory
+    // (query 6 starts fast enough to end over v_des), most within every limit.
+    const PlanResult& r = reference.back();
+    EXPECT_FALSE(r.trajectory.Empty()) << k << ": " << r.message;
+    EXPECT_TRUE(r.status == PlanStatus::kSuccess || r.status == PlanStatus::kDynamicsViolated)
+        << k << ": " << r.message;
+    reference_ok += r.status == PlanStatus::kSuccess ? 1 : 0;
+  }
+  EXPECT_GE(reference_ok, kQueries - 2);
   for (int threads : {2, 8}) {
     constexpr int kSolves = 200;
     std::vector<PlanResult> results(kSolves);
