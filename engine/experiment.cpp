@@ -116,6 +116,43 @@ Planner BuildPlanner(const YamlMap& p, const std::string& base_dir, std::string*
   return Planner{IpoptPlanner{std::move(o)}};
 }
 
+/// Every tuning box must lie inside what the planner can fly (its ParameterInfo schema), and an
+/// integer parameter of the planner must be tuned as an integer.
+void CheckAgainstSchema(const optimizers::ParameterSpace& space, const Planner& planner,
+                        const std::string& origin) {
+  std::vector<ParameterInfo> schema = planner.ShortTermParameters();
+  for (auto& p : planner.LongTermParameters()) schema.push_back(std::move(p));
+  for (int i = 0; i < space.Dim(); ++i) {
+    const auto& prm = space.At(i);
+    const std::string key = "parameters." + std::to_string(i);
+    for (const ParameterInfo& info : schema) {
+      if (info.name != prm.name) continue;
+      const std::string described = info.range.Describe();
+      const std::size_t bracket = described.find_first_of("[(");
+      const std::string allowed =
+          bracket == std::string::npos
+              ? described
+              : (info.integer ? "an integer in " : "a number in ") + described.substr(bracket);
+      const auto check = [&](const char* part, double v) {
+        if (!info.range.Contains(v)) {
+          std::ostringstream s;
+          s << "got " << v << "; planner '" << planner.Name() << "' can fly " << prm.name
+            << " only as " << allowed;
+          throw ConfigError(origin, key + "." + part, s.str());
+        }
+      };
+      check("lower", prm.lower);
+      check("upper", prm.upper);
+      if (prm.default_value) check("default", *prm.default_value);
+      if (info.integer && prm.type != optimizers::ParameterType::kInteger) {
+        throw ConfigError(origin, key + ".type",
+                          prm.name + " is an integer parameter of planner '" + planner.Name() +
+                              "'; give type: integer");
+      }
+    }
+  }
+}
+
 }  // namespace
 
 ParamValues Experiment::Defaults() const {
@@ -130,12 +167,9 @@ Experiment Experiment::LoadFile(const std::string& path) { return LoadFile(path,
 
 Experiment Experiment::LoadFile(const std::string& path,
                                 const std::vector<std::string>& assignments) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError(path, "", "cannot read the experiment file");
-  std::stringstream ss;
-  ss << in.rdbuf();
+  const std::string text = ReadFileText(path);
   const std::string dir = std::filesystem::path(path).parent_path().string();
-  return FromString(ApplyAssignments(ss.str(), assignments, path), path, dir.empty() ? "." : dir);
+  return FromString(ApplyAssignments(text, assignments, path), path, dir.empty() ? "." : dir);
 }
 
 Experiment Experiment::FromString(const std::string& text, const std::string& origin,
@@ -179,6 +213,7 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
                                  e.planner.Name() + "'");
     }
   }
+  CheckAgainstSchema(e.space, e.planner, origin);
   auto read_side = [&](const char* key, const std::set<std::string>& allowed) {
     std::vector<std::string> names = StringList(map, key);
     std::set<std::string> unique;

@@ -20,11 +20,18 @@
 namespace quadtune::engine {
 namespace {
 
+/// "sqlite: PATH: what went wrong" for the last error of `db`.
+std::string SqliteError(sqlite3* db) {
+  const char* file = sqlite3_db_filename(db, "main");
+  return std::string("sqlite: ") + (file != nullptr && *file != '\0' ? file : "?") + ": " +
+         sqlite3_errmsg(db);
+}
+
 class Statement {
  public:
   Statement(sqlite3* db, const std::string& sql) {
     if (sqlite3_prepare_v2(db, sql.c_str(), -1, &stmt_, nullptr) != SQLITE_OK) {
-      throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(db) + " in " + sql);
+      throw std::runtime_error(SqliteError(db));
     }
   }
   ~Statement() { sqlite3_finalize(stmt_); }
@@ -40,7 +47,7 @@ class Statement {
     const int rc = sqlite3_step(stmt_);
     if (rc == SQLITE_ROW) return true;
     if (rc == SQLITE_DONE) return false;
-    throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(sqlite3_db_handle(stmt_)));
+    throw std::runtime_error(SqliteError(sqlite3_db_handle(stmt_)));
   }
   std::string Text(int i) {
     const auto* t = sqlite3_column_text(stmt_, i);
@@ -128,7 +135,8 @@ void ResultStore::Exec(const std::string& sql) const {
   if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
     std::string msg = err ? err : "?";
     sqlite3_free(err);
-    throw std::runtime_error("sqlite: " + msg);
+    const char* file = sqlite3_db_filename(db_, "main");
+    throw std::runtime_error("sqlite: " + std::string(file != nullptr ? file : "?") + ": " + msg);
   }
 }
 
@@ -145,8 +153,23 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
     throw std::runtime_error("sqlite: cannot open " + path);
   }
   sqlite3_busy_timeout(db_, 5000);
-  Exec("PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL;");
-  Exec(kSchema);
+  try {
+    Exec("PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL;");
+    if (resume) {
+      // A damaged store (truncated, overwritten) is refused before anything is written to it.
+      Statement check(db_, "PRAGMA quick_check");
+      const std::string verdict = check.Step() ? check.Text(0) : std::string("no answer");
+      if (verdict != "ok") throw std::runtime_error("integrity check: " + verdict);
+    }
+    Exec(kSchema);
+  } catch (const std::runtime_error& e) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    if (!resume) throw;
+    throw ConfigError(path, "--resume",
+                      std::string("not a readable quadtune results store (") + e.what() +
+                          "); run again with --overwrite to start afresh");
+  }
   {
     Statement s(db_, "SELECT id, config FROM experiment ORDER BY id LIMIT 1");
     if (s.Step()) {
@@ -250,7 +273,9 @@ void ResultStore::Insert(const EvaluationRow& r) {
     s.Step();
     Exec("COMMIT");
   } catch (...) {
-    Exec("ROLLBACK");
+    // SQLite may have rolled back already (e.g. on a full disk); the first error is the one to
+    // report, so a failed rollback is not.
+    if (sqlite3_get_autocommit(db_) == 0) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
     throw;
   }
 }

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "result_dir.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/layout/layout.hpp"
@@ -56,6 +57,8 @@ planning::PlannerParams ParseOverrides(const std::vector<std::string>& items) {
 }
 
 int RunFly(const FlyArgs& a) {
+  CheckOutputDir(a.out, "--out");
+  const planning::PlannerParams params = ParseOverrides(a.set);
   const physics::DroneDescription drone = physics::LoadDroneDescription(AssetPath(a.drone));
   layout::Layout layout;
   if (!a.layout_file.empty()) {
@@ -77,7 +80,6 @@ int RunFly(const FlyArgs& a) {
   world_options.seed = a.seed;
   world_options.collision_response = physics::CollisionResponse::kPassThrough;
 
-  const planning::PlannerParams params = ParseOverrides(a.set);
   const planning::Mission mission =
       a.mission == "go-to" ? planning::Mission::GoTo(layout.start_W(), layout.goal_W())
                            : planning::Mission::GoAndReturn(layout.start_W(), layout.goal_W());
@@ -138,7 +140,9 @@ void RegisterFly(CLI::App& app, int& exit_code) {
                   "layout generator options (YAML) to generate from");
   cmd->add_option("--spacing", args.spacing, "target mean obstacle spacing (m) when no layout "
                                              "is given")->capture_default_str();
-  cmd->add_option("--seed", args.seed, "seed of the layout and the world")->capture_default_str();
+  cmd->add_option("--seed", args.seed, "seed of the layout and the world")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--world", args.world_file, "world options (YAML): rates, wind, noise, …");
   cmd->add_option("--set", args.set, "planner parameter override NAME=VALUE (repeatable), e.g. "
                                      "--set v_des=3 --set n_pol=6");

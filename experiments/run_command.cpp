@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "result_dir.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/engine/distributed.hpp"
 #include "quadtune/engine/experiment.hpp"
@@ -37,6 +38,7 @@ struct RunArgs {
   int threads = 0;
   std::string out = "results/run";
   bool resume = false;
+  bool overwrite = false;  ///< replace a run already in OUT
   bool quiet = false;
 };
 
@@ -108,7 +110,16 @@ int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& sto
                  "results in {}",
                  s.flights, s.resolves, s.wall_s, s.threads, s.worlds, store);
   }
-  return s.status == engine::RunStatus::kCompleted ? 0 : 130;
+  if (s.status != engine::RunStatus::kCompleted) {
+    std::string sets;
+    for (const auto& kv : a.set) sets += " --set '" + kv + "'";
+    spdlog::warn("interrupted; the store is consistent. Continue with: quadtune run {} --out {} "
+                 "--resume{}{}",
+                 a.experiment, a.out,
+                 a.threads > 0 ? fmt::format(" --threads {}", a.threads) : std::string(), sets);
+    return 130;
+  }
+  return 0;
 }
 
 /// `run` under an MPI launcher with more than one process: every rank takes trials; rank 0
@@ -128,8 +139,15 @@ int RunMpi(const RunArgs& a) {
     options.run.threads = a.threads;
     options.run.resume = a.resume;
     options.run.cancel = &g_interrupted;
+    std::unique_ptr<ResultDir> dir;
     if (rank == 0) {
-      fs::create_directories(a.out);
+      try {
+        dir = std::make_unique<ResultDir>(a.out, ResultDirPolicy{a.resume, a.overwrite});
+      } catch (const ConfigError& ex) {
+        // The other ranks wait for rank 0 in the run: end them all.
+        spdlog::error("{}", ex.what());
+        mpi.Abort(2);
+      }
       options.run.store_path = store;
       options.run.on_progress = ProgressPrinter(tty, a.quiet);
       std::error_code ec;
@@ -178,7 +196,7 @@ int Run(const RunArgs& a) {
   // Every configuration error is reported here, before any work starts.
   const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
   namespace fs = std::filesystem;
-  fs::create_directories(a.out);
+  const ResultDir dir(a.out, ResultDirPolicy{a.resume, a.overwrite});
   const std::string store = (fs::path(a.out) / "results.sqlite").string();
   engine::RunOptions options;
   options.store_path = store;
@@ -349,6 +367,9 @@ void RegisterRun(CLI::App& app, int& exit_code) {
       ->check(CLI::Range(1, 1024));
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();
   cmd->add_flag("--resume", args.resume, "continue the run stored in OUT/results.sqlite");
+  cmd->add_flag("--overwrite", args.overwrite,
+                "replace the run already stored in OUT (its store, figures and tables)")
+      ->excludes("--resume");
   cmd->add_flag("--quiet", args.quiet, "no progress line");
   cmd->add_option("--set", args.set,
                   "KEY=VALUE: change the experiment file's dotted KEY, e.g. --set "

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "result_dir.hpp"
 #include "quadtune/engine/study.hpp"
 
 namespace quadtune::cli {
@@ -27,6 +28,7 @@ struct StudyArgs {
   std::string out = "results/study";
   int threads = 0;
   bool resume = false;
+  bool overwrite = false;
   bool quiet = false;
   bool plot = true;
 };
@@ -37,6 +39,7 @@ int RunStudyCommand(const StudyArgs& a) {
                study.name, a.file, study.labels.size(),
                study.sweep_key.empty() ? "" : " over " + study.sweep_key, study.stages.size(),
                study.validation_flights);
+  const ResultDir dir(a.out, ResultDirPolicy{a.resume, a.overwrite});
   engine::StudyOptions options;
   options.out_dir = a.out;
   options.threads = a.threads;
@@ -100,6 +103,8 @@ void RegisterStudy(CLI::App& app, int& exit_code) {
   cmd->add_option("--threads", args.threads, "worker threads (default: the experiment's)")
       ->check(CLI::Range(1, 1024));
   cmd->add_flag("--resume", args.resume, "continue the stages stored in OUT");
+  cmd->add_flag("--overwrite", args.overwrite, "replace the study already in OUT")
+      ->excludes("--resume");
   cmd->add_flag("--quiet", args.quiet, "no progress line");
   cmd->add_flag("!--no-plot", args.plot, "skip the figures");
   cmd->add_option("--set", args.set,

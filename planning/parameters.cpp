@@ -75,6 +75,18 @@ const std::vector<std::string>& PlannerParams::TunableNames() {
   return names;
 }
 
+Range PlannerParams::RangeOf(const std::string& name) {
+  const Field* f = Find(name);
+  if (f == nullptr) Unknown(name);
+  return f->range;
+}
+
+bool PlannerParams::IsInteger(const std::string& name) {
+  const Field* f = Find(name);
+  if (f == nullptr) Unknown(name);
+  return f->integer != nullptr;
+}
+
 double PlannerParams::Get(const std::string& name) const {
   const Field* f = Find(name);
   if (f == nullptr) Unknown(name);
