@@ -187,7 +187,7 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
   e.mode = map.String("mode", std::string("reproducible"), {"reproducible", "realtime"}) == "realtime"
                ? TimingMode::kRealtime
                : TimingMode::kReproducible;
-  e.repeats = static_cast<int>(map.Integer("repeats", 1, Range::Closed(1, 100000)));
+  e.repeats = static_cast<int>(map.Integer("repeats", 1, Range::Closed(1, kMaxRepeats)));
   {
     std::set<Method> seen;
     for (const auto& name : StringList(map, "methods")) {
@@ -267,9 +267,22 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
   const YamlMap b = map.Map("budget", true);
   b.RejectUnknownKeys({"flights", "default_flights", "flight_batch", "short_evals_per_flight", "queries_per_eval",
                        "query_window", "short_term_while_flying"});
-  e.budget.flights = static_cast<int>(b.Integer("flights", e.budget.flights, Range::Closed(1, 1e7)));
+  e.budget.flights =
+      static_cast<int>(b.Integer("flights", e.budget.flights, Range::Closed(1, kMaxFlights)));
   e.budget.default_flights = static_cast<int>(
-      b.Integer("default_flights", e.budget.flights, Range::Closed(1, 1e7)));
+      b.Integer("default_flights", e.budget.flights, Range::Closed(1, kMaxFlights)));
+  {
+    // Every trial of every method and repeat: a run that can never finish is refused.
+    const double total = static_cast<double>(e.budget.flights) *
+                         static_cast<double>(e.methods.size()) * e.repeats;
+    if (total > kMaxTotalFlights) {
+      std::ostringstream s;
+      s << "flights × methods × repeats = " << e.budget.flights << " × " << e.methods.size()
+        << " × " << e.repeats << " = " << total << " flights; at most " << kMaxTotalFlights
+        << " per run";
+      b.Fail("flights", s.str());
+    }
+  }
   e.budget.flight_batch =
       static_cast<int>(b.Integer("flight_batch", e.budget.flight_batch, Range::Closed(0, 1024)));
   if (e.budget.flight_batch == 0 && e.mode != TimingMode::kRealtime) {
@@ -277,9 +290,10 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
                            "fixed batch, an integer in [1, 1024]");
   }
   e.budget.short_evals_per_flight = static_cast<int>(
-      b.Integer("short_evals_per_flight", e.budget.short_evals_per_flight, Range::Closed(0, 1e7)));
-  e.budget.queries_per_eval =
-      static_cast<int>(b.Integer("queries_per_eval", e.budget.queries_per_eval, Range::Closed(1, 1e5)));
+      b.Integer("short_evals_per_flight", e.budget.short_evals_per_flight,
+                Range::Closed(0, kMaxShortEvalsPerFlight)));
+  e.budget.queries_per_eval = static_cast<int>(
+      b.Integer("queries_per_eval", e.budget.queries_per_eval, Range::Closed(1, 1e4)));
   e.budget.query_window =
       static_cast<int>(b.Integer("query_window", e.budget.query_window, Range::Closed(1, 1e7)));
   e.budget.short_term_while_flying = b.Bool("short_term_while_flying", false);

@@ -19,6 +19,7 @@
 
 #include "commands.hpp"
 #include "result_dir.hpp"
+#include "quadtune/common/cancel.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/engine/distributed.hpp"
 #include "quadtune/engine/experiment.hpp"
@@ -29,8 +30,6 @@
 namespace quadtune::cli {
 namespace {
 
-std::atomic<bool> g_interrupted{false};
-void OnSignal(int) { g_interrupted.store(true); }
 
 struct RunArgs {
   std::string experiment;
@@ -130,15 +129,14 @@ int RunMpi(const RunArgs& a) {
   if (rank != 0) spdlog::set_pattern(fmt::format("[%Y-%m-%d %H:%M:%S.%e] [%l] [rank {}] %v", rank));
   namespace fs = std::filesystem;
   const std::string store = (fs::path(a.out) / "results.sqlite").string();
-  std::signal(SIGINT, OnSignal);
-  std::signal(SIGTERM, OnSignal);
+  InstallCancelSignalHandlers();
   try {
     const engine::Experiment e = engine::LoadExperimentShared(mpi, a.experiment, a.set);
     const bool tty = rank == 0 && isatty(fileno(stderr)) != 0 && !a.quiet;
     engine::DistributedOptions options;
     options.run.threads = a.threads;
     options.run.resume = a.resume;
-    options.run.cancel = &g_interrupted;
+    options.run.cancel = &CancelFlag();
     std::unique_ptr<ResultDir> dir;
     if (rank == 0) {
       try {
@@ -202,9 +200,8 @@ int Run(const RunArgs& a) {
   options.store_path = store;
   options.threads = a.threads;
   options.resume = a.resume;
-  options.cancel = &g_interrupted;
-  std::signal(SIGINT, OnSignal);
-  std::signal(SIGTERM, OnSignal);
+  options.cancel = &CancelFlag();
+  InstallCancelSignalHandlers();
   const bool tty = isatty(fileno(stderr)) != 0 && !a.quiet;
   const int threads = a.threads > 0 ? a.threads : e.threads;
   spdlog::info("experiment '{}' ({}): planner {}, methods {}, repeats {}, {} flights per trial, "
@@ -214,7 +211,14 @@ int Run(const RunArgs& a) {
                e.mode == engine::TimingMode::kRealtime ? "realtime" : "reproducible",
                a.resume ? ", resuming" : "");
   options.on_progress = ProgressPrinter(tty, a.quiet);
-  const engine::RunSummary s = engine::RunExperiment(e, options);
+  engine::RunSummary s;
+  try {
+    s = engine::RunExperiment(e, options);
+  } catch (const Cancelled&) {
+    // Cancelled while the maps were generated: the store holds the experiment and no trial.
+    s.status = engine::RunStatus::kCancelled;
+    s.threads = threads;
+  }
   return Finish(s, a, store, tty);
 }
 

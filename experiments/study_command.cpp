@@ -13,14 +13,13 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "quadtune/common/cancel.hpp"
 #include "result_dir.hpp"
 #include "quadtune/engine/study.hpp"
 
 namespace quadtune::cli {
 namespace {
 
-std::atomic<bool> g_study_interrupted{false};
-void OnStudySignal(int) { g_study_interrupted.store(true); }
 
 struct StudyArgs {
   std::string file;
@@ -44,9 +43,8 @@ int RunStudyCommand(const StudyArgs& a) {
   options.out_dir = a.out;
   options.threads = a.threads;
   options.resume = a.resume;
-  options.cancel = &g_study_interrupted;
-  std::signal(SIGINT, OnStudySignal);
-  std::signal(SIGTERM, OnStudySignal);
+  options.cancel = &CancelFlag();
+  InstallCancelSignalHandlers();
   const bool tty = isatty(fileno(stderr)) != 0 && !a.quiet;
   std::string last_stage;
   options.on_progress = [&](const engine::StudyProgress& p) {
@@ -73,7 +71,12 @@ int RunStudyCommand(const StudyArgs& a) {
       last_stage = key;
     }
   };
-  const engine::StudySummary s = engine::RunStudy(study, options);
+  engine::StudySummary s;
+  try {
+    s = engine::RunStudy(study, options);
+  } catch (const Cancelled&) {
+    s.status = engine::RunStatus::kCancelled;  // cancelled while a map was generated
+  }
   if (tty) std::fprintf(stderr, "\n");
   nlohmann::json j;
   j["status"] = s.status == engine::RunStatus::kCompleted ? "completed" : "cancelled";
