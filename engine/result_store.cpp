@@ -162,45 +162,50 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
       if (verdict != "ok") throw std::runtime_error("integrity check: " + verdict);
     }
     Exec(kSchema);
-  } catch (const std::runtime_error& e) {
+    {
+      Statement s(db_, "SELECT id, config FROM experiment ORDER BY id LIMIT 1");
+      if (s.Step()) {
+        if (!resume) throw std::runtime_error("results file " + path + " is not empty");
+        if (s.Text(1) != experiment.text) {
+          throw ConfigError(path, "--resume",
+                            "the stored run used another configuration; resume with the same "
+                            "experiment file");
+        }
+        experiment_id_ = s.Int(0);
+      }
+    }
+    if (experiment_id_ == 0) {
+      Statement s(db_,
+                  "INSERT INTO experiment(name, config, seed, version, machine, threads, mode, started) "
+                  "VALUES(?,?,?,?,?,?,?,?)");
+      s.Bind(1, experiment.name);
+      s.Bind(2, experiment.text);
+      s.Bind(3, static_cast<std::int64_t>(experiment.seed));
+      s.Bind(4, std::string(QUADTUNE_VERSION));
+      s.Bind(5, Machine());
+      s.Bind(6, threads);
+      s.Bind(7, std::string(experiment.mode == TimingMode::kRealtime ? "realtime" : "reproducible"));
+      s.Bind(8, Now());
+      s.Step();
+      experiment_id_ = sqlite3_last_insert_rowid(db_);
+    }
+    Statement s(db_, kSelectEval);
+    while (s.Step()) {
+      EvaluationRow r = ReadRow(s);
+      stored_.emplace(std::make_tuple(r.trial_id, r.kind, r.iteration, r.index), std::move(r));
+    }
+  } catch (const ConfigError&) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw;
+  } catch (const std::exception& e) {
+    // sqlite errors, and stored text that does not parse (e.g. a seed column).
     sqlite3_close(db_);
     db_ = nullptr;
     if (!resume) throw;
     throw ConfigError(path, "--resume",
                       std::string("not a readable quadtune results store (") + e.what() +
                           "); run again with --overwrite to start afresh");
-  }
-  {
-    Statement s(db_, "SELECT id, config FROM experiment ORDER BY id LIMIT 1");
-    if (s.Step()) {
-      if (!resume) throw std::runtime_error("results file " + path + " is not empty");
-      if (s.Text(1) != experiment.text) {
-        throw ConfigError(path, "--resume",
-                          "the stored run used another configuration; resume with the same "
-                          "experiment file");
-      }
-      experiment_id_ = s.Int(0);
-    }
-  }
-  if (experiment_id_ == 0) {
-    Statement s(db_,
-                "INSERT INTO experiment(name, config, seed, version, machine, threads, mode, started) "
-                "VALUES(?,?,?,?,?,?,?,?)");
-    s.Bind(1, experiment.name);
-    s.Bind(2, experiment.text);
-    s.Bind(3, static_cast<std::int64_t>(experiment.seed));
-    s.Bind(4, std::string(QUADTUNE_VERSION));
-    s.Bind(5, Machine());
-    s.Bind(6, threads);
-    s.Bind(7, std::string(experiment.mode == TimingMode::kRealtime ? "realtime" : "reproducible"));
-    s.Bind(8, Now());
-    s.Step();
-    experiment_id_ = sqlite3_last_insert_rowid(db_);
-  }
-  Statement s(db_, kSelectEval);
-  while (s.Step()) {
-    EvaluationRow r = ReadRow(s);
-    stored_.emplace(std::make_tuple(r.trial_id, r.kind, r.iteration, r.index), std::move(r));
   }
 }
 

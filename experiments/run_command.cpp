@@ -4,7 +4,10 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <limits>
+#include <mutex>
 #include <chrono>
 #include <memory>
 #include <csignal>
@@ -240,11 +243,84 @@ struct BenchArgs {
   int resolves = 200;
   std::string csv;    ///< "": no CSV; else one row per thread count
   bool plot = false;  ///< draw the thread-scaling figure next to the CSV
+  int soak = 0;       ///< > 0: the soak benchmark (Soak) with this many flights instead
 };
+
+/// The soak benchmark: `flights` closed-loop flights with the defaults on one map, through one
+/// world pool and `threads` workers (as a tuning run flies them), the resident set sampled after
+/// every 1 % of the flights. Reports whether memory is flat (within 5 %) after the first 10 %
+/// (at most 1 000) flights, i.e. whether the pool's reused worlds leak. Exit 0 when flat, 3 when
+/// not, 130 when interrupted.
+int Soak(const engine::Experiment& e, int flights, int threads, const std::string& csv_path) {
+  using Clock = std::chrono::steady_clock;
+  InstallCancelSignalHandlers();
+  const engine::Opaque map = e.planner.PrepareMap(e.MapSeed(0));
+  const engine::ParamValues defaults = e.planner.Defaults();
+  const int every = std::max(1, flights / 100);
+  const int warmup = std::min(1000, std::max(1, flights / 10));
+  engine::Scheduler sched(threads);
+  engine::WorldPool pool;
+  std::mutex mutex;
+  std::vector<std::pair<int, double>> samples;  // (flights done, RSS MiB)
+  std::atomic<int> done{0};
+  const double rss_start = ResidentMiB();
+  const auto t0 = Clock::now();
+  engine::TaskGroup group;
+  for (int i = 0; i < flights; ++i) {
+    sched.Submit(group, engine::Priority::kFlight, [&, i] {
+      if (CancelRequested()) return;
+      engine::WorkerSlot* slot = pool.Acquire();
+      engine::FlightRequest req;
+      req.map = map;
+      req.params = defaults;
+      req.seed = static_cast<std::uint64_t>(i) + 1;
+      req.cancelled = [] { return CancelRequested(); };
+      (void)e.planner.Fly(req, *slot);
+      pool.Release(slot);
+      const int d = ++done;
+      if (d % every == 0 || d == flights) {
+        const double rss = ResidentMiB();
+        const std::lock_guard<std::mutex> lock(mutex);
+        samples.emplace_back(d, rss);
+      }
+    });
+  }
+  sched.Wait(group);
+  const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
+  std::sort(samples.begin(), samples.end());
+  if (!csv_path.empty()) {
+    std::ofstream csv(csv_path);
+    if (!csv) throw ConfigError(csv_path, "--csv", "cannot write the file");
+    csv << "flights,rss_mib\n";
+    for (const auto& [d, rss] : samples) csv << d << ',' << rss << '\n';
+  }
+  if (CancelRequested()) {
+    spdlog::warn("soak interrupted after {} of {} flights", done.load(), flights);
+    return 130;
+  }
+  double base = 0.0;
+  double high = 0.0;
+  double low = std::numeric_limits<double>::infinity();
+  for (const auto& [d, rss] : samples) {
+    if (d < warmup) continue;
+    if (base == 0.0) base = rss;
+    high = std::max(high, rss);
+    low = std::min(low, rss);
+  }
+  const double spread = base > 0.0 ? (high - low) / base : 0.0;
+  std::printf("soak: %d flights on %d threads in %.1f s (%.2f flights/s), %d pooled worlds\n",
+              flights, threads, wall, flights / wall, pool.Size());
+  std::printf("soak: RSS %.1f MiB at start, %.1f MiB after %d flights, %.1f .. %.1f MiB after "
+              "that (spread %.2f %% of %.1f MiB): %s\n",
+              rss_start, base, warmup, low, high, 100.0 * spread, base,
+              spread <= 0.05 ? "flat within 5 %" : "NOT flat within 5 %");
+  return spread <= 0.05 ? 0 : 3;
+}
 
 /// Flights/s and short-term evals/s at 1..N threads, and the scheduler's overhead per task.
 int Bench(const BenchArgs& a) {
   const engine::Experiment e = engine::Experiment::LoadFile(a.experiment);
+  if (a.soak > 0) return Soak(e, a.soak, a.max_threads, a.csv);
   const engine::Opaque map = e.planner.PrepareMap(e.MapSeed(0));
   const engine::ParamValues defaults = e.planner.Defaults();
   // Record queries once.
@@ -407,6 +483,10 @@ void RegisterBench(CLI::App& app, int& exit_code) {
   cmd->add_option("--resolves", args.resolves, "re-solves per thread count")->capture_default_str();
   cmd->add_option("--csv", args.csv, "also write one row per thread count to this CSV file");
   cmd->add_flag("--plot", args.plot, "draw the thread-scaling figure next to the CSV (PNG)");
+  cmd->add_option("--soak", args.soak,
+                  "instead: N closed-loop flights through one world pool on --max-threads "
+                  "threads, resident memory sampled; says whether it stays flat (within 5 %)")
+      ->check(CLI::Range(1, 10000000));
   cmd->callback([&exit_code] { exit_code = Bench(args); });
 }
 
