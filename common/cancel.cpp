@@ -10,7 +10,7 @@ namespace {
 std::atomic<bool> g_cancel{false};
 static_assert(std::atomic<bool>::is_always_lock_free);
 
-extern "C" void OnCancelSignal(int) {
+void OnCancelSignal(int) {
   if (g_cancel.exchange(true)) _exit(130);
 }
 }  // namespace

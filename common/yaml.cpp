@@ -1,9 +1,11 @@
 #include "quadtune/common/yaml.hpp"
+#include "quadtune/common/text_file.hpp"
 
 #include <yaml-cpp/depthguard.h>
 
 #include <cerrno>
 #include <charconv>
+#include <cstdint>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -61,7 +63,8 @@ void RejectDuplicateKeys(const YAML::Node& root, const std::string& origin) {
   // Iterative walk (the parser already bounds the depth; the walk keeps no recursion of its own).
   std::vector<std::pair<YAML::Node, std::string>> todo{{root, ""}};
   while (!todo.empty()) {
-    auto [node, path] = std::move(todo.back());
+    const YAML::Node node = todo.back().first;
+    const std::string path = std::move(todo.back().second);
     todo.pop_back();
     const auto child_path = [&path](const std::string& part) {
       return path.empty() ? part : path + "." + part;

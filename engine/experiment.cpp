@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "quadtune/common/random.hpp"
+#include "quadtune/common/text_file.hpp"
 #include "quadtune/layout/options.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/planning/parameters.hpp"

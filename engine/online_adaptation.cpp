@@ -13,6 +13,7 @@
 
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/random.hpp"
+#include "quadtune/common/text_file.hpp"
 #include "quadtune/engine/experiment.hpp"
 
 namespace quadtune::engine {

@@ -1,4 +1,5 @@
 #include "quadtune/engine/planners.hpp"
+#include "quadtune/planning/parameter_schema.hpp"
 
 #include <chrono>
 #include <cmath>
@@ -41,8 +42,8 @@ std::vector<ParameterInfo> InfoOf(const planning::PlannerParams& p,
                                   const std::vector<std::string>& names) {
   std::vector<ParameterInfo> out;
   for (const auto& n : names) {
-    out.push_back({n, p.Get(n), planning::PlannerParams::RangeOf(n),
-                   planning::PlannerParams::IsInteger(n)});
+    out.push_back({n, p.Get(n), planning::ParameterRange(n),
+                   planning::ParameterIsInteger(n)});
   }
   return out;
 }

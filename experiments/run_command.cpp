@@ -143,7 +143,7 @@ int RunMpi(const RunArgs& a) {
     std::unique_ptr<ResultDir> dir;
     if (rank == 0) {
       try {
-        dir = std::make_unique<ResultDir>(a.out, ResultDirPolicy{a.resume, a.overwrite});
+        dir = std::make_unique<ResultDir>(a.out, ResultDirPolicy{a.resume, a.overwrite, true});
       } catch (const ConfigError& ex) {
         // The other ranks wait for rank 0 in the run: end them all.
         spdlog::error("{}", ex.what());
@@ -197,7 +197,7 @@ int Run(const RunArgs& a) {
   // Every configuration error is reported here, before any work starts.
   const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
   namespace fs = std::filesystem;
-  const ResultDir dir(a.out, ResultDirPolicy{a.resume, a.overwrite});
+  const ResultDir dir(a.out, ResultDirPolicy{a.resume, a.overwrite, true});
   const std::string store = (fs::path(a.out) / "results.sqlite").string();
   engine::RunOptions options;
   options.store_path = store;

@@ -38,7 +38,7 @@ int RunStudyCommand(const StudyArgs& a) {
                study.name, a.file, study.labels.size(),
                study.sweep_key.empty() ? "" : " over " + study.sweep_key, study.stages.size(),
                study.validation_flights);
-  const ResultDir dir(a.out, ResultDirPolicy{a.resume, a.overwrite});
+  const ResultDir dir(a.out, ResultDirPolicy{a.resume, a.overwrite, true});
   engine::StudyOptions options;
   options.out_dir = a.out;
   options.threads = a.threads;

@@ -1,5 +1,7 @@
 #include "quadtune/planning/parameters.hpp"
 
+#include "quadtune/planning/parameter_schema.hpp"
+
 #include <cmath>
 #include <limits>
 
@@ -75,13 +77,13 @@ const std::vector<std::string>& PlannerParams::TunableNames() {
   return names;
 }
 
-Range PlannerParams::RangeOf(const std::string& name) {
+Range ParameterRange(const std::string& name) {
   const Field* f = Find(name);
   if (f == nullptr) Unknown(name);
   return f->range;
 }
 
-bool PlannerParams::IsInteger(const std::string& name) {
+bool ParameterIsInteger(const std::string& name) {
   const Field* f = Find(name);
   if (f == nullptr) Unknown(name);
   return f->integer != nullptr;

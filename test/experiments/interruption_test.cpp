@@ -5,6 +5,7 @@
 //   same evaluations as an uninterrupted run;
 // - SIGTERM during layout generation (maps are made before the first flight) exits 130.
 // No wall-clock limits: the tests wait for the program, and check exit codes and stores.
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <spawn.h>

@@ -44,8 +44,6 @@ void CheckInRange(double value, const Range& range, const std::string& file, con
 class YamlMap {
  public:
   /// Parses a file; unreadable or malformed files throw ConfigError naming the file (and line).
-  /// Malformed includes: not UTF-8, nesting past yaml-cpp's depth limit, a key given twice in
-  /// one mapping.
   static YamlMap LoadFile(const std::string& path);
   /// Parses text; `origin` stands in for the file name in error messages.
   static YamlMap FromString(const std::string& text, const std::string& origin = "<string>");
@@ -65,12 +63,11 @@ class YamlMap {
   /// A number; absent → `fallback` (or an error when no fallback is given).
   [[nodiscard]] double Number(std::string_view key, std::optional<double> fallback = std::nullopt,
                               const Range& range = Range::Any()) const;
-  /// A decimal integer ("010" is ten; "0x10", "1e3" and "3.0" are errors); absent → `fallback`
-  /// (or an error).
+  /// An integer; absent → `fallback` (or an error).
   [[nodiscard]] long Integer(std::string_view key, std::optional<long> fallback = std::nullopt,
                              const Range& range = Range::Any()) const;
   [[nodiscard]] bool Bool(std::string_view key, std::optional<bool> fallback = std::nullopt) const;
-  /// A string (valid UTF-8); when `allowed` is not empty the value must be one of them.
+  /// A string; when `allowed` is not empty the value must be one of them.
   [[nodiscard]] std::string String(std::string_view key,
                                    std::optional<std::string> fallback = std::nullopt,
                                    const std::vector<std::string>& allowed = {}) const;
@@ -98,15 +95,6 @@ class YamlMap {
   std::string file_;
   std::string path_;
 };
-
-/// The whole content of a file. A missing file, a directory or an unreadable file throws
-/// ConfigError(path, "", ...) saying which.
-[[nodiscard]] std::string ReadFileText(const std::string& path);
-/// True when `text` is well-formed UTF-8 (no overlong forms, surrogates or bytes past U+10FFFF).
-[[nodiscard]] bool IsValidUtf8(std::string_view text);
-/// Throws ConfigError(origin, key path, ...) for the first mapping in `root` that holds one key
-/// twice (yaml-cpp keeps the first silently). YamlMap::FromString and LoadFile call it.
-void RejectDuplicateKeys(const YAML::Node& root, const std::string& origin);
 
 /// Configures an emitter so that doubles round-trip exactly (17 significant digits).
 void SetExactDoubles(YAML::Emitter& out);

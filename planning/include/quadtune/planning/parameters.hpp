@@ -54,12 +54,6 @@ struct PlannerParams {
   /// Does not validate: call Validate() after a batch of Sets.
   void Set(const std::string& name, double value);
 
-  /// The values the planner can fly for parameter `name` (the range Validate() checks); unknown
-  /// names throw ConfigError.
-  [[nodiscard]] static Range RangeOf(const std::string& name);
-  /// True when parameter `name` is an integer (n_pol, max_attempts); unknown names throw.
-  [[nodiscard]] static bool IsInteger(const std::string& name);
-
   /// Throws ConfigError(origin, key, allowed range) for the first out-of-range field.
   void Validate(const std::string& origin = "") const;
 
