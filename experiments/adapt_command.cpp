@@ -138,7 +138,7 @@ int RunAdapt(const AdaptArgs& a) {
   const auto wall_start = std::chrono::steady_clock::now();
   engine::AdaptExperiment e = engine::AdaptExperiment::LoadFile(a.experiment);
   if (a.seed) e.SetSeed(*a.seed);
-  const ResultDir dir(a.out, ResultDirPolicy{false, a.overwrite, false});
+  const ResultDir out_dir(a.out, ResultDirPolicy{false, a.overwrite, false});
   const layout::Layout layout = layout::GenerateLayout(e.layout, e.seed);
   layout.Save((fs::path(a.out) / "layout.yaml").string());
   spdlog::info("adapt '{}' ({}): {} obstacles over {:.0f} m, {} zones, seed {}, R {:.1f} m, "
@@ -321,7 +321,7 @@ void RegisterAdapt(CLI::App& app, int& exit_code) {
   cmd->add_option("experiment", args.experiment, "experiment file (YAML)")->required();
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();
   cmd->add_option("--seed", args.seed, "seed of the layout, the world and BO (default: the file's)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(SeedValidator());
   cmd->add_flag("!--no-plot", args.plot, "skip the figure");
   cmd->add_flag("--overwrite", args.overwrite, "replace the results already in OUT");
   cmd->callback([&exit_code] { exit_code = RunAdapt(args); });

@@ -142,7 +142,7 @@ void RegisterFly(CLI::App& app, int& exit_code) {
                                              "is given")->capture_default_str();
   cmd->add_option("--seed", args.seed, "seed of the layout and the world")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(SeedValidator());
   cmd->add_option("--world", args.world_file, "world options (YAML): rates, wind, noise, …");
   cmd->add_option("--set", args.set, "planner parameter override NAME=VALUE (repeatable), e.g. "
                                      "--set v_des=3 --set n_pol=6");

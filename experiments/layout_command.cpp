@@ -47,7 +47,7 @@ void RegisterLayout(CLI::App& app, int& exit_code) {
   cmd->add_option("--options", args.options_file, "generator options (YAML)");
   cmd->add_option("--spacing", args.spacing, "target mean spacing (m) without --options")
       ->capture_default_str();
-  cmd->add_option("--seed", args.seed, "seed")->capture_default_str()->check(CLI::NonNegativeNumber);
+  cmd->add_option("--seed", args.seed, "seed")->capture_default_str()->check(SeedValidator());
   cmd->add_option("--out", args.out, "output file (YAML)")->capture_default_str();
   cmd->callback([&exit_code] { exit_code = RunLayout(args); });
 }

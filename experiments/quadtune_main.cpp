@@ -56,6 +56,10 @@ int main(int argc, char** argv) {
                "(short-term by PSO, long-term by Bayesian optimisation)"};
   app.set_version_flag("--version", std::string("quadtune ") + QUADTUNE_VERSION);
   app.require_subcommand(1);
+  // A malformed command line is one line on stderr, like every other error.
+  app.failure_message([](const CLI::App*, const CLI::Error& e) {
+    return "quadtune: " + OneLine(e.what()) + " (see quadtune --help)\n";
+  });
   std::string log_level = "info";
   app.add_option("--log-level", log_level, "log level: trace, debug, info, warn, error, off")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
