@@ -131,7 +131,7 @@ std::string ReadFileText(const std::string& path) {
   namespace fs = std::filesystem;
   std::error_code ec;
   const fs::file_status st = fs::status(path, ec);
-  if (ec || !fs::exists(st)) throw ConfigError(path, "", "no such file");
+  if (ec || !fs::exists(st)) throw ConfigError(path, "", "cannot open the file: no such file");
   if (fs::is_directory(st)) throw ConfigError(path, "", "is a directory; expected a file");
   if (!fs::is_regular_file(st)) throw ConfigError(path, "", "is not a regular file");
   std::ifstream in(path, std::ios::binary);
@@ -251,7 +251,7 @@ long YamlMap::Integer(std::string_view key, std::optional<long> fallback,
                     std::to_string(std::numeric_limits<long>::max()) + "]");
     }
     if (err != std::errc() || end != last) {
-      Fail(key, "'" + text + "' is not a decimal integer");
+      Fail(key, "'" + text + "' is not an integer (decimal digits only, e.g. 10)");
     }
   }
   if (!range.Contains(static_cast<double>(v))) {

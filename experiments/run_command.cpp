@@ -248,8 +248,8 @@ struct BenchArgs {
 
 /// The soak benchmark: `flights` closed-loop flights with the defaults on one map, through one
 /// world pool and `threads` workers (as a tuning run flies them), the resident set sampled after
-/// every 1 % of the flights. Reports whether memory is flat (within 5 %) after the first 10 %
-/// (at most 1 000) flights, i.e. whether the pool's reused worlds leak. Exit 0 when flat, 3 when
+/// every 1 % of the flights. Reports whether memory is flat (within 5 %) after the first 1 000
+/// flights (half of them when fewer than 2 000), i.e. whether the pool's reused worlds leak. Exit 0 when flat, 3 when
 /// not, 130 when interrupted.
 int Soak(const engine::Experiment& e, int flights, int threads, const std::string& csv_path) {
   using Clock = std::chrono::steady_clock;
@@ -257,7 +257,7 @@ int Soak(const engine::Experiment& e, int flights, int threads, const std::strin
   const engine::Opaque map = e.planner.PrepareMap(e.MapSeed(0));
   const engine::ParamValues defaults = e.planner.Defaults();
   const int every = std::max(1, flights / 100);
-  const int warmup = std::min(1000, std::max(1, flights / 10));
+  const int warmup = std::min(1000, std::max(1, flights / 2));
   engine::Scheduler sched(threads);
   engine::WorldPool pool;
   std::mutex mutex;

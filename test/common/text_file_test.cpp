@@ -43,8 +43,8 @@ TEST(TextFile, IntegersAreDecimal) {
   EXPECT_EQ(m.Integer("b"), 7);
   EXPECT_EQ(m.Integer("f"), -12);
   EXPECT_THAT(ErrorOf([&] { (void)m.Integer("c"); }), HasSubstr("i.yaml: c: '0x10' is not"));
-  EXPECT_THAT(ErrorOf([&] { (void)m.Integer("d"); }), HasSubstr("'1e3' is not a decimal"));
-  EXPECT_THAT(ErrorOf([&] { (void)m.Integer("e"); }), HasSubstr("'3.0' is not a decimal"));
+  EXPECT_THAT(ErrorOf([&] { (void)m.Integer("d"); }), HasSubstr("'1e3' is not an integer (decimal"));
+  EXPECT_THAT(ErrorOf([&] { (void)m.Integer("e"); }), HasSubstr("'3.0' is not an integer (decimal"));
   EXPECT_THAT(ErrorOf([] {
                 (void)YamlMap::FromString("s: 99999999999999999999\n", "i.yaml").Integer("s");
               }),
