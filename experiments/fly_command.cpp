@@ -50,7 +50,11 @@ planning::PlannerParams ParseOverrides(const std::vector<std::string>& items) {
     } catch (const std::exception&) {
       throw ConfigError("--set", name, "'" + item.substr(eq + 1) + "' is not a number");
     }
-    params.Set(name, value);
+    try {
+      params.Set(name, value);
+    } catch (const ConfigError& e) {
+      throw ConfigError("--set", "", e.what());  // "--set: NAME: unknown planner parameter; ..."
+    }
   }
   params.Validate("--set");
   return params;

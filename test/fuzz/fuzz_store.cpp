@@ -9,10 +9,12 @@
 
 namespace {
 const quadtune::engine::Experiment& Toy() {
+  // The configuration of the corpus's stores (corpus/store/toy_run.sqlite), so that resuming
+  // them gets past the configuration check.
   static const quadtune::engine::Experiment e = quadtune::engine::Experiment::FromString(
       "name: fuzz\nmethods: [default]\nplanner: {type: toy}\nparameters:\n"
       "  - {name: speed, lower: 0.5, upper: 6.0}\n  - {name: gain, lower: 0.1, upper: 1.0}\n"
-      "short_term: [gain]\nlong_term: [speed]\n");
+      "short_term: [gain]\nlong_term: [speed]\nbudget: {flights: 2, flight_batch: 1}\n");
   return e;
 }
 }  // namespace
