@@ -49,8 +49,9 @@ void CheckOutputFile(const std::string& file, const std::string& key) {
     throw ConfigError(file, key, "the folder '" + parent.string() + "' does not exist");
   }
   if (::access(parent.empty() ? "." : parent.c_str(), W_OK) != 0) {
-    throw ConfigError(file, key, "the folder '" + (parent.empty() ? std::string(".") : parent.string()) +
-                                     "' is not writable");
+    throw ConfigError(file, key,
+                      "the folder '" + (parent.empty() ? std::string(".") : parent.string()) +
+                          "' is not writable");
   }
 }
 

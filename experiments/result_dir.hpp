@@ -19,9 +19,9 @@ namespace quadtune::cli {
 
 /// What a command allows for a directory that already holds a run.
 struct ResultDirPolicy {
-  bool resume = false;          ///< continue the stored run (the command supports --resume)
-  bool overwrite = false;       ///< remove the old run first
-  bool resume_allowed = true;   ///< false: the command has no --resume (adapt)
+  bool resume = false;         ///< continue the stored run (the command supports --resume)
+  bool overwrite = false;      ///< remove the old run first
+  bool resume_allowed = true;  ///< false: the command has no --resume (adapt)
 };
 
 class ResultDir {

@@ -152,12 +152,12 @@ TEST_F(Interruption, SecondRunIntoTheSameDirectoryIsRefusedAndTheFirstCompletes)
                             dir_ / "first.err");
   // The first holds the lock once its pid is in the lock file.
   WaitUntil(first, [&] { return !ReadText(out / ".quadtune.lock").empty(); });
-  const int second = RunToEnd({"run", (dir_ / "b.yaml").string(), "--out", out.string(),
-                               "--overwrite", "--quiet"},
-                              dir_ / "second.err");
-  const int resume = RunToEnd({"run", (dir_ / "a.yaml").string(), "--out", out.string(),
-                               "--resume", "--quiet"},
-                              dir_ / "resume.err");
+  const int second =
+      RunToEnd({"run", (dir_ / "b.yaml").string(), "--out", out.string(), "--overwrite", "--quiet"},
+               dir_ / "second.err");
+  const int resume =
+      RunToEnd({"run", (dir_ / "a.yaml").string(), "--out", out.string(), "--resume", "--quiet"},
+               dir_ / "resume.err");
   EXPECT_EQ(Wait(first), 0) << ReadText(dir_ / "first.err");
   EXPECT_EQ(second, 2);
   const std::string message = ReadText(dir_ / "second.err");
@@ -193,10 +193,10 @@ TEST_F(Interruption, RunIntoAUsedDirectoryNeedsResumeOrOverwrite) {
   EXPECT_EQ(ReadText(out / "results.sqlite"), store) << "the refused run changed the store";
   // --overwrite replaces the run (and removes what the old one wrote).
   std::ofstream(out / "tuning.png") << "old figure";
-  EXPECT_EQ(RunToEnd({"run", (dir_ / "a.yaml").string(), "--out", out.string(), "--overwrite",
-                      "--quiet"},
-                     dir_ / "3.err"),
-            0)
+  EXPECT_EQ(
+      RunToEnd({"run", (dir_ / "a.yaml").string(), "--out", out.string(), "--overwrite", "--quiet"},
+               dir_ / "3.err"),
+      0)
       << ReadText(dir_ / "3.err");
   EXPECT_FALSE(fs::exists(out / "tuning.png"));
   EXPECT_EQ(Rows(out / "results.sqlite", "SELECT COUNT(*) FROM experiment"),
@@ -214,15 +214,14 @@ TEST_F(Interruption, SigtermDuringARunLeavesAConsistentStoreThatResumesToTheSame
   EXPECT_EQ(Wait(run), 130) << ReadText(dir_ / "run.err");
   const std::string message = ReadText(dir_ / "run.err");
   EXPECT_NE(message.find("--resume"), std::string::npos) << message;
-  EXPECT_EQ(Rows(out / "results.sqlite", "PRAGMA integrity_check"),
-            std::vector<std::string>{"ok"});
+  EXPECT_EQ(Rows(out / "results.sqlite", "PRAGMA integrity_check"), std::vector<std::string>{"ok"});
   const int stored = EvaluationCount(out / "results.sqlite");
   EXPECT_GE(stored, 3);
   EXPECT_LT(stored, 2 * 8 + 8 * 4) << "the run was not interrupted";
-  ASSERT_EQ(RunToEnd({"run", (dir_ / "slow.yaml").string(), "--out", out.string(), "--resume",
-                      "--quiet"},
-                     dir_ / "resume.err"),
-            0)
+  ASSERT_EQ(
+      RunToEnd({"run", (dir_ / "slow.yaml").string(), "--out", out.string(), "--resume", "--quiet"},
+               dir_ / "resume.err"),
+      0)
       << ReadText(dir_ / "resume.err");
   const fs::path ref = dir_ / "ref";
   ASSERT_EQ(RunToEnd({"run", (dir_ / "fast.yaml").string(), "--out", ref.string(), "--quiet"},
@@ -251,15 +250,13 @@ TEST_F(Interruption, SigtermDuringLayoutGenerationExitsWithTheResumeCommand) {
   const Child run = Start({"run", (dir_ / "big.yaml").string(), "--out", out.string(), "--quiet"},
                           dir_ / "run.err");
   // The store is written before the maps are generated.
-  WaitUntil(run, [&] {
-    return !Rows(out / "results.sqlite", "SELECT id FROM experiment").empty();
-  });
+  WaitUntil(run,
+            [&] { return !Rows(out / "results.sqlite", "SELECT id FROM experiment").empty(); });
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   kill(run.pid, SIGTERM);
   EXPECT_EQ(Wait(run), 130) << ReadText(dir_ / "run.err");
   EXPECT_NE(ReadText(dir_ / "run.err").find("--resume"), std::string::npos);
-  EXPECT_EQ(Rows(out / "results.sqlite", "PRAGMA integrity_check"),
-            std::vector<std::string>{"ok"});
+  EXPECT_EQ(Rows(out / "results.sqlite", "PRAGMA integrity_check"), std::vector<std::string>{"ok"});
   EXPECT_EQ(EvaluationCount(out / "results.sqlite"), 0);
 }
 

@@ -2,8 +2,8 @@
 #include <cstdlib>
 
 #include "fuzz_util.hpp"
-#include "quadtune/engine/study.hpp"
 #include "quadtune/common/error.hpp"
+#include "quadtune/engine/study.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   // The corpus names shipped experiments (experiments/toy.yaml) by their file name.
