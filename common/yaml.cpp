@@ -1,7 +1,17 @@
 #include "quadtune/common/yaml.hpp"
+#include "quadtune/common/text_file.hpp"
 
+#include <yaml-cpp/depthguard.h>
+
+#include <cerrno>
+#include <charconv>
+#include <cstdint>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <sstream>
+#include <utility>
 
 namespace quadtune {
 namespace {
@@ -17,7 +27,120 @@ std::string JoinAllowed(const std::vector<std::string>& allowed) {
   for (const auto& a : allowed) out += (out.empty() ? "" : ", ") + a;
   return out;
 }
+
+/// The parse of `text` (from `origin`), with duplicated keys and too-deep nesting refused.
+YAML::Node ParseChecked(const std::string& text, const std::string& origin) {
+  if (!IsValidUtf8(text)) {
+    // Name the first line that holds a byte sequence that is not UTF-8.
+    std::size_t line_start = 0;
+    int line = 1;
+    for (std::size_t nl = text.find('\n'); ; nl = text.find('\n', line_start)) {
+      const std::size_t end = nl == std::string::npos ? text.size() : nl;
+      if (!IsValidUtf8(std::string_view(text).substr(line_start, end - line_start))) break;
+      if (nl == std::string::npos) break;
+      line_start = nl + 1;
+      ++line;
+    }
+    throw ConfigError(origin, "", "line " + std::to_string(line) +
+                                      " is not valid UTF-8 text (YAML files are UTF-8)");
+  }
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::DeepRecursion& e) {
+    throw ConfigError(origin, "", "nesting deeper than yaml-cpp's limit at line " +
+                                      std::to_string(e.mark.line + 1));
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(origin, "", "malformed YAML at line " + std::to_string(e.mark.line + 1) +
+                                      ": " + e.msg);
+  }
+  RejectDuplicateKeys(root, origin);
+  return root;
+}
 }  // namespace
+
+void RejectDuplicateKeys(const YAML::Node& root, const std::string& origin) {
+  // Iterative walk (the parser already bounds the depth; the walk keeps no recursion of its own).
+  std::vector<std::pair<YAML::Node, std::string>> todo{{root, ""}};
+  while (!todo.empty()) {
+    const YAML::Node node = todo.back().first;
+    const std::string path = std::move(todo.back().second);
+    todo.pop_back();
+    const auto child_path = [&path](const std::string& part) {
+      return path.empty() ? part : path + "." + part;
+    };
+    if (node.IsMap()) {
+      std::vector<std::string> seen;
+      for (const auto& kv : node) {
+        const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : std::string("?");
+        for (const auto& s : seen) {
+          if (s == key) {
+            throw ConfigError(origin, child_path(key),
+                              "key given twice in one mapping (line " +
+                                  std::to_string(kv.first.Mark().line + 1) +
+                                  "); give each key once");
+          }
+        }
+        seen.push_back(key);
+        todo.emplace_back(kv.second, child_path(key));
+      }
+    } else if (node.IsSequence()) {
+      for (std::size_t i = 0; i < node.size(); ++i) {
+        todo.emplace_back(node[i], child_path(std::to_string(i)));
+      }
+    }
+  }
+}
+
+bool IsValidUtf8(std::string_view text) {
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    std::size_t extra = 0;
+    std::uint32_t cp = 0;
+    if (c < 0x80) {
+      ++i;
+      continue;
+    } else if ((c & 0xE0) == 0xC0) {
+      extra = 1;
+      cp = c & 0x1Fu;
+    } else if ((c & 0xF0) == 0xE0) {
+      extra = 2;
+      cp = c & 0x0Fu;
+    } else if ((c & 0xF8) == 0xF0) {
+      extra = 3;
+      cp = c & 0x07u;
+    } else {
+      return false;
+    }
+    if (i + extra >= text.size()) return false;
+    for (std::size_t k = 1; k <= extra; ++k) {
+      const auto cc = static_cast<unsigned char>(text[i + k]);
+      if ((cc & 0xC0) != 0x80) return false;
+      cp = (cp << 6) | (cc & 0x3Fu);
+    }
+    // Overlong forms, surrogates and code points beyond U+10FFFF are not UTF-8.
+    static constexpr std::uint32_t kMin[] = {0, 0x80, 0x800, 0x10000};
+    if (cp < kMin[extra] || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return false;
+    i += extra + 1;
+  }
+  return true;
+}
+
+std::string ReadFileText(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (ec || !fs::exists(st)) throw ConfigError(path, "", "cannot open the file: no such file");
+  if (fs::is_directory(st)) throw ConfigError(path, "", "is a directory; expected a file");
+  if (!fs::is_regular_file(st)) throw ConfigError(path, "", "is not a regular file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ConfigError(path, "", std::string("cannot open the file: ") + std::strerror(errno));
+  std::stringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) throw ConfigError(path, "", "cannot read the file");
+  return ss.str();
+}
 
 bool Range::Contains(double v) const {
   if (!std::isfinite(v)) return false;
@@ -42,29 +165,11 @@ void CheckInRange(double value, const Range& range, const std::string& file,
 }
 
 YamlMap YamlMap::LoadFile(const std::string& path) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw ConfigError(path, "", "cannot open the file");
-  } catch (const YAML::Exception& e) {
-    throw ConfigError(path, "", "malformed YAML at line " + std::to_string(e.mark.line + 1) + ": " +
-                                    e.msg);
-  }
-  if (!root.IsMap() && !root.IsNull()) {
-    throw ConfigError(path, "", "the top level must be a mapping of keys to values");
-  }
-  return YamlMap(root, path);
+  return FromString(ReadFileText(path), path);
 }
 
 YamlMap YamlMap::FromString(const std::string& text, const std::string& origin) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw ConfigError(origin, "", "malformed YAML at line " + std::to_string(e.mark.line + 1) +
-                                      ": " + e.msg);
-  }
+  const YAML::Node root = ParseChecked(text, origin);
   if (!root.IsMap() && !root.IsNull()) {
     throw ConfigError(origin, "", "the top level must be a mapping of keys to values");
   }
@@ -134,10 +239,19 @@ long YamlMap::Integer(std::string_view key, std::optional<long> fallback,
     v = *fallback;
   } else {
     if (!n.IsScalar()) Fail(key, "expected an integer");
-    try {
-      v = n.as<long>();
-    } catch (const YAML::Exception&) {
-      Fail(key, "'" + n.Scalar() + "' is not an integer");
+    // Decimal only: "010" is ten (yaml-cpp would read it as octal), "0x10" is refused.
+    const std::string& text = n.Scalar();
+    const char* first = text.data();
+    const char* last = text.data() + text.size();
+    if (first != last && *first == '+') ++first;
+    const auto [end, err] = std::from_chars(first, last, v, 10);
+    if (first == last || err == std::errc::result_out_of_range) {
+      Fail(key, "'" + text + "' is not an integer in [" +
+                    std::to_string(std::numeric_limits<long>::min()) + ", " +
+                    std::to_string(std::numeric_limits<long>::max()) + "]");
+    }
+    if (err != std::errc() || end != last) {
+      Fail(key, "'" + text + "' is not an integer (decimal digits only, e.g. 10)");
     }
   }
   if (!range.Contains(static_cast<double>(v))) {
@@ -174,6 +288,7 @@ std::string YamlMap::String(std::string_view key, std::optional<std::string> fal
   } else {
     if (!n.IsScalar()) Fail(key, "expected a string");
     v = n.Scalar();
+    if (!IsValidUtf8(v)) Fail(key, "the text is not valid UTF-8");
   }
   if (!allowed.empty()) {
     bool ok = false;

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "quadtune/common/random.hpp"
+#include "quadtune/common/text_file.hpp"
 #include "quadtune/layout/options.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/planning/parameters.hpp"
@@ -174,6 +175,43 @@ Planner BuildPlanner(const YamlMap& p, const std::string& base_dir, std::string*
   return Planner{IpoptPlanner{std::move(o)}};
 }
 
+/// Every tuning box must lie inside what the planner can fly (its ParameterInfo schema), and an
+/// integer parameter of the planner must be tuned as an integer.
+void CheckAgainstSchema(const optimizers::ParameterSpace& space, const Planner& planner,
+                        const std::string& origin) {
+  std::vector<ParameterInfo> schema = planner.ShortTermParameters();
+  for (auto& p : planner.LongTermParameters()) schema.push_back(std::move(p));
+  for (int i = 0; i < space.Dim(); ++i) {
+    const auto& prm = space.At(i);
+    const std::string key = "parameters." + std::to_string(i);
+    for (const ParameterInfo& info : schema) {
+      if (info.name != prm.name) continue;
+      const std::string described = info.range.Describe();
+      const std::size_t bracket = described.find_first_of("[(");
+      const std::string allowed =
+          bracket == std::string::npos
+              ? described
+              : (info.integer ? "an integer in " : "a number in ") + described.substr(bracket);
+      const auto check = [&](const char* part, double v) {
+        if (!info.range.Contains(v)) {
+          std::ostringstream s;
+          s << "got " << v << "; planner '" << planner.Name() << "' can fly " << prm.name
+            << " only as " << allowed;
+          throw ConfigError(origin, key + "." + part, s.str());
+        }
+      };
+      check("lower", prm.lower);
+      check("upper", prm.upper);
+      if (prm.default_value) check("default", *prm.default_value);
+      if (info.integer && prm.type != optimizers::ParameterType::kInteger) {
+        throw ConfigError(origin, key + ".type",
+                          prm.name + " is an integer parameter of planner '" + planner.Name() +
+                              "'; give type: integer");
+      }
+    }
+  }
+}
+
 }  // namespace
 
 ParamValues Experiment::Defaults() const {
@@ -188,12 +226,9 @@ Experiment Experiment::LoadFile(const std::string& path) { return LoadFile(path,
 
 Experiment Experiment::LoadFile(const std::string& path,
                                 const std::vector<std::string>& assignments) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError(path, "", "cannot read the experiment file");
-  std::stringstream ss;
-  ss << in.rdbuf();
+  const std::string text = ReadFileText(path);
   const std::string dir = std::filesystem::path(path).parent_path().string();
-  return FromString(ApplyAssignments(ss.str(), assignments, path), path, dir.empty() ? "." : dir);
+  return FromString(ApplyAssignments(text, assignments, path), path, dir.empty() ? "." : dir);
 }
 
 Experiment Experiment::FromString(const std::string& text, const std::string& origin,
@@ -211,7 +246,7 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
   e.mode = map.String("mode", std::string("reproducible"), {"reproducible", "realtime"}) == "realtime"
                ? TimingMode::kRealtime
                : TimingMode::kReproducible;
-  e.repeats = static_cast<int>(map.Integer("repeats", 1, Range::Closed(1, 100000)));
+  e.repeats = static_cast<int>(map.Integer("repeats", 1, Range::Closed(1, kMaxRepeats)));
   {
     std::set<Method> seen;
     for (const auto& name : StringList(map, "methods")) {
@@ -237,6 +272,7 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
                                  e.planner.Name() + "'");
     }
   }
+  CheckAgainstSchema(e.space, e.planner, origin);
   auto read_side = [&](const char* key, const std::set<std::string>& allowed) {
     std::vector<std::string> names = StringList(map, key);
     std::set<std::string> unique;
@@ -305,9 +341,22 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
   const YamlMap b = map.Map("budget", true);
   b.RejectUnknownKeys({"flights", "default_flights", "flight_batch", "short_evals_per_flight", "queries_per_eval",
                        "query_window", "short_term_while_flying"});
-  e.budget.flights = static_cast<int>(b.Integer("flights", e.budget.flights, Range::Closed(1, 1e7)));
+  e.budget.flights =
+      static_cast<int>(b.Integer("flights", e.budget.flights, Range::Closed(1, kMaxFlights)));
   e.budget.default_flights = static_cast<int>(
-      b.Integer("default_flights", e.budget.flights, Range::Closed(1, 1e7)));
+      b.Integer("default_flights", e.budget.flights, Range::Closed(1, kMaxFlights)));
+  {
+    // Every trial of every method and repeat: a run that can never finish is refused.
+    const double total = static_cast<double>(e.budget.flights) *
+                         static_cast<double>(e.methods.size()) * e.repeats;
+    if (total > kMaxTotalFlights) {
+      std::ostringstream s;
+      s << "flights × methods × repeats = " << e.budget.flights << " × " << e.methods.size()
+        << " × " << e.repeats << " = " << total << " flights; at most " << kMaxTotalFlights
+        << " per run";
+      b.Fail("flights", s.str());
+    }
+  }
   e.budget.flight_batch =
       static_cast<int>(b.Integer("flight_batch", e.budget.flight_batch, Range::Closed(0, 1024)));
   if (e.budget.flight_batch == 0 && e.mode != TimingMode::kRealtime) {
@@ -315,9 +364,10 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
                            "fixed batch, an integer in [1, 1024]");
   }
   e.budget.short_evals_per_flight = static_cast<int>(
-      b.Integer("short_evals_per_flight", e.budget.short_evals_per_flight, Range::Closed(0, 1e7)));
-  e.budget.queries_per_eval =
-      static_cast<int>(b.Integer("queries_per_eval", e.budget.queries_per_eval, Range::Closed(1, 1e5)));
+      b.Integer("short_evals_per_flight", e.budget.short_evals_per_flight,
+                Range::Closed(0, kMaxShortEvalsPerFlight)));
+  e.budget.queries_per_eval = static_cast<int>(
+      b.Integer("queries_per_eval", e.budget.queries_per_eval, Range::Closed(1, 1e4)));
   e.budget.query_window =
       static_cast<int>(b.Integer("query_window", e.budget.query_window, Range::Closed(1, 1e7)));
   e.budget.short_term_while_flying = b.Bool("short_term_while_flying", false);

@@ -13,6 +13,7 @@
 
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/random.hpp"
+#include "quadtune/common/text_file.hpp"
 #include "quadtune/engine/experiment.hpp"
 
 namespace quadtune::engine {
@@ -334,12 +335,9 @@ std::optional<planning::AdaptedPlan> OnlineAdapter::OnTick(double t, const plann
 // AdaptExperiment
 
 AdaptExperiment AdaptExperiment::LoadFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError(path, "", "cannot read the experiment file");
-  std::stringstream ss;
-  ss << in.rdbuf();
+  const std::string text = ReadFileText(path);
   const std::string dir = std::filesystem::path(path).parent_path().string();
-  return FromString(ss.str(), path, dir.empty() ? "." : dir);
+  return FromString(text, path, dir.empty() ? "." : dir);
 }
 
 AdaptExperiment AdaptExperiment::FromString(const std::string& text, const std::string& origin,

@@ -1,4 +1,5 @@
 #include "quadtune/engine/planners.hpp"
+#include "quadtune/planning/parameter_schema.hpp"
 
 #include <bit>
 #include <chrono>
@@ -42,7 +43,10 @@ struct IpoptMap {
 std::vector<ParameterInfo> InfoOf(const planning::PlannerParams& p,
                                   const std::vector<std::string>& names) {
   std::vector<ParameterInfo> out;
-  for (const auto& n : names) out.push_back({n, p.Get(n)});
+  for (const auto& n : names) {
+    out.push_back({n, p.Get(n), planning::ParameterRange(n),
+                   planning::ParameterIsInteger(n)});
+  }
   return out;
 }
 
@@ -250,10 +254,13 @@ ToySolve ToySolveQuery(const ToyQuery& q, double gain, int max_iter) {
 ToyPlanner::ToyPlanner(ToyPlannerOptions options) : options_(options) {}
 
 std::vector<ParameterInfo> ToyPlanner::ShortTermParameters() const {
-  return {{"gain", 0.3}, {"max_iter", 20}};
+  // Damping gains above 2 diverge on every query; more than 10 000 iterations is no budget.
+  return {{"gain", 0.3, {0.0, 2.0, true, false}, false},
+          {"max_iter", 20, Range::Closed(1, 10000), true}};
 }
 std::vector<ParameterInfo> ToyPlanner::LongTermParameters() const {
-  return {{"speed", 2.0}, {"margin", 0.5}};
+  return {{"speed", 2.0, {0.0, 100.0, true, false}, false},
+          {"margin", 0.5, Range::Closed(0.0, 1000.0), false}};
 }
 
 Opaque ToyPlanner::PrepareMap(std::uint64_t map_seed) const {

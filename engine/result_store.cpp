@@ -20,11 +20,18 @@
 namespace quadtune::engine {
 namespace {
 
+/// "sqlite: PATH: what went wrong" for the last error of `db`.
+std::string SqliteError(sqlite3* db) {
+  const char* file = sqlite3_db_filename(db, "main");
+  return std::string("sqlite: ") + (file != nullptr && *file != '\0' ? file : "?") + ": " +
+         sqlite3_errmsg(db);
+}
+
 class Statement {
  public:
   Statement(sqlite3* db, const std::string& sql) {
     if (sqlite3_prepare_v2(db, sql.c_str(), -1, &stmt_, nullptr) != SQLITE_OK) {
-      throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(db) + " in " + sql);
+      throw std::runtime_error(SqliteError(db));
     }
   }
   ~Statement() { sqlite3_finalize(stmt_); }
@@ -40,7 +47,7 @@ class Statement {
     const int rc = sqlite3_step(stmt_);
     if (rc == SQLITE_ROW) return true;
     if (rc == SQLITE_DONE) return false;
-    throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(sqlite3_db_handle(stmt_)));
+    throw std::runtime_error(SqliteError(sqlite3_db_handle(stmt_)));
   }
   std::string Text(int i) {
     const auto* t = sqlite3_column_text(stmt_, i);
@@ -128,7 +135,8 @@ void ResultStore::Exec(const std::string& sql) const {
   if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
     std::string msg = err ? err : "?";
     sqlite3_free(err);
-    throw std::runtime_error("sqlite: " + msg);
+    const char* file = sqlite3_db_filename(db_, "main");
+    throw std::runtime_error("sqlite: " + std::string(file != nullptr ? file : "?") + ": " + msg);
   }
 }
 
@@ -145,39 +153,59 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
     throw std::runtime_error("sqlite: cannot open " + path);
   }
   sqlite3_busy_timeout(db_, 5000);
-  Exec("PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL;");
-  Exec(kSchema);
-  {
-    Statement s(db_, "SELECT id, config FROM experiment ORDER BY id LIMIT 1");
-    if (s.Step()) {
-      if (!resume) throw std::runtime_error("results file " + path + " is not empty");
-      if (s.Text(1) != experiment.text) {
-        throw ConfigError(path, "--resume",
-                          "the stored run used another configuration; resume with the same "
-                          "experiment file");
-      }
-      experiment_id_ = s.Int(0);
+  try {
+    Exec("PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL;");
+    if (resume) {
+      // A damaged store (truncated, overwritten) is refused before anything is written to it.
+      Statement check(db_, "PRAGMA quick_check");
+      const std::string verdict = check.Step() ? check.Text(0) : std::string("no answer");
+      if (verdict != "ok") throw std::runtime_error("integrity check: " + verdict);
     }
-  }
-  if (experiment_id_ == 0) {
-    Statement s(db_,
-                "INSERT INTO experiment(name, config, seed, version, machine, threads, mode, started) "
-                "VALUES(?,?,?,?,?,?,?,?)");
-    s.Bind(1, experiment.name);
-    s.Bind(2, experiment.text);
-    s.Bind(3, static_cast<std::int64_t>(experiment.seed));
-    s.Bind(4, std::string(QUADTUNE_VERSION));
-    s.Bind(5, Machine());
-    s.Bind(6, threads);
-    s.Bind(7, std::string(experiment.mode == TimingMode::kRealtime ? "realtime" : "reproducible"));
-    s.Bind(8, Now());
-    s.Step();
-    experiment_id_ = sqlite3_last_insert_rowid(db_);
-  }
-  Statement s(db_, kSelectEval);
-  while (s.Step()) {
-    EvaluationRow r = ReadRow(s);
-    stored_.emplace(std::make_tuple(r.trial_id, r.kind, r.iteration, r.index), std::move(r));
+    Exec(kSchema);
+    {
+      Statement s(db_, "SELECT id, config FROM experiment ORDER BY id LIMIT 1");
+      if (s.Step()) {
+        if (!resume) throw std::runtime_error("results file " + path + " is not empty");
+        if (s.Text(1) != experiment.text) {
+          throw ConfigError(path, "--resume",
+                            "the stored run used another configuration; resume with the same "
+                            "experiment file");
+        }
+        experiment_id_ = s.Int(0);
+      }
+    }
+    if (experiment_id_ == 0) {
+      Statement s(db_,
+                  "INSERT INTO experiment(name, config, seed, version, machine, threads, mode, started) "
+                  "VALUES(?,?,?,?,?,?,?,?)");
+      s.Bind(1, experiment.name);
+      s.Bind(2, experiment.text);
+      s.Bind(3, static_cast<std::int64_t>(experiment.seed));
+      s.Bind(4, std::string(QUADTUNE_VERSION));
+      s.Bind(5, Machine());
+      s.Bind(6, threads);
+      s.Bind(7, std::string(experiment.mode == TimingMode::kRealtime ? "realtime" : "reproducible"));
+      s.Bind(8, Now());
+      s.Step();
+      experiment_id_ = sqlite3_last_insert_rowid(db_);
+    }
+    Statement s(db_, kSelectEval);
+    while (s.Step()) {
+      EvaluationRow r = ReadRow(s);
+      stored_.emplace(std::make_tuple(r.trial_id, r.kind, r.iteration, r.index), std::move(r));
+    }
+  } catch (const ConfigError&) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw;
+  } catch (const std::exception& e) {
+    // sqlite errors, and stored text that does not parse (e.g. a seed column).
+    sqlite3_close(db_);
+    db_ = nullptr;
+    if (!resume) throw;
+    throw ConfigError(path, "--resume",
+                      std::string("not a readable quadtune results store (") + e.what() +
+                          "); run again with --overwrite to start afresh");
   }
 }
 
@@ -273,7 +301,9 @@ void ResultStore::InsertBatch(std::span<const EvaluationRow> rows) {
     for (const EvaluationRow& r : rows) BindAndStep(r);
     Exec("COMMIT");
   } catch (...) {
-    Exec("ROLLBACK");
+    // SQLite may have rolled back already (e.g. on a full disk); the first error is the one to
+    // report, so a failed rollback is not.
+    if (sqlite3_get_autocommit(db_) == 0) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
     throw;
   }
 }

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "result_dir.hpp"
 #include "quadtune/engine/online_adaptation.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/planning/flight.hpp"
@@ -30,6 +31,7 @@ struct AdaptArgs {
   std::string out = "results/adapt";
   std::optional<std::uint64_t> seed;
   bool plot = true;
+  bool overwrite = false;  ///< replace the results already in OUT
 };
 
 /// Index of the zone holding x (the last zone also takes its upper end), or -1.
@@ -136,8 +138,8 @@ int RunAdapt(const AdaptArgs& a) {
   const auto wall_start = std::chrono::steady_clock::now();
   engine::AdaptExperiment e = engine::AdaptExperiment::LoadFile(a.experiment);
   if (a.seed) e.SetSeed(*a.seed);
+  const ResultDir out_dir(a.out, ResultDirPolicy{false, a.overwrite, false});
   const layout::Layout layout = layout::GenerateLayout(e.layout, e.seed);
-  fs::create_directories(a.out);
   layout.Save((fs::path(a.out) / "layout.yaml").string());
   spdlog::info("adapt '{}' ({}): {} obstacles over {:.0f} m, {} zones, seed {}, R {:.1f} m, "
                "v_des in [{}, {}], {} trials per segment, baselines {}",
@@ -318,8 +320,10 @@ void RegisterAdapt(CLI::App& app, int& exit_code) {
                "compare with fixed v_des");
   cmd->add_option("experiment", args.experiment, "experiment file (YAML)")->required();
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();
-  cmd->add_option("--seed", args.seed, "seed of the layout, the world and BO (default: the file's)");
+  cmd->add_option("--seed", args.seed, "seed of the layout, the world and BO (default: the file's)")
+      ->check(SeedValidator());
   cmd->add_flag("!--no-plot", args.plot, "skip the figure");
+  cmd->add_flag("--overwrite", args.overwrite, "replace the results already in OUT");
   cmd->callback([&exit_code] { exit_code = RunAdapt(args); });
 }
 

@@ -30,6 +30,19 @@ void RegisterReport(CLI::App& app, int& exit_code);
 /// `quadtune sweep`: Sobol' indices of the objectives over the parameter box (sweep_command.cpp).
 void RegisterSweep(CLI::App& app, int& exit_code);
 
+/// Checks a --seed option: a decimal integer in [0, 2^64), refused with one line otherwise (CLI11
+/// would wrap "-5" to 2^64 - 5).
+inline CLI::Validator SeedValidator() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos) {
+          return "a seed is a decimal integer >= 0, got '" + text + "'";
+        }
+        return "";
+      },
+      "SEED");
+}
+
 /// Runs the figure script with `args`; returns its exit status (0 on success).
 int RunPlotScript(const std::string& args);
 /// Path of an asset shipped with the sources (assets/…), found from the source tree or

@@ -9,6 +9,7 @@
 
 #include "commands.hpp"
 #include "stored_flight.hpp"
+#include "result_dir.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/layout/layout.hpp"
@@ -55,7 +56,11 @@ planning::PlannerParams ParseOverrides(const std::vector<std::string>& items) {
     } catch (const std::exception&) {
       throw ConfigError("--set", name, "'" + item.substr(eq + 1) + "' is not a number");
     }
-    params.Set(name, value);
+    try {
+      params.Set(name, value);
+    } catch (const ConfigError& e) {
+      throw ConfigError("--set", "", e.what());  // "--set: NAME: unknown planner parameter; ..."
+    }
   }
   params.Validate("--set");
   return params;
@@ -71,6 +76,8 @@ int RunFly(const FlyArgs& a) {
     if (a.plot && RunPlotScript("flight '" + a.out + "'") != 0) return 1;
     return status;
   }
+  CheckOutputDir(a.out, "--out");
+  const planning::PlannerParams params = ParseOverrides(a.set);
   const physics::DroneDescription drone = physics::LoadDroneDescription(AssetPath(a.drone));
   layout::Layout layout;
   if (!a.layout_file.empty()) {
@@ -91,7 +98,6 @@ int RunFly(const FlyArgs& a) {
   world_options.seed = a.seed;
   world_options.collision_response = physics::CollisionResponse::kPassThrough;
 
-  const planning::PlannerParams params = ParseOverrides(a.set);
   const planning::Mission mission =
       a.mission == "go-to" ? planning::Mission::GoTo(layout.start_W(), layout.goal_W())
                            : planning::Mission::GoAndReturn(layout.start_W(), layout.goal_W());
@@ -177,7 +183,9 @@ void RegisterFly(CLI::App& app, int& exit_code) {
                                              "given: the shipped forest of that spacing "
                                              "(assets/layouts/forest_*.yaml), else "
                                              "forest_1p3.yaml at that spacing")->capture_default_str();
-  cmd->add_option("--seed", args.seed, "seed of the layout and the world")->capture_default_str();
+  cmd->add_option("--seed", args.seed, "seed of the layout and the world")
+      ->capture_default_str()
+      ->check(SeedValidator());
   cmd->add_option("--world", args.world_file, "world options (YAML): rates, wind, noise, …");
   cmd->add_option("--set", args.set, "planner parameter override NAME=VALUE (repeatable), e.g. "
                                      "--set v_des=3 --set n_pol=6");

@@ -3,6 +3,7 @@
 #include <string>
 
 #include "commands.hpp"
+#include "result_dir.hpp"
 #include "quadtune/layout/layout.hpp"
 
 namespace quadtune::cli {
@@ -16,6 +17,7 @@ struct LayoutArgs {
 };
 
 int RunLayout(const LayoutArgs& a) {
+  CheckOutputFile(a.out, "--out");
   layout::LayoutOptions options;
   if (!a.options_file.empty()) {
     options = layout::LayoutOptions::LoadFile(a.options_file);
@@ -51,7 +53,7 @@ void RegisterLayout(CLI::App& app, int& exit_code) {
   cmd->add_option("--spacing", args.spacing, "average spacing (m) without --options: the "
                                              "shipped forest of that spacing, else forest_1p3")
       ->capture_default_str();
-  cmd->add_option("--seed", args.seed, "seed")->capture_default_str();
+  cmd->add_option("--seed", args.seed, "seed")->capture_default_str()->check(SeedValidator());
   cmd->add_option("--out", args.out, "output file (YAML)")->capture_default_str();
   cmd->callback([&exit_code] { exit_code = RunLayout(args); });
 }

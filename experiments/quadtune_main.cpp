@@ -1,17 +1,65 @@
 // quadtune: automatic parameter adaptation for online quadrotor trajectory planners.
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <exception>
+#include <filesystem>
+#include <memory>
+#include <mutex>
 
 #include "commands.hpp"
 #include "quadtune/common/error.hpp"
 
+namespace {
+
+/// Log lines at warning level and above go to stderr, the others to stdout, so that a caller
+/// that keeps stdout (e.g. a table) still sees every problem on stderr.
+class SplitSink final : public spdlog::sinks::sink {
+ public:
+  void log(const spdlog::details::log_msg& msg) override {
+    (msg.level >= spdlog::level::warn ? err_ : out_)->log(msg);
+  }
+  void flush() override {
+    out_->flush();
+    err_->flush();
+  }
+  void set_pattern(const std::string& pattern) override {
+    out_->set_pattern(pattern);
+    err_->set_pattern(pattern);
+  }
+  void set_formatter(std::unique_ptr<spdlog::formatter> formatter) override {
+    out_->set_formatter(formatter->clone());
+    err_->set_formatter(std::move(formatter));
+  }
+
+ private:
+  std::shared_ptr<spdlog::sinks::sink> out_ =
+      std::make_shared<spdlog::sinks::stdout_color_sink_mt>();
+  std::shared_ptr<spdlog::sinks::sink> err_ =
+      std::make_shared<spdlog::sinks::stderr_color_sink_mt>();
+};
+
+/// An error message as one line (line breaks inside it become spaces).
+std::string OneLine(std::string text) {
+  std::replace(text.begin(), text.end(), '\n', ' ');
+  std::replace(text.begin(), text.end(), '\r', ' ');
+  return text;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
+  spdlog::set_default_logger(std::make_shared<spdlog::logger>("", std::make_shared<SplitSink>()));
   CLI::App app{"quadtune — tunes the parameters of online quadrotor trajectory planners "
                "(short-term by PSO, long-term by Bayesian optimisation)"};
   app.set_version_flag("--version", std::string("quadtune ") + QUADTUNE_VERSION);
   app.require_subcommand(1);
+  // A malformed command line is one line on stderr, like every other error.
+  app.failure_message([](const CLI::App*, const CLI::Error& e) {
+    return "quadtune: " + OneLine(e.what()) + " (see quadtune --help)\n";
+  });
   std::string log_level = "info";
   app.add_option("--log-level", log_level, "log level: trace, debug, info, warn, error, off")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
@@ -33,10 +81,14 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   } catch (const quadtune::ConfigError& e) {
-    spdlog::error("{}", e.what());
+    spdlog::error("{}", OneLine(e.what()));
     return 2;
+  } catch (const std::filesystem::filesystem_error& e) {
+    // A path the program could not create or write: name it and the reason.
+    spdlog::error("{}: {}", e.path1().string(), OneLine(e.code().message()));
+    return 1;
   } catch (const std::exception& e) {
-    spdlog::error("{}", e.what());
+    spdlog::error("{}", OneLine(e.what()));
     return 1;
   }
   return exit_code;

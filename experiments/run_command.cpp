@@ -4,7 +4,10 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <limits>
+#include <mutex>
 #include <chrono>
 #include <memory>
 #include <csignal>
@@ -19,6 +22,8 @@
 
 #include "commands.hpp"
 #include "stored_flight.hpp"
+#include "result_dir.hpp"
+#include "quadtune/common/cancel.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/engine/distributed.hpp"
 #include "quadtune/engine/experiment.hpp"
@@ -29,8 +34,6 @@
 namespace quadtune::cli {
 namespace {
 
-std::atomic<bool> g_interrupted{false};
-void OnSignal(int) { g_interrupted.store(true); }
 
 struct RunArgs {
   std::string experiment;
@@ -38,6 +41,7 @@ struct RunArgs {
   int threads = 0;
   std::string out = "results/run";
   bool resume = false;
+  bool overwrite = false;  ///< replace a run already in OUT
   bool quiet = false;
 };
 
@@ -145,7 +149,16 @@ int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& sto
                  "results in {}",
                  s.flights, s.resolves, s.wall_s, s.threads, s.worlds, store);
   }
-  return s.status == engine::RunStatus::kCompleted ? 0 : 130;
+  if (s.status != engine::RunStatus::kCompleted) {
+    std::string sets;
+    for (const auto& kv : a.set) sets += " --set '" + kv + "'";
+    spdlog::warn("interrupted; the store is consistent. Continue with: quadtune run {} --out {} "
+                 "--resume{}{}",
+                 a.experiment, a.out,
+                 a.threads > 0 ? fmt::format(" --threads {}", a.threads) : std::string(), sets);
+    return 130;
+  }
+  return 0;
 }
 
 /// `run` under an MPI launcher with more than one process: every rank takes trials; rank 0
@@ -156,17 +169,23 @@ int RunMpi(const RunArgs& a) {
   if (rank != 0) spdlog::set_pattern(fmt::format("[%Y-%m-%d %H:%M:%S.%e] [%l] [rank {}] %v", rank));
   namespace fs = std::filesystem;
   const std::string store = (fs::path(a.out) / "results.sqlite").string();
-  std::signal(SIGINT, OnSignal);
-  std::signal(SIGTERM, OnSignal);
+  InstallCancelSignalHandlers();
   try {
     const engine::Experiment e = engine::LoadExperimentShared(mpi, a.experiment, a.set);
     const bool tty = rank == 0 && isatty(fileno(stderr)) != 0 && !a.quiet;
     engine::DistributedOptions options;
     options.run.threads = a.threads;
     options.run.resume = a.resume;
-    options.run.cancel = &g_interrupted;
+    options.run.cancel = &CancelFlag();
+    std::unique_ptr<ResultDir> dir;
     if (rank == 0) {
-      fs::create_directories(a.out);
+      try {
+        dir = std::make_unique<ResultDir>(a.out, ResultDirPolicy{a.resume, a.overwrite, true});
+      } catch (const ConfigError& ex) {
+        // The other ranks wait for rank 0 in the run: end them all.
+        spdlog::error("{}", ex.what());
+        mpi.Abort(2);
+      }
       options.run.store_path = store;
       options.run.on_progress = ProgressPrinter(tty, a.quiet);
       std::error_code ec;
@@ -215,15 +234,14 @@ int Run(const RunArgs& a) {
   // Every configuration error is reported here, before any work starts.
   const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
   namespace fs = std::filesystem;
-  fs::create_directories(a.out);
+  const ResultDir dir(a.out, ResultDirPolicy{a.resume, a.overwrite, true});
   const std::string store = (fs::path(a.out) / "results.sqlite").string();
   engine::RunOptions options;
   options.store_path = store;
   options.threads = a.threads;
   options.resume = a.resume;
-  options.cancel = &g_interrupted;
-  std::signal(SIGINT, OnSignal);
-  std::signal(SIGTERM, OnSignal);
+  options.cancel = &CancelFlag();
+  InstallCancelSignalHandlers();
   const bool tty = isatty(fileno(stderr)) != 0 && !a.quiet;
   const int threads = a.threads > 0 ? a.threads : e.threads;
   spdlog::info("experiment '{}' ({}): planner {}, methods {}, repeats {}, {} flights per trial, "
@@ -233,7 +251,14 @@ int Run(const RunArgs& a) {
                e.mode == engine::TimingMode::kRealtime ? "realtime" : "reproducible",
                a.resume ? ", resuming" : "");
   options.on_progress = ProgressPrinter(tty, a.quiet);
-  const engine::RunSummary s = engine::RunExperiment(e, options);
+  engine::RunSummary s;
+  try {
+    s = engine::RunExperiment(e, options);
+  } catch (const Cancelled&) {
+    // Cancelled while the maps were generated: the store holds the experiment and no trial.
+    s.status = engine::RunStatus::kCancelled;
+    s.threads = threads;
+  }
   return Finish(s, a, store, tty);
 }
 
@@ -255,11 +280,84 @@ struct BenchArgs {
   int resolves = 200;
   std::string csv;    ///< "": no CSV; else one row per thread count
   bool plot = false;  ///< draw the thread-scaling figure next to the CSV
+  int soak = 0;       ///< > 0: the soak benchmark (Soak) with this many flights instead
 };
+
+/// The soak benchmark: `flights` closed-loop flights with the defaults on one map, through one
+/// world pool and `threads` workers (as a tuning run flies them), the resident set sampled after
+/// every 1 % of the flights. Reports whether memory is flat (within 5 %) after the first 1 000
+/// flights (half of them when fewer than 2 000), i.e. whether the pool's reused worlds leak. Exit 0 when flat, 3 when
+/// not, 130 when interrupted.
+int Soak(const engine::Experiment& e, int flights, int threads, const std::string& csv_path) {
+  using Clock = std::chrono::steady_clock;
+  InstallCancelSignalHandlers();
+  const engine::Opaque map = e.planner.PrepareMap(e.MapSeed(0));
+  const engine::ParamValues defaults = e.planner.Defaults();
+  const int every = std::max(1, flights / 100);
+  const int warmup = std::min(1000, std::max(1, flights / 2));
+  engine::Scheduler sched(threads);
+  engine::WorldPool pool;
+  std::mutex mutex;
+  std::vector<std::pair<int, double>> samples;  // (flights done, RSS MiB)
+  std::atomic<int> done{0};
+  const double rss_start = ResidentMiB();
+  const auto t0 = Clock::now();
+  engine::TaskGroup group;
+  for (int i = 0; i < flights; ++i) {
+    sched.Submit(group, engine::Priority::kFlight, [&, i] {
+      if (CancelRequested()) return;
+      engine::WorkerSlot* slot = pool.Acquire();
+      engine::FlightRequest req;
+      req.map = map;
+      req.params = defaults;
+      req.seed = static_cast<std::uint64_t>(i) + 1;
+      req.cancelled = [] { return CancelRequested(); };
+      (void)e.planner.Fly(req, *slot);
+      pool.Release(slot);
+      const int d = ++done;
+      if (d % every == 0 || d == flights) {
+        const double rss = ResidentMiB();
+        const std::lock_guard<std::mutex> lock(mutex);
+        samples.emplace_back(d, rss);
+      }
+    });
+  }
+  sched.Wait(group);
+  const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
+  std::sort(samples.begin(), samples.end());
+  if (!csv_path.empty()) {
+    std::ofstream csv(csv_path);
+    if (!csv) throw ConfigError(csv_path, "--csv", "cannot write the file");
+    csv << "flights,rss_mib\n";
+    for (const auto& [d, rss] : samples) csv << d << ',' << rss << '\n';
+  }
+  if (CancelRequested()) {
+    spdlog::warn("soak interrupted after {} of {} flights", done.load(), flights);
+    return 130;
+  }
+  double base = 0.0;
+  double high = 0.0;
+  double low = std::numeric_limits<double>::infinity();
+  for (const auto& [d, rss] : samples) {
+    if (d < warmup) continue;
+    if (base == 0.0) base = rss;
+    high = std::max(high, rss);
+    low = std::min(low, rss);
+  }
+  const double spread = base > 0.0 ? (high - low) / base : 0.0;
+  std::printf("soak: %d flights on %d threads in %.1f s (%.2f flights/s), %d pooled worlds\n",
+              flights, threads, wall, flights / wall, pool.Size());
+  std::printf("soak: RSS %.1f MiB at start, %.1f MiB after %d flights, %.1f .. %.1f MiB after "
+              "that (spread %.2f %% of %.1f MiB): %s\n",
+              rss_start, base, warmup, low, high, 100.0 * spread, base,
+              spread <= 0.05 ? "flat within 5 %" : "NOT flat within 5 %");
+  return spread <= 0.05 ? 0 : 3;
+}
 
 /// Flights/s and short-term evals/s at 1..N threads, and the scheduler's overhead per task.
 int Bench(const BenchArgs& a) {
   const engine::Experiment e = engine::Experiment::LoadFile(a.experiment);
+  if (a.soak > 0) return Soak(e, a.soak, a.max_threads, a.csv);
   const engine::Opaque map = e.planner.PrepareMap(e.MapSeed(0));
   const engine::ParamValues defaults = e.planner.Defaults();
   // Record queries once.
@@ -386,6 +484,9 @@ void RegisterRun(CLI::App& app, int& exit_code) {
       ->check(CLI::Range(1, 1024));
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();
   cmd->add_flag("--resume", args.resume, "continue the run stored in OUT/results.sqlite");
+  cmd->add_flag("--overwrite", args.overwrite,
+                "replace the run already stored in OUT (its store, figures and tables)")
+      ->excludes("--resume");
   cmd->add_flag("--quiet", args.quiet, "no progress line");
   cmd->add_option("--set", args.set,
                   "KEY=VALUE: change the experiment file's dotted KEY, e.g. --set "
@@ -428,6 +529,10 @@ void RegisterBench(CLI::App& app, int& exit_code) {
   cmd->add_option("--resolves", args.resolves, "re-solves per thread count")->capture_default_str();
   cmd->add_option("--csv", args.csv, "also write one row per thread count to this CSV file");
   cmd->add_flag("--plot", args.plot, "draw the thread-scaling figure next to the CSV (PNG)");
+  cmd->add_option("--soak", args.soak,
+                  "instead: N closed-loop flights through one world pool on --max-threads "
+                  "threads, resident memory sampled; says whether it stays flat (within 5 %)")
+      ->check(CLI::Range(1, 10000000));
   cmd->callback([&exit_code] { exit_code = Bench(args); });
 }
 

@@ -13,13 +13,13 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "quadtune/common/cancel.hpp"
+#include "result_dir.hpp"
 #include "quadtune/engine/study.hpp"
 
 namespace quadtune::cli {
 namespace {
 
-std::atomic<bool> g_study_interrupted{false};
-void OnStudySignal(int) { g_study_interrupted.store(true); }
 
 struct StudyArgs {
   std::string file;
@@ -27,6 +27,7 @@ struct StudyArgs {
   std::string out = "results/study";
   int threads = 0;
   bool resume = false;
+  bool overwrite = false;
   bool quiet = false;
   bool plot = true;
 };
@@ -37,13 +38,13 @@ int RunStudyCommand(const StudyArgs& a) {
                study.name, a.file, study.labels.size(),
                study.sweep_key.empty() ? "" : " over " + study.sweep_key, study.stages.size(),
                study.validation_flights);
+  const ResultDir dir(a.out, ResultDirPolicy{a.resume, a.overwrite, true});
   engine::StudyOptions options;
   options.out_dir = a.out;
   options.threads = a.threads;
   options.resume = a.resume;
-  options.cancel = &g_study_interrupted;
-  std::signal(SIGINT, OnStudySignal);
-  std::signal(SIGTERM, OnStudySignal);
+  options.cancel = &CancelFlag();
+  InstallCancelSignalHandlers();
   const bool tty = isatty(fileno(stderr)) != 0 && !a.quiet;
   std::string last_stage;
   options.on_progress = [&](const engine::StudyProgress& p) {
@@ -70,7 +71,12 @@ int RunStudyCommand(const StudyArgs& a) {
       last_stage = key;
     }
   };
-  const engine::StudySummary s = engine::RunStudy(study, options);
+  engine::StudySummary s;
+  try {
+    s = engine::RunStudy(study, options);
+  } catch (const Cancelled&) {
+    s.status = engine::RunStatus::kCancelled;  // cancelled while a map was generated
+  }
   if (tty) std::fprintf(stderr, "\n");
   nlohmann::json j;
   j["status"] = s.status == engine::RunStatus::kCompleted ? "completed" : "cancelled";
@@ -100,6 +106,8 @@ void RegisterStudy(CLI::App& app, int& exit_code) {
   cmd->add_option("--threads", args.threads, "worker threads (default: the experiment's)")
       ->check(CLI::Range(1, 1024));
   cmd->add_flag("--resume", args.resume, "continue the stages stored in OUT");
+  cmd->add_flag("--overwrite", args.overwrite, "replace the study already in OUT")
+      ->excludes("--resume");
   cmd->add_flag("--quiet", args.quiet, "no progress line");
   cmd->add_flag("!--no-plot", args.plot, "skip the figures");
   cmd->add_option("--set", args.set,

@@ -1,5 +1,7 @@
 #include "quadtune/planning/parameters.hpp"
 
+#include "quadtune/planning/parameter_schema.hpp"
+
 #include <cmath>
 #include <limits>
 
@@ -73,6 +75,18 @@ const std::vector<std::string>& PlannerParams::TunableNames() {
   static const std::vector<std::string> names = {"w_col", "w_dyn", "n_pol",
                                                  "v_des", "h_pl",  "t_pl"};
   return names;
+}
+
+Range ParameterRange(const std::string& name) {
+  const Field* f = Find(name);
+  if (f == nullptr) Unknown(name);
+  return f->range;
+}
+
+bool ParameterIsInteger(const std::string& name) {
+  const Field* f = Find(name);
+  if (f == nullptr) Unknown(name);
+  return f->integer != nullptr;
 }
 
 double PlannerParams::Get(const std::string& name) const {

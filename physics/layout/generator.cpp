@@ -5,6 +5,7 @@
 
 #include "delaunay_index.hpp"
 #include "footprint_grid.hpp"
+#include "quadtune/common/cancel.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/random.hpp"
 #include "quadtune/layout/footprint.hpp"
@@ -97,6 +98,7 @@ ZoneResult GenerateZone(const LayoutOptions& o, const ZoneOptions& zone, std::ui
   ZoneResult result;
   long rejections = 0;
   for (;;) {
+    ThrowIfCancelled("layout generation");  // SIGINT/SIGTERM (quadtune/common/cancel.hpp)
     if (rejections >= o.max_rejections && by_count) {
       throw ConfigError(
           "", spacing_key,

@@ -99,9 +99,16 @@ struct ValidationOptions {
   int maps = 20;  ///< held-out maps, >= 0 (0: none)
 };
 
+/// Caps on budgets, generous but finite: a file asking for more is refused when it loads
+/// (a run that could never finish is a mistake, not a plan).
+inline constexpr int kMaxFlights = 100000;            ///< budget.flights, default_flights
+inline constexpr int kMaxRepeats = 1000;              ///< repeats
+inline constexpr double kMaxTotalFlights = 1.0e7;     ///< flights × methods × repeats per run
+inline constexpr int kMaxShortEvalsPerFlight = 100000;  ///< budget.short_evals_per_flight
+
 /// Budgets of one trial (YAML `budget:`).
 struct Budget {
-  int flights = 6;                 ///< long-term evaluations per trial, >= 1
+  int flights = 6;                 ///< long-term evaluations per trial, in [1, kMaxFlights]
   /// Flights of the `default` method (paper: the average of five flights with the defaults);
   /// absent in YAML → `flights`.
   int default_flights = 6;

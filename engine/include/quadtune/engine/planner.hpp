@@ -33,16 +33,20 @@
 #include <vector>
 
 #include "quadtune/common/error.hpp"
+#include "quadtune/common/yaml.hpp"
 
 namespace quadtune::engine {
 
 /// Parameter values by name (original units).
 using ParamValues = std::map<std::string, double>;
 
-/// One tunable parameter of a planner and its default.
+/// One tunable parameter of a planner: its default and the values the planner can fly (the
+/// schema an experiment's `parameters:` bounds are checked against when the file loads).
 struct ParameterInfo {
   std::string name;
   double default_value = 0.0;
+  Range range = Range::Any();  ///< allowed values; a tuning box must lie inside it
+  bool integer = false;        ///< true: the planner rounds the value (the box must be integer)
 };
 
 /// An immutable, shareable, type-erased value owned by a planner (a map, a recorded query).

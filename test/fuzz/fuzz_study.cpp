@@ -1,0 +1,18 @@
+// Fuzz target: the study reader (quadtune study) (see fuzz_util.hpp).
+#include <cstdlib>
+
+#include "fuzz_util.hpp"
+#include "quadtune/common/error.hpp"
+#include "quadtune/engine/study.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  // The corpus names shipped experiments (experiments/toy.yaml) by their file name.
+  setenv("QUADTUNE_ASSETS", QUADTUNE_SOURCE_DIR "/experiments", 0);
+  const std::string path = quadtune::fuzz::WriteInput(data, size, "study.yaml");
+  try {
+    (void)quadtune::engine::Study::LoadFile(path);
+  } catch (const quadtune::ConfigError&) {
+    // Bad input, reported as it should be.
+  }
+  return 0;
+}
