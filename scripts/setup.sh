@@ -19,7 +19,7 @@ packages=(
   libopenmpi-dev openmpi-bin
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-matplotlib python3-numpy python3-pandas python3-scipy python3-yaml
-  npm chromium python3-pil
+  npm chromium python3-pil clang libclang-rt-14-dev
 )
 
 missing=()

@@ -63,6 +63,7 @@ TEST(IpoptEngine, EveryMethodRunsEndToEndAndAgreesAt1And2And8Threads) {
     std::map<std::string, int> longs, shorts;
     ResultStore store(o.store_path);
     for (const auto& r : store.Evaluations()) {
+      if (r.kind == "validation") continue;  // the held-out flights: counted by their own tests
       (r.kind == "long" ? longs : shorts)[r.method] += 1;
       EXPECT_EQ(r.status, "ok") << r.method << " " << r.kind << " " << r.message;
     }

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -162,25 +164,31 @@ TEST(Flight, TimeoutIsReportedNotThrown) {
 }
 
 TEST(Flight, StuckDroneEndsAsStalled) {
-  // The goal lies inside a thick pillar: no plan can reach it, the drone hovers at the start,
-  // and the flight ends after stall_time instead of burning compute until max_time.
+  // The drone starts within its safety radius (inflation) of a thick pillar between it and the
+  // goal: its own start cell is occupied in the inflated map, so every re-plan fails, the drone
+  // hovers, and the flight ends after stall_time instead of burning compute until max_time.
   ForestFlight f(3.0, 1);
   physics::ObstacleSet obstacles;
   physics::CylinderObstacle pillar;
-  pillar.center_W = Eigen::Vector2d(6.0, 0.0);
-  pillar.radius = 1.0;
+  pillar.center_W = Eigen::Vector2d(2.0, 0.0);
+  pillar.radius = 1.0;  // its face 1 m ahead of the start
   pillar.z_min = 0.0;
-  pillar.z_max = 4.0;
+  pillar.z_max = 8.0;
   obstacles.cylinders.push_back(pillar);
   const physics::DroneDescription drone = ResearchDrone();
   physics::World world(obstacles, drone, f.world_options);
   FlightOptions options;
   options.max_time = 60.0;
   options.stall_time = 5.0;
+  PlannerParams params;
+  params.inflation = 1.3;
   const Mission mission = Mission::GoTo(Eigen::Vector3d(0.0, 0.0, 1.2), Eigen::Vector3d(6.0, 0.0, 1.2));
-  const FlightResult r = Fly(world, mission, PlannerParams{}, options, f.optimizer);
-  EXPECT_EQ(r.metrics.status, FlightStatus::kStalled) << r.metrics.message;
+  const FlightResult r = Fly(world, mission, params, options, f.optimizer);
+  EXPECT_EQ(r.metrics.status, FlightStatus::kStalled)
+      << r.metrics.message << " t_f " << r.metrics.flight_time << " n_c " << r.metrics.collisions
+      << " plans " << r.metrics.plans << " failed " << r.metrics.failed_plans;
   EXPECT_LT(r.metrics.flight_time, 20.0);
+  EXPECT_EQ(r.metrics.collisions, 0);
   EXPECT_NE(r.metrics.message.find("no progress"), std::string::npos);
   EXPECT_STREQ(ToString(FlightStatus::kStalled), "stalled");
 }
