@@ -72,7 +72,13 @@ void RejectDuplicateKeys(const YAML::Node& root, const std::string& origin) {
     if (node.IsMap()) {
       std::vector<std::string> seen;
       for (const auto& kv : node) {
-        const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : std::string("?");
+        if (!kv.first.IsScalar()) {
+          throw ConfigError(origin, child_path("?"),
+                            "a key that is a list or a mapping (line " +
+                                std::to_string(kv.first.Mark().line + 1) +
+                                "); keys are plain names");
+        }
+        const std::string key = kv.first.Scalar();
         for (const auto& s : seen) {
           if (s == key) {
             throw ConfigError(origin, child_path(key),

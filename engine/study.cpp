@@ -95,7 +95,10 @@ Study Study::LoadFile(const std::string& path, const std::vector<std::string>& a
       if (!labels.IsSequence() || labels.size() != values.size()) {
         sweep.Fail("labels", "must list one label per value (" + std::to_string(values.size()) + ")");
       }
-      for (const auto& l : labels) s.labels.push_back(l.as<std::string>());
+      for (const auto& l : labels) {
+        if (!l.IsScalar()) sweep.Fail("labels", "must be a list of names (plain text), one per value");
+        s.labels.push_back(l.as<std::string>());
+      }
     } else {
       for (const auto& v : values) s.labels.push_back(v.IsScalar() ? v.as<std::string>() : YamlEmit(v));
     }

@@ -6,7 +6,7 @@
 #
 #   bash scripts/full_results.sh                 # everything
 #   bash scripts/full_results.sh benchmark adapt # only these (benchmark benchmark_jc density
-#                                                # adapt refinement scaling mpi)
+#                                                # definition sweep adapt refinement scaling mpi)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 q="${QUADTUNE_BUILD_DIR:-$root/build}/experiments/quadtune"
@@ -58,6 +58,18 @@ run_density() {
     "$raw/density/summary.json" "$docs/density/"
 }
 
+run_sweep() {  # parameter importance at the benchmark's 1.3 m forest
+  rm -rf "$raw/sweep"
+  timed sweep "$q" sweep experiments/benchmark.yaml --out "$raw/sweep" --points 24 --maps 1 \
+    --queries 64
+  mkdir -p "$docs/sweep"
+  cp "$raw/sweep/"{indices.md,indices.csv,points.csv,sweep.png,summary.json} "$docs/sweep/"
+}
+
+run_definition() {  # obstacle counts and default flight times under both density definitions
+  timed definition python3 scripts/density_table.py --seeds 10
+}
+
 run_adapt() {
   rm -rf "$raw/adapt" "$raw/adapt_seeds"
   timed adapt "$q" adapt experiments/changing_environment.yaml --out "$raw/adapt"
@@ -103,7 +115,7 @@ run_mpi() {  # 2 ranks × 1 thread against 1 rank × 2 threads, same experiment,
 }
 
 steps=("$@")
-((${#steps[@]} > 0)) || steps=(benchmark density adapt refinement scaling mpi)
+((${#steps[@]} > 0)) || steps=(benchmark density definition sweep adapt refinement scaling mpi)
 for step in "${steps[@]}"; do
   echo "== $step"
   "run_$step"

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Fuzzes every file reader of quadtune with libFuzzer (clang, ASan+UBSan) for a bounded time.
 #
-#   scripts/fuzz.sh                 # each target QUADTUNE_FUZZ_SECONDS (default 20) seconds
+#   scripts/fuzz.sh                 # each target QUADTUNE_FUZZ_RUNS inputs (default 20000) from
+#                                   # libFuzzer seed QUADTUNE_FUZZ_SEED (default 1), at most
+#                                   # QUADTUNE_FUZZ_SECONDS (default 60) seconds
 #   QUADTUNE_FUZZ_SECONDS=60 scripts/fuzz.sh experiment store   # chosen targets only
 #   QUADTUNE_FUZZ_MODE=full scripts/fuzz.sh                      # instrument the libraries too
 #
@@ -22,7 +24,11 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build_dir="${QUADTUNE_FUZZ_BUILD_DIR:-$root/build-fuzz}"
-seconds="${QUADTUNE_FUZZ_SECONDS:-20}"
+# A fixed seed and a fixed number of runs make a pass reproducible: the same inputs in the same
+# order from the seed corpus (a slower machine that hits the time cap runs a prefix of them).
+seconds="${QUADTUNE_FUZZ_SECONDS:-60}"
+runs="${QUADTUNE_FUZZ_RUNS:-20000}"
+seed="${QUADTUNE_FUZZ_SEED:-1}"
 targets=("$@")
 if ((${#targets[@]} == 0)); then
   targets=(experiment study adapt drone layout_options saved_layout store)
@@ -71,7 +77,8 @@ for t in "${targets[@]}"; do
   mkdir -p "$corpus"
   echo "fuzz: $t for $seconds s"
   if ! (cd "$build_dir/findings" && "$build_dir/test/fuzz/fuzz_$t" "$corpus" "$root/test/fuzz/corpus/$t" \
-          -max_total_time="$seconds" -timeout=10 -rss_limit_mb=4096 -max_len=65536 \
+          -seed="$seed" -runs="$runs" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=4096 \
+          -max_len=65536 \
           -artifact_prefix="$build_dir/findings/$t-" -print_final_stats=1 2>"$build_dir/fuzz_$t.log"); then
     echo "fuzz: $t FOUND A PROBLEM; see $build_dir/fuzz_$t.log and $build_dir/findings/" >&2
     tail -n 40 "$build_dir/fuzz_$t.log" >&2
