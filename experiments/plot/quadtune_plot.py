@@ -543,8 +543,8 @@ def plot_study(directory):
                     "default_flight_time_mean", "default_flight_time_std", "default_f_l_mean",
                     "short_evals_to_90pct_mean", "short_evals_to_90pct_std",
                     "long_evals_to_90pct_mean", "long_evals_to_90pct_std"])
-        f.write("Validation: {} flights per tuned trial on new maps of the same kind, with the "
-                "best parameters of each trial (and with the defaults on the same maps). 90% of "
+        f.write("Validation: {} held-out maps (no trial flew them) per tuned trial, flown with the "
+                "recommended point of each trial and with the defaults on the same maps. 90% of "
                 "optimum: first flight whose best f_l so far is within f*/0.9 of the trial's "
                 "final best f*; short-term count = f_s evaluations (re-solves) before it.\n\n"
                 .format(study.get("validation_flights")))

@@ -109,6 +109,8 @@ def summarise(flights, space):
                          emergency_stops=sum(f["n_e"] for f in own),
                          p_default=paired_p(vs_default), p_bopso=paired_p(vs_bopso),
                          diff_default=statistics.fmean(vs_default) if vs_default else float("nan"),
+                         median_diff_default=(statistics.median(vs_default) if vs_default
+                                              else float("nan")),
                          near_bounds=bounds))
     return rows
 
@@ -124,24 +126,27 @@ def markdown(rows, maps):
         "posterior mean; BO+PSO: that θ_l with PSO's final θ_s; PSO and Random: the best flight) "
         "and the defaults, each flown on the same {} held-out maps (no trial flew them) with the "
         "same flight seeds. f_l = t_f + t_f·n_c + w_e·n_e; a flight that does not finish scores "
-        "the failure value. CI: 95% Student-t interval of the mean over all flights. p: two-sided "
+        "the failure value. CI: 95% Student-t interval of the mean over all flights. Δ: the "
+        "per-map difference to the defaults on the same map (negative: better). p: two-sided "
         "Wilcoxon signed-rank test of the per-map paired differences. Near a bound: parameters "
         "within 2% of a bound (↓ lower, ↑ upper) in any recommended point.".format(maps),
         "",
-        "| method | points | flights | mean f_l ± 95% CI | Δ vs Default | completed | "
+        "| method | points | flights | mean f_l ± 95% CI | Δ vs Default: mean, median | completed | "
         "collision-free | emergency stops | p vs Default | p vs BO+PSO | near a bound |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
-        lines.append("| {} | {} | {} | {} ± {} | {} | {}/{} | {}/{} | {:.0f} | {} | {} | {} |".format(
+        lines.append("| {} | {} | {} | {} ± {} | {}, {} | {}/{} | {}/{} | {:.0f} | {} | {} | {} |".format(
             LABELS.get(r["method"], r["method"]), r["points"], r["flights"], fmt(r["mean"]),
-            fmt(r["ci"]), fmt(r["diff_default"]), r["completed"], r["flights"],
+            fmt(r["ci"]), fmt(r["diff_default"]), fmt(r["median_diff_default"]), r["completed"],
+            r["flights"],
             r["collision_free"], r["flights"], r["emergency_stops"], fmt(r["p_default"], 3),
             fmt(r["p_bopso"], 3), ", ".join(r["near_bounds"]) or "none"))
     return "\n".join(lines) + "\n"
 
 
-CSV_FIELDS = ["method", "points", "flights", "mean", "ci", "diff_default", "completed",
+CSV_FIELDS = ["method", "points", "flights", "mean", "ci", "diff_default", "median_diff_default",
+              "completed",
               "collision_free", "emergency_stops", "p_default", "p_bopso", "near_bounds"]
 
 
