@@ -39,7 +39,9 @@ done
 echo
 echo "Results in $results:"
 echo "  tuning/tuning.png           best-so-far f_l per method, f_l per flight, short-term evaluations"
-echo "  tuning/tuning.md            final best f_l per method and the tuned parameters"
+echo "  tuning/tuning.md            final best f_l per method, the tuned parameters, held-out validation"
+echo "  tuning/validation.png       held-out validation: mean f_l (95% CI) per method and the defaults"
+echo "  tuning/report.html          browser report: convergence, importance, slices, 3-D flight replay"
 echo "  tuning/results.sqlite       every evaluation (export: quadtune export tuning/results.sqlite --csv DIR)"
 echo "  flights.md                  table: flight time, collisions, emergency stops, plans per density"
 echo "  flights_topdown.png         the four flights seen from above"
