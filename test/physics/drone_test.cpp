@@ -110,7 +110,7 @@ using test::ThrowsConfigError;
 
 TEST(DroneDescription, RejectsMissingFile) {
   const std::string path = kDrones + "no_such_drone.yaml";
-  EXPECT_TRUE(ThrowsConfigError([&] { LoadDroneDescription(path); }, "",
+  EXPECT_TRUE(ThrowsConfigError([&] { (void)LoadDroneDescription(path); }, "",
                                 {"no_such_drone.yaml", "cannot open"}));
 }
 TEST(DroneDescription, RejectsMalformedYaml) {
