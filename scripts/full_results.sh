@@ -60,7 +60,7 @@ run_density() {
 
 run_sweep() {  # parameter importance at the benchmark's 1.3 m forest
   rm -rf "$raw/sweep"
-  timed sweep "$q" sweep experiments/benchmark.yaml --out "$raw/sweep" --points 24 --maps 1 \
+  timed sweep "$q" sweep experiments/benchmark.yaml --out "$raw/sweep" --points 192 --maps 1 \
     --queries 64
   mkdir -p "$docs/sweep"
   cp "$raw/sweep/"{indices.md,indices.csv,points.csv,sweep.png,summary.json} "$docs/sweep/"
