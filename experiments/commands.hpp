@@ -43,6 +43,10 @@ inline CLI::Validator SeedValidator() {
       "SEED");
 }
 
+/// Runs `script_in_source` (relative to the source tree; $`override_env` names another file)
+/// with Debian's python3 and `args`; returns 0 on success, 1 otherwise (logged).
+int RunPythonScript(const std::string& script_in_source, const char* override_env,
+                    const std::string& args);
 /// Runs the figure script with `args`; returns its exit status (0 on success).
 int RunPlotScript(const std::string& args);
 /// Path of an asset shipped with the sources (assets/…), found from the source tree or

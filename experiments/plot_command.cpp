@@ -17,17 +17,22 @@ std::string AssetPath(const std::string& relative) {
   return relative;
 }
 
-int RunPlotScript(const std::string& args) {
+int RunPythonScript(const std::string& script_in_source, const char* override_env,
+                    const std::string& args) {
   namespace fs = std::filesystem;
-  std::string script = (fs::path(QUADTUNE_SOURCE_DIR) / "experiments/plot/quadtune_plot.py").string();
-  if (const char* env = std::getenv("QUADTUNE_PLOT_SCRIPT")) script = env;
+  std::string script = (fs::path(QUADTUNE_SOURCE_DIR) / script_in_source).string();
+  if (const char* env = std::getenv(override_env)) script = env;
   // Debian's interpreter, which has python3-matplotlib; a python3 earlier on PATH may not.
   const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
   const std::string command = python + " '" + script + "' " + args;
   spdlog::debug("running {}", command);
   const int status = std::system(command.c_str());
-  if (status != 0) spdlog::error("figure script failed ({}): {}", status, command);
+  if (status != 0) spdlog::error("script failed ({}): {}", status, command);
   return status == 0 ? 0 : 1;
+}
+
+int RunPlotScript(const std::string& args) {
+  return RunPythonScript("experiments/plot/quadtune_plot.py", "QUADTUNE_PLOT_SCRIPT", args);
 }
 
 void RegisterPlot(CLI::App& app, int& exit_code) {

@@ -83,14 +83,8 @@ int Report(const ReportArgs& a) {
       }
     }
   }
-  std::string script =
-      (fs::path(QUADTUNE_SOURCE_DIR) / "experiments/report/quadtune_report.py").string();
-  if (const char* env = std::getenv("QUADTUNE_REPORT_SCRIPT")) script = env;
-  const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
-  const std::string command = python + " '" + script + "' '" + a.dir + "'";
-  spdlog::debug("running {}", command);
-  if (std::system(command.c_str()) != 0) {
-    spdlog::error("report script failed: {}", command);
+  if (RunPythonScript("experiments/report/quadtune_report.py", "QUADTUNE_REPORT_SCRIPT",
+                      "'" + a.dir + "'") != 0) {
     return 1;
   }
   spdlog::info("report: {}", (dir / "report.html").string());
