@@ -266,7 +266,9 @@ Json ToJson(const TrialSummary& s) {
               {"short_evals", s.short_evals},
               {"failed", s.failed},
               {"replayed", s.replayed},
-              {"context_changes", s.context_changes}};
+              {"context_changes", s.context_changes},
+              {"recommended_rank", s.recommended_rank},
+              {"recheck_flights", s.recheck_flights}};
 }
 
 TrialSummary SummaryFromJson(const Json& j) {
@@ -283,6 +285,8 @@ TrialSummary SummaryFromJson(const Json& j) {
   s.failed = j.at("failed").get<int>();
   s.replayed = j.at("replayed").get<int>();
   s.context_changes = j.at("context_changes").get<int>();
+  s.recommended_rank = j.at("recommended_rank").get<int>();
+  s.recheck_flights = j.at("recheck_flights").get<int>();
   return s;
 }
 

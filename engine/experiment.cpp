@@ -73,6 +73,14 @@ std::uint64_t Experiment::FlightMapSeed(int repeat, int flight) const {
   return DeriveSeed(seed, {0x3a9, r, static_cast<std::uint64_t>(flight)});
 }
 
+std::uint64_t Experiment::RecheckMapSeed(int repeat, int index) const {
+  return DeriveSeed(seed, {0x7ec4, static_cast<std::uint64_t>(repeat), static_cast<std::uint64_t>(index)});
+}
+
+std::uint64_t Experiment::RecheckFlightSeed(int repeat, int index) const {
+  return DeriveSeed(seed, {0x7ec5, static_cast<std::uint64_t>(repeat), static_cast<std::uint64_t>(index)});
+}
+
 std::uint64_t Experiment::HeldOutMapSeed(int index) const {
   return DeriveSeed(seed, {0x4e1d, static_cast<std::uint64_t>(index)});
 }
@@ -236,7 +244,8 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
   const YamlMap map = YamlMap::FromString(text, origin);
   map.RejectUnknownKeys({"name", "seed", "threads", "mode", "repeats", "methods", "planner",
                          "parameters", "short_term", "long_term", "initial_short_term",
-                         "start", "objective", "maps", "validation", "budget", "pso", "bo"});
+                         "start", "objective", "maps", "validation", "recommend", "budget", "pso",
+                         "bo"});
   Experiment e;
   e.file = origin;
   e.text = text;
@@ -336,6 +345,13 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
     v.RejectUnknownKeys({"maps"});
     e.validation.maps =
         static_cast<int>(v.Integer("maps", e.validation.maps, Range::Closed(0, 1e5)));
+    const YamlMap r = map.Map("recommend", true);
+    r.RejectUnknownKeys({"candidates", "flights", "clearance"});
+    e.recommend.candidates =
+        static_cast<int>(r.Integer("candidates", e.recommend.candidates, Range::Closed(0, 1000)));
+    e.recommend.flights =
+        static_cast<int>(r.Integer("flights", e.recommend.flights, Range::Closed(1, 1000)));
+    e.recommend.clearance = r.Number("clearance", e.recommend.clearance, Range::Closed(0, 100));
   }
 
   const YamlMap b = map.Map("budget", true);

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <deque>
+#include <limits>
+#include <tuple>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -221,8 +223,9 @@ class Trial {
 
   /// Returns false when cancelled.
   bool Run() {
-    const bool done = method_ == Method::kBoPso ? RunBoPso() : RunSingle();
+    bool done = method_ == Method::kBoPso ? RunBoPso() : RunSingle();
     Recommend();
+    if (done) done = Recheck();
     if (c_.store != nullptr) {
       c_.store->FinishTrial(trial_id_, done ? "done" : "cancelled", ToJson(summary_.best),
                             summary_.best_value);
@@ -247,6 +250,7 @@ class Trial {
     // The best completed evaluation; until there is one, the best failed one (its value is the
     // failure value), so that a trial whose every flight failed does not report f_l = 0.
     const bool ok = o.status == EvalStatus::kOk;
+    flown_.push_back({!ok, o.objective.value, o.params});
     const bool lower = summary_.flights == 1 || o.objective.value < summary_.best_value;
     if (have_best_ ? ok && lower : ok || lower) {
       have_best_ = have_best_ || ok;
@@ -657,6 +661,103 @@ class Trial {
     }
   }
 
+  // ---- recommendation by re-flights ---------------------------------------------------------
+
+  /// The recommendation's candidates, best first, distinct, at most recommend.candidates.
+  std::vector<ParamValues> RankedCandidates() const {
+    std::vector<ParamValues> out;
+    const auto cap = static_cast<std::size_t>(e_.recommend.candidates);
+    auto add = [&](ParamValues p) {
+      if (out.size() < cap && std::find(out.begin(), out.end(), p) == out.end()) out.push_back(std::move(p));
+    };
+    if (method_ == Method::kBo && single_bo_ != nullptr) {
+      for (const auto& b : single_bo_->Ranked()) add(Merge(DefaultsOf(e_), e_.space.ToNamed(b.x)));
+    } else if (method_ == Method::kBoPso && bo_) {
+      const ParamValues theta_s = BestShort();
+      for (const auto& b : bo_->Ranked()) {
+        add(Merge(Merge(bo_pso_defaults_, theta_s), long_space_.ToNamed(b.x)));
+      }
+    } else {
+      auto flown = flown_;  // completed flights first, then by f_l; ties keep flight order
+      std::stable_sort(flown.begin(), flown.end(), [](const Flown& a, const Flown& b) {
+        return std::tie(a.failed, a.value) < std::tie(b.failed, b.value);
+      });
+      for (const auto& f : flown) add(f.params);
+    }
+    return out;
+  }
+
+  /// A re-flight passes: it completed, collided with nothing and kept recommend.clearance.
+  bool Passes(const Outcome& o) const {
+    const auto term = [&o](const char* name) {
+      const auto it = o.objective.terms.find(name);
+      return it == o.objective.terms.end() ? std::numeric_limits<double>::quiet_NaN() : it->second;
+    };
+    return o.status == EvalStatus::kOk && term("completed") == 1.0 && term("n_c") == 0.0 &&
+           term("min_clearance") >= e_.recommend.clearance;
+  }
+
+  /// Tries the ranked candidates in turn on the repeat's re-flight maps (flight_batch at a time,
+  /// a candidate dropped at its first failing batch) and recommends the first whose every
+  /// re-flight passes; the defaults when none does. Stored as kind "recheck" (iteration = rank,
+  /// index = re-flight). Returns false when cancelled.
+  bool Recheck() {
+    if (method_ == Method::kDefault || e_.recommend.candidates <= 0) return true;
+    const std::vector<ParamValues> cands = RankedCandidates();
+    for (std::size_t rank = 0; rank < cands.size(); ++rank) {
+      const int r = static_cast<int>(rank);
+      bool pass = true;
+      double sum = 0.0;
+      for (int j = 0; j < e_.recommend.flights && pass;) {
+        const int k = std::min(FlightBatch(), e_.recommend.flights - j);
+        std::vector<Outcome> out(static_cast<std::size_t>(k));
+        TaskGroup group;
+        for (int i = 0; i < k; ++i) {
+          const int index = j + i;
+          Outcome* slot = &out[static_cast<std::size_t>(i)];
+          const EvaluationRow* row = c_.store ? c_.store->Find(trial_id_, "recheck", r, index) : nullptr;
+          if (row != nullptr) {
+            *slot = Replay(c_, *row, cands[rank]);
+            continue;
+          }
+          const std::uint64_t map_seed = e_.RecheckMapSeed(repeat_, index);
+          const std::uint64_t seed = e_.RecheckFlightSeed(repeat_, index);
+          const ParamValues params = cands[rank];
+          c_.scheduler.Submit(group, Priority::kFlight, [this, slot, map_seed, params, seed] {
+            FlyInto(c_, map_seed, params, seed, false, {}, *slot);
+          });
+        }
+        c_.scheduler.Wait(group);
+        if (c_.CancelRequested()) return false;
+        for (int i = 0; i < k; ++i) {
+          const Outcome& o = out[static_cast<std::size_t>(i)];
+          Store(c_, trial_id_, method_, "recheck", r, j + i, o);
+          ++summary_.recheck_flights;
+          if (o.replayed) ++summary_.replayed;
+          pass = pass && Passes(o);
+          sum += o.objective.value;
+        }
+        j += k;
+      }
+      if (pass) {
+        summary_.recommended = cands[rank];
+        summary_.recommended_value = sum / e_.recommend.flights;
+        summary_.recommended_rank = r;
+        return true;
+      }
+    }
+    summary_.recommended = method_ == Method::kBoPso ? bo_pso_defaults_ : DefaultsOf(e_);
+    summary_.recommended_value = std::numeric_limits<double>::infinity();
+    summary_.recommended_rank = -1;
+    return true;
+  }
+
+  struct Flown {
+    bool failed = false;
+    double value = 0.0;
+    ParamValues params;
+  };
+
   Context& c_;
   const Experiment& e_;
   Method method_;
@@ -665,6 +766,7 @@ class Trial {
   std::int64_t trial_id_ = 0;
   TrialSummary summary_;
   bool have_best_ = false;
+  std::vector<Flown> flown_;  // every flight told, in order
   std::unique_ptr<optimizers::Optimizer> single_opt_;  // random, pso, bo
   optimizers::BayesOpt* single_bo_ = nullptr;          // bo: single_opt_ as BayesOpt
   ParamValues bo_pso_defaults_;                        // bo_pso: defaults with e_.start

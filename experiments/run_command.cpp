@@ -120,6 +120,8 @@ int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& sto
     tj["replayed"] = t.replayed;
     tj["recommended"] = t.recommended;
     tj["recommended_value"] = t.recommended_value;
+    tj["recommended_rank"] = t.recommended_rank;
+    tj["recheck_flights"] = t.recheck_flights;
     tj["context_changes"] = t.context_changes;
     j["trials"].push_back(tj);
   }

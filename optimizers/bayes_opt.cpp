@@ -318,6 +318,43 @@ std::optional<BestPoint> BayesOpt::Best() const {
   return best;
 }
 
+std::vector<BestPoint> BayesOpt::Ranked() const {
+  std::vector<BestPoint> out;
+  if (observations_.empty()) return out;
+  const auto n = static_cast<Eigen::Index>(observations_.size());
+  Eigen::VectorXd means;
+  double y_mean = 0.0;
+  double y_scale = 1.0;
+  Model copy = model_;  // the told observations only (no pending fantasies)
+  LoadObservations(copy);
+  std::visit(
+      [&](const auto& gp) {
+        means = gp.PosteriorMeanAtData().head(n);
+        y_mean = gp.OutputMean();
+        y_scale = gp.OutputScale();
+      },
+      copy);
+  std::vector<Eigen::Index> order(static_cast<std::size_t>(n));
+  for (Eigen::Index j = 0; j < n; ++j) order[static_cast<std::size_t>(j)] = j;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](Eigen::Index a, Eigen::Index b) { return means[a] < means[b]; });
+  std::vector<Eigen::VectorXd> seen;
+  for (const Eigen::Index j : order) {
+    const Observation& o = observations_[static_cast<std::size_t>(j)];
+    bool repeat = false;
+    for (const auto& u : seen) repeat = repeat || (u - o.u).cwiseAbs().maxCoeff() < 1e-12;
+    if (repeat) continue;
+    seen.push_back(o.u);
+    BestPoint p;
+    p.x = space_.FromUnit(o.u);
+    p.value = y_mean + y_scale * means[j];
+    p.observed = o.value;
+    p.id = o.id;
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
 void BayesOpt::Predict(const Eigen::VectorXd& x, double* mean, double* variance) {
   const Eigen::VectorXd u = space_.ToUnit(x);
   UpdateModel();

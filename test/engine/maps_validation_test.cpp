@@ -2,6 +2,7 @@
 // and the discount count n_d (engine/tuner.cpp, engine/validation.cpp).
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -199,6 +200,121 @@ TEST(Recommendation, BoRecommendsAnObservedPointAndDefaultTheDefaults) {
         found = found || (flown["speed"] == j["speed"] && flown["margin"] == j["margin"]);
       }
       EXPECT_TRUE(found) << j.dump();
+    }
+  }
+}
+
+/// Rows of kind "recheck" per trial id, by (iteration = rank, index).
+std::map<std::int64_t, std::map<std::pair<int, int>, EvaluationRow>> RecheckRows(const ResultStore& store) {
+  std::map<std::int64_t, std::map<std::pair<int, int>, EvaluationRow>> rows;
+  for (const auto& r : store.Evaluations()) {
+    if (r.kind == "recheck") rows[r.trial_id][{r.iteration, r.index}] = r;
+  }
+  return rows;
+}
+
+bool RowPasses(const EvaluationRow& r, double clearance) {
+  const auto t = nlohmann::json::parse(r.terms);
+  return r.status == "ok" && t.at("completed") == 1.0 && t.at("n_c") == 0.0 &&
+         t.at("min_clearance").get<double>() >= clearance;
+}
+
+TEST(Recommendation, ReFlightsPickTheFirstCandidateThatPassesOnSharedFreshMaps) {
+  const std::string dir = test::TempDir("recheck");
+  RunOptions o;
+  o.store_path = dir + "/r.sqlite";
+  const std::string yaml = test::ToyYaml("[default, random, pso, bo, bo_pso]", "", 8, 2) +
+                           "recommend: {candidates: 4, flights: 3, clearance: 0.05}\n";
+  const Experiment e = Experiment::FromString(yaml, "t.yaml");
+  const RunSummary s = RunExperiment(e, o);
+  ASSERT_EQ(s.status, RunStatus::kCompleted);
+  ResultStore store(o.store_path);
+  std::set<std::uint64_t> other_maps;  // tuning and held-out maps
+  for (const auto& r : store.Evaluations()) {
+    if (r.kind == "long" || r.kind == "validation") other_maps.insert(r.map_seed);
+  }
+  const auto rechecks = RecheckRows(store);
+  int passed = 0;
+  for (const auto& t : s.trials) {
+    if (t.method == "default") {
+      EXPECT_EQ(t.recheck_flights, 0);
+      EXPECT_FALSE(rechecks.count(t.trial_id));
+      continue;
+    }
+    ASSERT_TRUE(rechecks.count(t.trial_id)) << t.method;
+    const auto& rows = rechecks.at(t.trial_id);
+    EXPECT_EQ(static_cast<int>(rows.size()), t.recheck_flights) << t.method;
+    int last_rank = -1;
+    for (const auto& [key, r] : rows) {
+      // Re-flight j of every candidate and method flies map j of the repeat, with one flight seed.
+      EXPECT_EQ(r.map_seed, e.RecheckMapSeed(0, key.second)) << t.method;
+      EXPECT_EQ(r.flight_seed, e.RecheckFlightSeed(0, key.second)) << t.method;
+      EXPECT_FALSE(other_maps.count(r.map_seed)) << "re-flight map is a tuning or held-out map";
+      last_rank = std::max(last_rank, key.first);
+    }
+    // Every candidate before the chosen one failed a re-flight; nothing after it was flown.
+    for (int rank = 0; rank < last_rank || (t.recommended_rank < 0 && rank <= last_rank); ++rank) {
+      bool failed = false;
+      for (const auto& [key, r] : rows) failed = failed || (key.first == rank && !RowPasses(r, 0.05));
+      EXPECT_TRUE(failed) << t.method << " dropped candidate " << rank << " that passed";
+    }
+    if (t.recommended_rank >= 0) {
+      ++passed;
+      EXPECT_EQ(t.recommended_rank, last_rank) << t.method;
+      double sum = 0.0;
+      for (int j = 0; j < 3; ++j) {
+        const EvaluationRow& r = rows.at({last_rank, j});
+        EXPECT_TRUE(RowPasses(r, 0.05)) << t.method;
+        nlohmann::json j_params = nlohmann::json::object();
+        for (const auto& [k, v] : t.recommended) j_params[k] = v;
+        EXPECT_EQ(r.params, j_params.dump()) << t.method;
+        sum += r.value;
+      }
+      EXPECT_DOUBLE_EQ(t.recommended_value, sum / 3.0) << t.method;
+    } else {
+      EXPECT_EQ(t.recommended, e.Defaults()) << t.method;
+    }
+  }
+  EXPECT_GT(passed, 0) << "no trial found a candidate that passes: the test checks nothing";
+
+  // Resumed: the re-flights are replayed, nothing flies again, the same points come back.
+  RunOptions again_options = o;
+  again_options.resume = true;
+  const RunSummary again = RunExperiment(e, again_options);
+  ASSERT_EQ(again.status, RunStatus::kCompleted);
+  EXPECT_EQ(again.flights, 0);
+  for (std::size_t i = 0; i < s.trials.size(); ++i) {
+    EXPECT_EQ(again.trials[i].recommended, s.trials[i].recommended);
+    EXPECT_EQ(again.trials[i].recommended_rank, s.trials[i].recommended_rank);
+  }
+}
+
+TEST(Recommendation, NoCandidatePassingGivesTheDefaultsAfterOneBatchEach) {
+  const std::string dir = test::TempDir("recheck_none");
+  RunOptions o;
+  o.store_path = dir + "/r.sqlite";
+  // No flight keeps 50 m from every gate: each candidate fails its first batch of two.
+  const std::string yaml = test::ToyYaml("[random, bo]", "", 6, 0) +
+                           "recommend: {candidates: 3, flights: 5, clearance: 50}\n";
+  const Experiment e = Experiment::FromString(yaml, "t.yaml");
+  const RunSummary s = RunExperiment(e, o);
+  ASSERT_EQ(s.status, RunStatus::kCompleted);
+  for (const auto& t : s.trials) {
+    EXPECT_EQ(t.recommended, e.Defaults()) << t.method;
+    EXPECT_EQ(t.recommended_rank, -1) << t.method;
+    EXPECT_EQ(t.recommended_value, std::numeric_limits<double>::infinity()) << t.method;
+    EXPECT_EQ(t.recheck_flights, 3 * 2) << t.method;
+  }
+}
+
+TEST(Recommendation, BadRecommendKeysNameTheKey) {
+  for (const std::string bad : {"{candidates: -1}", "{flights: 0}", "{clearance: -0.1}", "{cands: 2}"}) {
+    try {
+      (void)Experiment::FromString(test::ToyYaml() + "recommend: " + bad + "\n", "t.yaml");
+      FAIL() << "accepted recommend: " << bad;
+    } catch (const ConfigError& ex) {
+      EXPECT_NE(std::string(ex.what()).find("t.yaml"), std::string::npos) << ex.what();
+      EXPECT_NE(std::string(ex.what()).find("recommend"), std::string::npos) << ex.what();
     }
   }
 }

@@ -230,6 +230,36 @@ TEST(BayesOpt, BoundsMoveAsTheEquationsSay) {
   EXPECT_LT((bo.UnitBoundsUpper() - bo.UnitBoundsLower()).maxCoeff(), 0.5);
 }
 
+TEST(BayesOpt, RankedListsTheObservedPointsByPosteriorMean) {
+  BayesOptOptions o;
+  o.initial_design_size = 6;
+  o.default_noise_variance = 4.0;  // noisy: the posterior mean differs from the observed values
+  o.seed = 21;
+  BayesOpt bo(BraninSpace(), o);
+  Rng rng(5);
+  for (int i = 0; i < 14; ++i) {
+    const auto c = bo.Ask(1);
+    bo.Tell(c[0].id, Branin(c[0].x) + Normal(rng, 0.0, 2.0));
+  }
+  double m0 = 0.0, v0 = 0.0;
+  bo.Predict(Eigen::Vector2d(0.0, 5.0), &m0, &v0);  // refits the model on every result told
+  const auto ranked = bo.Ranked();
+  ASSERT_EQ(ranked.size(), 14u);
+  EXPECT_EQ(ranked.front().x, bo.Best()->x);
+  EXPECT_NEAR(ranked.front().value, bo.Best()->value, 1e-9);
+  for (std::size_t i = 0; i < ranked.size(); ++i) {
+    if (i > 0) EXPECT_LE(ranked[i - 1].value, ranked[i].value) << i;
+    for (std::size_t j = 0; j < i; ++j) EXPECT_NE(ranked[i].x, ranked[j].x) << i << " " << j;
+    double mean = 0.0, variance = 0.0;
+    bo.Predict(ranked[i].x, &mean, &variance);
+    EXPECT_NEAR(ranked[i].value, mean, 1e-6 * (1.0 + std::abs(mean))) << i;
+  }
+  // The order is not the order of the observed values (the noise makes them differ).
+  bool differs = false;
+  for (std::size_t i = 1; i < ranked.size(); ++i) differs = differs || ranked[i - 1].observed > ranked[i].observed;
+  EXPECT_TRUE(differs);
+}
+
 TEST(BayesOpt, SameSeedSameCandidates) {
   auto run = [](std::uint64_t seed) {
     BayesOptOptions o;

@@ -21,9 +21,9 @@ import sqlite3
 
 FIXED = ["id", "trial_id", "method", "repeat", "kind", "iteration", "index", "status", "value",
          "wall_s", "map_seed", "flight_seed"]
-KINDS = ["long", "short", "validation"]
+KINDS = ["long", "short", "validation", "recheck"]
 
-Results = collections.namedtuple("Results", "long short validation trials experiment")
+Results = collections.namedtuple("Results", "long short validation recheck trials experiment")
 
 
 def store_path(path):
@@ -46,7 +46,7 @@ def _seed(row_seed, trial_seed, kind):
 
 
 def rows(path):
-    """{kind: [dict per evaluation]} for kinds "long", "short", "validation" (standard library)."""
+    """{kind: [dict per evaluation]} for kinds "long", "short", "validation", "recheck" (standard library)."""
     out = {k: [] for k in KINDS}
     with _connect(path) as db:
         query = ("SELECT e.id, e.trial_id, e.method, t.repeat, e.kind, e.iteration, e.idx, e.status,"
@@ -113,5 +113,6 @@ def load(path):
         return df
 
     return Results(long=frame("long"), short=frame("short"), validation=frame("validation"),
+                   recheck=frame("recheck"),
                    trials=pd.DataFrame(trials(path)),
                    experiment=pd.Series(experiment(path)))

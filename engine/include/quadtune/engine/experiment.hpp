@@ -18,6 +18,13 @@
 ///     validation:              # held-out validation after the trials (`quadtune run`)
 ///       maps: 20               # maps no trial flies; each method's recommended point and the
 ///                              # defaults fly all of them (0: no validation)
+///     recommend:               # how a trial picks the point it hands back (after its budget)
+///       candidates: 6          # best-ranked points tried in turn (bo, bo_pso: lowest posterior
+///                              # mean first; random, pso: lowest f_l first); 0: the first, unflown
+///       flights: 5             # re-flights of a candidate on fresh maps (the same for every
+///                              # method of a repeat; disjoint from tuning and held-out maps)
+///       clearance: 0.05        # m: a candidate passes when every re-flight completes without a
+///                              # collision and keeps this distance; none passes: the defaults
 ///     methods: [default, random, pso, bo, bo_pso]
 ///     planner:
 ///       type: ipopt            # ipopt | ego | toy
@@ -99,6 +106,13 @@ struct ValidationOptions {
   int maps = 20;  ///< held-out maps, >= 0 (0: none)
 };
 
+/// YAML `recommend:`: the re-flights that pick a trial's recommended point (tuner.cpp).
+struct RecommendOptions {
+  int candidates = 0;       ///< >= 0 ranked candidates tried in turn; 0: the top-ranked, unchecked
+  int flights = 5;          ///< >= 1 re-flights per candidate
+  double clearance = 0.05;  ///< >= 0 m, the smallest distance to an obstacle every re-flight keeps
+};
+
 /// Caps on budgets, generous but finite: a file asking for more is refused when it loads
 /// (a run that could never finish is a mistake, not a plan).
 inline constexpr int kMaxFlights = 100000;            ///< budget.flights, default_flights
@@ -148,6 +162,7 @@ struct Experiment {
   ObjectiveOptions objective;
   MapOptions maps;
   ValidationOptions validation;
+  RecommendOptions recommend;
   Budget budget;
   optimizers::PsoOptions pso;
   optimizers::BayesOptOptions bo;
@@ -167,6 +182,11 @@ struct Experiment {
   /// Map seed of flight `flight` (0, 1, … in the order a trial flies them) of repeat `repeat`,
   /// by maps.mode. It does not depend on the method: flight k of every method flies one map.
   [[nodiscard]] std::uint64_t FlightMapSeed(int repeat, int flight) const;
+  /// Seed of re-flight map `index` of repeat `repeat` (RecommendOptions), the same for every
+  /// method; derived under a tag no tuning or held-out map uses.
+  [[nodiscard]] std::uint64_t RecheckMapSeed(int repeat, int index) const;
+  /// Seed of the world's random streams for re-flight `index` of repeat `repeat`.
+  [[nodiscard]] std::uint64_t RecheckFlightSeed(int repeat, int index) const;
   /// Seed of held-out map `index` (validation). Derived under a tag no tuning map uses.
   [[nodiscard]] std::uint64_t HeldOutMapSeed(int index) const;
   /// Seed of the world's random streams for the validation flights on held-out map `index`

@@ -96,12 +96,20 @@ struct TrialSummary {
   /// Best f_l of a completed flight; while none has completed, the best failed one's value
   /// (objective.failure_value), and `best` its parameters.
   double best_value = 0.0;
-  /// The point the method recommends (what validation flies): bo, the observed point of lowest
-  /// posterior mean (BayesOpt::Best), not the luckiest flight; bo_pso, that for θ_l with PSO's
-  /// final best θ_s; pso and random, the best flight's parameters; default, the defaults.
+  /// The point the method recommends (what validation flies). Candidates, best first: bo, the
+  /// observed points by posterior mean (BayesOpt::Ranked), not the luckiest flight; bo_pso, those
+  /// for θ_l with PSO's final best θ_s; pso and random, the flights by f_l. Without re-flights
+  /// (recommend.candidates 0) the first candidate; with them, the first candidate whose every
+  /// re-flight passes (RecommendOptions), else the defaults. default: the defaults.
   ParamValues recommended;
-  /// bo and bo_pso: the posterior mean at `recommended`; the others: best_value.
+  /// Without re-flights: bo and bo_pso, the posterior mean at `recommended`, the others
+  /// best_value. With them: the mean f_l of the passing candidate's re-flights; +∞ when none
+  /// passed.
   double recommended_value = 0.0;
+  /// With re-flights: the rank (0 = best) of the candidate that passed; -1 when none passed or
+  /// none were flown.
+  int recommended_rank = -1;
+  int recheck_flights = 0;  ///< re-flights flown (or replayed) to pick `recommended`
   int flights = 0;
   int short_evals = 0;      ///< θ_s evaluations
   int failed = 0;           ///< failed evaluations

@@ -99,6 +99,9 @@ class BayesOpt final : public Optimizer {
   BayesOpt(ParameterSpace space, BayesOptOptions options);
 
   [[nodiscard]] std::optional<BestPoint> Best() const override;
+  /// Every distinct observed point, by posterior mean at the point (lowest first); `value` is
+  /// that mean, `observed` the point's last observed value. Best() is the first of them.
+  [[nodiscard]] std::vector<BestPoint> Ranked() const;
   [[nodiscard]] std::size_t NumPending() const override { return pending_.size(); }
   [[nodiscard]] std::size_t NumTold() const override { return observations_.size(); }
   [[nodiscard]] const ParameterSpace& Space() const override { return space_; }
