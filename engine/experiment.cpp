@@ -346,12 +346,13 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
     e.validation.maps =
         static_cast<int>(v.Integer("maps", e.validation.maps, Range::Closed(0, 1e5)));
     const YamlMap r = map.Map("recommend", true);
-    r.RejectUnknownKeys({"candidates", "flights", "clearance"});
+    r.RejectUnknownKeys({"candidates", "flights", "clearance", "z"});
     e.recommend.candidates =
         static_cast<int>(r.Integer("candidates", e.recommend.candidates, Range::Closed(0, 1000)));
     e.recommend.flights =
         static_cast<int>(r.Integer("flights", e.recommend.flights, Range::Closed(1, 1000)));
     e.recommend.clearance = r.Number("clearance", e.recommend.clearance, Range::Closed(0, 100));
+    e.recommend.z = r.Number("z", e.recommend.z, Range::Closed(0, 10));
   }
 
   const YamlMap b = map.Map("budget", true);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <deque>
 #include <limits>
 #include <tuple>
@@ -687,19 +688,30 @@ class Trial {
     return out;
   }
 
-  /// A re-flight passes: it completed, collided with nothing and kept recommend.clearance.
-  bool Passes(const Outcome& o) const {
+  /// A re-flight passes: it completed and collided with nothing.
+  static bool Passes(const Outcome& o) {
     const auto term = [&o](const char* name) {
       const auto it = o.objective.terms.find(name);
       return it == o.objective.terms.end() ? std::numeric_limits<double>::quiet_NaN() : it->second;
     };
-    return o.status == EvalStatus::kOk && term("completed") == 1.0 && term("n_c") == 0.0 &&
-           term("min_clearance") >= e_.recommend.clearance;
+    return o.status == EvalStatus::kOk && term("completed") == 1.0 && term("n_c") == 0.0;
+  }
+
+  /// The re-flights' smallest clearances c_i keep the margin: mean(c) − z·sd(c) >= clearance
+  /// (sd with n − 1; 0 for one flight), a normal fit's 1 − Φ(−z) quantile of the clearance.
+  bool KeepsMargin(const std::vector<double>& c) const {
+    double mean = 0.0;
+    for (double v : c) mean += v / static_cast<double>(c.size());
+    double var = 0.0;
+    for (double v : c) var += (v - mean) * (v - mean);
+    const double sd = c.size() > 1 ? std::sqrt(var / static_cast<double>(c.size() - 1)) : 0.0;
+    return std::isfinite(mean) && mean - e_.recommend.z * sd >= e_.recommend.clearance;
   }
 
   /// Tries the ranked candidates in turn on the repeat's re-flight maps (flight_batch at a time,
-  /// a candidate dropped at its first failing batch) and recommends the first whose every
-  /// re-flight passes; the defaults when none does. Stored as kind "recheck" (iteration = rank,
+  /// a candidate dropped at its first batch with an unfinished or colliding flight) and
+  /// recommends the first whose every re-flight passes and whose clearances keep the margin
+  /// (KeepsMargin); the defaults when none does. Stored as kind "recheck" (iteration = rank,
   /// index = re-flight). Returns false when cancelled.
   bool Recheck() {
     if (method_ == Method::kDefault || e_.recommend.candidates <= 0) return true;
@@ -708,6 +720,7 @@ class Trial {
       const int r = static_cast<int>(rank);
       bool pass = true;
       double sum = 0.0;
+      std::vector<double> clearances;
       for (int j = 0; j < e_.recommend.flights && pass;) {
         const int k = std::min(FlightBatch(), e_.recommend.flights - j);
         std::vector<Outcome> out(static_cast<std::size_t>(k));
@@ -736,10 +749,13 @@ class Trial {
           if (o.replayed) ++summary_.replayed;
           pass = pass && Passes(o);
           sum += o.objective.value;
+          const auto c = o.objective.terms.find("min_clearance");
+          clearances.push_back(c == o.objective.terms.end() ? std::numeric_limits<double>::quiet_NaN()
+                                                            : c->second);
         }
         j += k;
       }
-      if (pass) {
+      if (pass && KeepsMargin(clearances)) {
         summary_.recommended = cands[rank];
         summary_.recommended_value = sum / e_.recommend.flights;
         summary_.recommended_rank = r;

@@ -23,8 +23,9 @@
 ///                              # mean first; random, pso: lowest f_l first); 0: the first, unflown
 ///       flights: 5             # re-flights of a candidate on fresh maps (the same for every
 ///                              # method of a repeat; disjoint from tuning and held-out maps)
-///       clearance: 0.05        # m: a candidate passes when every re-flight completes without a
-///                              # collision and keeps this distance; none passes: the defaults
+///       clearance: 0.0         # m and z: a candidate passes when every re-flight completes
+///       z: 2.33                # without a collision and the re-flights' smallest clearances c
+///                              # keep mean(c) − z·sd(c) >= clearance; none passes: the defaults
 ///     methods: [default, random, pso, bo, bo_pso]
 ///     planner:
 ///       type: ipopt            # ipopt | ego | toy
@@ -110,7 +111,11 @@ struct ValidationOptions {
 struct RecommendOptions {
   int candidates = 0;       ///< >= 0 ranked candidates tried in turn; 0: the top-ranked, unchecked
   int flights = 5;          ///< >= 1 re-flights per candidate
-  double clearance = 0.05;  ///< >= 0 m, the smallest distance to an obstacle every re-flight keeps
+  /// A candidate passes when every re-flight completes without a collision and the smallest
+  /// clearances c of its re-flights keep mean(c) − z·sd(c) >= clearance: under a normal fit of c,
+  /// a collision (c < 0) on a new map has probability below Φ(−z) (2.33: 1%).
+  double clearance = 0.0;  ///< >= 0 m
+  double z = 2.33;         ///< >= 0
 };
 
 /// Caps on budgets, generous but finite: a file asking for more is refused when it loads
