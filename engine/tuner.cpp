@@ -664,12 +664,30 @@ class Trial {
 
   // ---- recommendation by re-flights ---------------------------------------------------------
 
-  /// The recommendation's candidates, best first, distinct, at most recommend.candidates.
+  /// Point `p` in the unit cube of the tuned space.
+  Eigen::VectorXd Unit(const ParamValues& p) const {
+    const auto names = e_.space.Names();
+    Eigen::VectorXd x(static_cast<Eigen::Index>(names.size()));
+    for (std::size_t i = 0; i < names.size(); ++i) x[static_cast<Eigen::Index>(i)] = p.at(names[i]);
+    return e_.space.ToUnit(x);
+  }
+
+  /// The recommendation's candidates, best first, at most recommend.candidates; a point within
+  /// kNearDuplicate of an earlier candidate in every coordinate of the unit cube is skipped
+  /// (re-flying near copies of a candidate tells nothing new).
   std::vector<ParamValues> RankedCandidates() const {
+    static constexpr double kNearDuplicate = 0.02;
     std::vector<ParamValues> out;
+    std::vector<Eigen::VectorXd> units;
     const auto cap = static_cast<std::size_t>(e_.recommend.candidates);
     auto add = [&](ParamValues p) {
-      if (out.size() < cap && std::find(out.begin(), out.end(), p) == out.end()) out.push_back(std::move(p));
+      if (out.size() >= cap) return;
+      const Eigen::VectorXd u = Unit(p);
+      for (const auto& v : units) {
+        if ((v - u).cwiseAbs().maxCoeff() < kNearDuplicate) return;
+      }
+      units.push_back(u);
+      out.push_back(std::move(p));
     };
     if (method_ == Method::kBo && single_bo_ != nullptr) {
       for (const auto& b : single_bo_->Ranked()) add(Merge(DefaultsOf(e_), e_.space.ToNamed(b.x)));

@@ -6,7 +6,8 @@
 #
 #   bash scripts/full_results.sh                 # everything
 #   bash scripts/full_results.sh benchmark adapt # only these (benchmark benchmark_jc density
-#                                                # definition sweep adapt refinement scaling mpi)
+#                                                # definition speed sweep adapt refinement
+#                                                # scaling mpi)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 q="${QUADTUNE_BUILD_DIR:-$root/build}/experiments/quadtune"
@@ -70,6 +71,10 @@ run_definition() {  # obstacle counts and default flight times under both densit
   timed definition python3 scripts/density_table.py --seeds 10
 }
 
+run_speed() {  # collisions and clearance against v_des at the defaults (why re-flights)
+  timed speed python3 scripts/speed_table.py --out "$docs/speed"
+}
+
 run_adapt() {
   rm -rf "$raw/adapt" "$raw/adapt_seeds"
   timed adapt "$q" adapt experiments/changing_environment.yaml --out "$raw/adapt"
@@ -115,7 +120,7 @@ run_mpi() {  # 2 ranks × 1 thread against 1 rank × 2 threads, same experiment,
 }
 
 steps=("$@")
-((${#steps[@]} > 0)) || steps=(benchmark density definition sweep adapt refinement scaling mpi)
+((${#steps[@]} > 0)) || steps=(benchmark density definition speed sweep adapt refinement scaling mpi)
 for step in "${steps[@]}"; do
   echo "== $step"
   "run_$step"

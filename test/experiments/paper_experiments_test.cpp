@@ -123,7 +123,8 @@ TEST(PaperExperiments, BenchmarkComparisonScaledDown) {
                             " --quiet --set repeats=2 --set budget.flights=3 "
                             "--set budget.default_flights=2 --set budget.short_evals_per_flight=4 "
                             "--set budget.queries_per_eval=2 --set pso.num_particles=4 "
-                            "--set bo.initial_design_size=2 --set validation.maps=2",
+                            "--set bo.initial_design_size=2 --set validation.maps=2 "
+                            "--set recommend.flights=2",
                         dir / "run.log"),
             0)
       << ReadText(dir / "run.log");
@@ -209,6 +210,7 @@ TEST(PaperExperiments, DensityStudyScaledDown) {
                             "--set override.budget.queries_per_eval=2 "
                             "--set override.bo.initial_design_size=2 "
                             "--set override.pso.num_particles=4 --set validation.flights=2 "
+                            "--set override.recommend.flights=2 "
                             "--set 'sweep.values=[layouts/forest_3p0.yaml, layouts/forest_0p9.yaml]' "
                             "--set 'sweep.labels=[\"3.0\", \"0.9\"]'",
                         dir / "study.log"),
@@ -279,7 +281,7 @@ TEST(PaperExperiments, RefinementStudyScaledDown) {
                             "--set override.bo.initial_design_size=2 "
                             "--set stages.1.override.budget.flights=3 "
                             "--set stages.1.override.bo.initial_design_size=1 "
-                            "--set validation.flights=1",
+                            "--set validation.flights=1 --set override.recommend.flights=2",
                         dir / "study.log"),
             0)
       << ReadText(dir / "study.log");
