@@ -346,13 +346,16 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
     e.validation.maps =
         static_cast<int>(v.Integer("maps", e.validation.maps, Range::Closed(0, 1e5)));
     const YamlMap r = map.Map("recommend", true);
-    r.RejectUnknownKeys({"candidates", "flights", "clearance", "z"});
+    r.RejectUnknownKeys({"candidates", "flights", "clearance", "z", "emergency_stops", "backoff"});
     e.recommend.candidates =
         static_cast<int>(r.Integer("candidates", e.recommend.candidates, Range::Closed(0, 1000)));
     e.recommend.flights =
         static_cast<int>(r.Integer("flights", e.recommend.flights, Range::Closed(1, 1000)));
     e.recommend.clearance = r.Number("clearance", e.recommend.clearance, Range::Closed(0, 100));
     e.recommend.z = r.Number("z", e.recommend.z, Range::Closed(0, 10));
+    e.recommend.emergency_stops = r.Bool("emergency_stops", e.recommend.emergency_stops);
+    e.recommend.backoff =
+        static_cast<int>(r.Integer("backoff", e.recommend.backoff, Range::Closed(0, 100)));
   }
 
   const YamlMap b = map.Map("budget", true);

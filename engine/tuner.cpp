@@ -672,14 +672,15 @@ class Trial {
     return e_.space.ToUnit(x);
   }
 
-  /// The recommendation's candidates, best first, at most recommend.candidates; a point within
+  /// The recommendation's candidates, best first, at most recommend.candidates, then
+  /// recommend.backoff points between the first and the defaults; a point within
   /// kNearDuplicate of an earlier candidate in every coordinate of the unit cube is skipped
   /// (re-flying near copies of a candidate tells nothing new).
   std::vector<ParamValues> RankedCandidates() const {
     static constexpr double kNearDuplicate = 0.02;
     std::vector<ParamValues> out;
     std::vector<Eigen::VectorXd> units;
-    const auto cap = static_cast<std::size_t>(e_.recommend.candidates);
+    auto cap = static_cast<std::size_t>(e_.recommend.candidates);
     auto add = [&](ParamValues p) {
       if (out.size() >= cap) return;
       const Eigen::VectorXd u = Unit(p);
@@ -703,16 +704,33 @@ class Trial {
       });
       for (const auto& f : flown) add(f.params);
     }
+    // Back-off: the best candidate moved towards the defaults, u = u_d + α (u_best − u_d) in the
+    // unit cube, α = 1 − i / (backoff + 1), i = 1 … backoff.
+    if (!out.empty() && e_.recommend.backoff > 0) {
+      ParamValues defaults = method_ == Method::kBoPso ? bo_pso_defaults_ : DefaultsOf(e_);
+      const Eigen::VectorXd u_d = Unit(defaults);
+      const Eigen::VectorXd u_best = Unit(out.front());
+      const int n = e_.recommend.backoff;
+      cap = out.size() + static_cast<std::size_t>(n);
+      for (int i = 1; i <= n; ++i) {
+        const double alpha = 1.0 - static_cast<double>(i) / static_cast<double>(n + 1);
+        const Eigen::VectorXd u = u_d + alpha * (u_best - u_d);
+        ParamValues p = Merge(defaults, e_.space.ToNamed(e_.space.FromUnit(u)));
+        add(std::move(p));
+      }
+    }
     return out;
   }
 
-  /// A re-flight passes: it completed and collided with nothing.
-  static bool Passes(const Outcome& o) {
+  /// A re-flight passes: it completed, collided with nothing and, unless
+  /// recommend.emergency_stops allows them, made no emergency stop.
+  bool Passes(const Outcome& o) const {
     const auto term = [&o](const char* name) {
       const auto it = o.objective.terms.find(name);
       return it == o.objective.terms.end() ? std::numeric_limits<double>::quiet_NaN() : it->second;
     };
-    return o.status == EvalStatus::kOk && term("completed") == 1.0 && term("n_c") == 0.0;
+    return o.status == EvalStatus::kOk && term("completed") == 1.0 && term("n_c") == 0.0 &&
+           (e_.recommend.emergency_stops || term("n_e") == 0.0);
   }
 
   /// The re-flights' smallest clearances c_i keep the margin: mean(c) − z·sd(c) >= clearance

@@ -216,7 +216,7 @@ std::map<std::int64_t, std::map<std::pair<int, int>, EvaluationRow>> RecheckRows
 
 bool RowPasses(const EvaluationRow& r) {
   const auto t = nlohmann::json::parse(r.terms);
-  return r.status == "ok" && t.at("completed") == 1.0 && t.at("n_c") == 0.0;
+  return r.status == "ok" && t.at("completed") == 1.0 && t.at("n_c") == 0.0 && t.at("n_e") == 0.0;
 }
 
 /// mean(c) − z·sd(c) of the rows' smallest clearances (sd with n − 1).
@@ -309,28 +309,42 @@ TEST(Recommendation, ReFlightsPickTheFirstCandidateThatPassesOnSharedFreshMaps) 
   }
 }
 
-TEST(Recommendation, NoCandidatePassingGivesTheDefaults) {
+TEST(Recommendation, NoCandidatePassingGivesTheDefaultsAfterTheBackOffs) {
   const std::string dir = test::TempDir("recheck_none");
   RunOptions o;
   o.store_path = dir + "/r.sqlite";
-  // No flight keeps 50 m from every gate: each candidate flies its 4 re-flights and fails the
-  // margin.
+  // No flight keeps 50 m from every gate: each candidate flies its 4 re-flights (fewer if one
+  // fails) and fails the margin. After the 3 ranked candidates, 2 back-offs towards the defaults.
   const std::string yaml = test::ToyYaml("[random, bo]", "", 6, 0) +
-                           "recommend: {candidates: 3, flights: 4, clearance: 50, z: 0}\n";
+                           "recommend: {candidates: 3, flights: 4, clearance: 50, z: 0, backoff: 2}\n";
   const Experiment e = Experiment::FromString(yaml, "t.yaml");
   const RunSummary s = RunExperiment(e, o);
   ASSERT_EQ(s.status, RunStatus::kCompleted);
+  ResultStore store(o.store_path);
+  const auto rechecks = RecheckRows(store);
+  const ParamValues d = e.Defaults();
   for (const auto& t : s.trials) {
-    EXPECT_EQ(t.recommended, e.Defaults()) << t.method;
+    EXPECT_EQ(t.recommended, d) << t.method;
     EXPECT_EQ(t.recommended_rank, -1) << t.method;
     EXPECT_EQ(t.recommended_value, std::numeric_limits<double>::infinity()) << t.method;
-    EXPECT_LE(t.recheck_flights, 3 * 4) << t.method;
-    EXPECT_GE(t.recheck_flights, 3 * 2) << t.method;
+    EXPECT_LE(t.recheck_flights, 5 * 4) << t.method;
+    EXPECT_GE(t.recheck_flights, 5 * 2) << t.method;
+    // Ranks 3 and 4: the first candidate moved 2/3 and 1/3 of the way from the defaults (speed
+    // and margin are linear, unrounded parameters).
+    std::map<int, nlohmann::json> params;
+    for (const auto& [key, r] : rechecks.at(t.trial_id)) params[key.first] = nlohmann::json::parse(r.params);
+    ASSERT_EQ(params.size(), 5u) << t.method;
+    for (const char* name : {"speed", "margin"}) {
+      const double first = params.at(0)[name].get<double>() - d.at(name);
+      EXPECT_NEAR(params.at(3)[name].get<double>() - d.at(name), first * 2.0 / 3.0, 1e-9) << name;
+      EXPECT_NEAR(params.at(4)[name].get<double>() - d.at(name), first / 3.0, 1e-9) << name;
+    }
   }
 }
 
 TEST(Recommendation, BadRecommendKeysNameTheKey) {
-  for (const std::string bad : {"{candidates: -1}", "{flights: 0}", "{clearance: -0.1}", "{z: -1}", "{cands: 2}"}) {
+  for (const std::string bad : {"{candidates: -1}", "{flights: 0}", "{clearance: -0.1}", "{z: -1}", "{backoff: -1}",
+                                 "{emergency_stops: 3}", "{cands: 2}"}) {
     try {
       (void)Experiment::FromString(test::ToyYaml() + "recommend: " + bad + "\n", "t.yaml");
       FAIL() << "accepted recommend: " << bad;

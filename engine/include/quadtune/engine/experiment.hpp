@@ -26,6 +26,8 @@
 ///       clearance: 0.0         # m and z: a candidate passes when every re-flight completes
 ///       z: 2.33                # without a collision and the re-flights' smallest clearances c
 ///                              # keep mean(c) − z·sd(c) >= clearance; none passes: the defaults
+///       emergency_stops: false # false: a re-flight with an emergency stop fails its candidate
+///       backoff: 0             # then this many points between the best candidate and the defaults
 ///     methods: [default, random, pso, bo, bo_pso]
 ///     planner:
 ///       type: ipopt            # ipopt | ego | toy
@@ -116,6 +118,12 @@ struct RecommendOptions {
   /// a collision (c < 0) on a new map has probability below Φ(−z) (2.33: 1%).
   double clearance = 0.0;  ///< >= 0 m
   double z = 2.33;         ///< >= 0
+  /// false: a re-flight with an emergency stop fails the candidate (the precursor of most
+  /// collisions on new maps); true: emergency stops are allowed.
+  bool emergency_stops = false;
+  /// >= 0 back-off candidates tried after the ranked ones: the best candidate moved towards the
+  /// defaults, u_d + α (u_best − u_d) in the unit cube, α = 1 − i / (backoff + 1), i = 1 … backoff.
+  int backoff = 0;
 };
 
 /// Caps on budgets, generous but finite: a file asking for more is refused when it loads
