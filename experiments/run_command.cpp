@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "eta.hpp"
 #include "stored_flight.hpp"
 #include "result_dir.hpp"
 #include "quadtune/common/cancel.hpp"
@@ -48,36 +49,28 @@ struct RunArgs {
 /// The progress line: on a terminal rewritten in place at every update; otherwise (a log file,
 /// a cluster job) an info log line at most every 30 s and whenever a trial ends, so long runs
 /// show progress without flooding the log. Every other update, and all of them with `quiet`,
-/// goes to the debug log.
-std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quiet = false) {
+/// goes to the debug log. The ETA is the measured cost of the work `plan` has left (eta.hpp).
+std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quiet,
+                                                             WorkPlan plan) {
   auto last = std::make_shared<std::chrono::steady_clock::time_point>();
-  return [tty, quiet, last](const engine::Progress& p) {
-    if (p.method == "validation") {  // the held-out validation after the trials
-      const double eta = p.flights_done > 0 ? p.elapsed_s * (p.flights_total - p.flights_done) /
-                                                  p.flights_done
-                                            : 0.0;
-      const std::string line =
-          fmt::format("validation on held-out maps: flights {}/{}, elapsed {:.0f} s, ETA {:.0f} s",
-                      p.flights_done, p.flights_total, p.elapsed_s, eta);
-      if (tty) {
-        std::fprintf(stderr, "\r\033[K%s", line.c_str());
-        std::fflush(stderr);
-      } else if (!quiet && (p.flights_done == p.flights_total ||
-                            std::chrono::steady_clock::now() - *last >= std::chrono::seconds(30))) {
-        *last = std::chrono::steady_clock::now();
-        spdlog::info("{}", line);
-      }
-      return;
+  auto eta = std::make_shared<EtaEstimator>(std::move(plan));
+  return [tty, quiet, last, eta](const engine::Progress& p) {
+    eta->Observe(p);
+    const bool validation = p.method == "validation";  // the held-out validation after the trials
+    std::string line;
+    if (validation) {
+      line = fmt::format("validation on held-out maps: flights {}/{}, elapsed {:.0f} s, {}",
+                         p.flights_done, p.flights_total, p.elapsed_s, eta->Remaining().Text());
+    } else {
+      const double rate =
+          p.elapsed_s > 0 ? static_cast<double>(p.short_evals) / p.elapsed_s : 0.0;
+      line = fmt::format(
+          "trial {}/{} {} r{}{}: flights {}/{}, best f_l {:.3f}, re-solves {:.0f}/s, "
+          "elapsed {:.0f} s, {}",
+          p.trials_done + 1, p.trials_total, p.method, p.repeat,
+          p.rank > 0 ? fmt::format(" (rank {})", p.rank) : std::string(), p.flights_done,
+          p.flights_total, p.best_long, rate, p.elapsed_s, eta->Remaining().Text());
     }
-    const double done = p.trials_done + static_cast<double>(p.flights_done) / p.flights_total;
-    const double eta = done > 0 ? p.elapsed_s * (p.trials_total - done) / done : 0.0;
-    const double rate = p.elapsed_s > 0 ? static_cast<double>(p.short_evals) / p.elapsed_s : 0.0;
-    const std::string line = fmt::format(
-        "trial {}/{} {} r{}{}: flights {}/{}, best f_l {:.3f}, short-term evals {:.0f}/s, "
-        "elapsed {:.0f} s, ETA {:.0f} s",
-        p.trials_done + 1, p.trials_total, p.method, p.repeat,
-        p.rank > 0 ? fmt::format(" (rank {})", p.rank) : std::string(), p.flights_done,
-        p.flights_total, p.best_long, rate, p.elapsed_s, eta);
     if (tty) {
       std::fprintf(stderr, "\r\033[K%s", line.c_str());
       std::fflush(stderr);
@@ -189,7 +182,8 @@ int RunMpi(const RunArgs& a) {
         mpi.Abort(2);
       }
       options.run.store_path = store;
-      options.run.on_progress = ProgressPrinter(tty, a.quiet);
+      options.run.on_progress =
+          ProgressPrinter(tty, a.quiet, WorkPlan::Of(e, a.threads > 0 ? a.threads : e.threads));
       std::error_code ec;
       const fs::path self = fs::read_symlink("/proc/self/exe", ec);
       std::string sets;
@@ -252,7 +246,7 @@ int Run(const RunArgs& a) {
                e.budget.flights, threads,
                e.mode == engine::TimingMode::kRealtime ? "realtime" : "reproducible",
                a.resume ? ", resuming" : "");
-  options.on_progress = ProgressPrinter(tty, a.quiet);
+  options.on_progress = ProgressPrinter(tty, a.quiet, WorkPlan::Of(e, threads));
   engine::RunSummary s;
   try {
     s = engine::RunExperiment(e, options);
