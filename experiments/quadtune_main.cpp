@@ -76,10 +76,13 @@ int main(int argc, char** argv) {
   quadtune::cli::RegisterStudy(app, exit_code);
   quadtune::cli::RegisterReport(app, exit_code);
   quadtune::cli::RegisterSweep(app, exit_code);
+  app.footer(quadtune::cli::kExitCodes);
+  for (CLI::App* sub : app.get_subcommands({})) sub->footer(quadtune::cli::kExitCodes);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version exit 0; a malformed command line is refused like a bad file (2).
+    return app.exit(e) == 0 ? 0 : 2;
   } catch (const quadtune::ConfigError& e) {
     spdlog::error("{}", OneLine(e.what()));
     return 2;

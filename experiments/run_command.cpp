@@ -277,6 +277,7 @@ struct BenchArgs {
   std::string csv;    ///< "": no CSV; else one row per thread count
   bool plot = false;  ///< draw the thread-scaling figure next to the CSV
   int soak = 0;       ///< > 0: the soak benchmark (Soak) with this many flights instead
+  std::vector<std::string> set;  ///< --set KEY=VALUE edits of the experiment file
 };
 
 /// The soak benchmark: `flights` closed-loop flights with the defaults on one map, through one
@@ -352,7 +353,7 @@ int Soak(const engine::Experiment& e, int flights, int threads, const std::strin
 
 /// Flights/s and short-term evals/s at 1..N threads, and the scheduler's overhead per task.
 int Bench(const BenchArgs& a) {
-  const engine::Experiment e = engine::Experiment::LoadFile(a.experiment);
+  const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
   if (a.soak > 0) return Soak(e, a.soak, a.max_threads, a.csv);
   const engine::Opaque map = e.planner.PrepareMap(e.MapSeed(0));
   const engine::ParamValues defaults = e.planner.Defaults();
@@ -374,7 +375,7 @@ int Bench(const BenchArgs& a) {
   engine::ParamValues theta_s;
   for (const auto& p : e.planner.ShortTermParameters()) theta_s[p.name] = p.default_value;
   using Clock = std::chrono::steady_clock;
-  std::printf("%8s %12s %16s %16s %14s %20s\n", "threads", "flights/s", "short evals/s",
+  std::printf("%8s %12s %16s %16s %14s %20s\n", "threads", "flights/s", "re-solves/s",
               "mixed wall (s)", "mixed speed-up", "overhead/task (us)");
   double mixed_one_thread = 0.0;
   std::ofstream csv;
@@ -515,11 +516,13 @@ void RegisterExport(CLI::App& app, int& exit_code) {
 
 void RegisterBench(CLI::App& app, int& exit_code) {
   static BenchArgs args;
-  args.experiment = std::string(QUADTUNE_SOURCE_DIR) + "/experiments/tiny.yaml";
-  auto* cmd = app.add_subcommand("bench", "flights/s and short-term evals/s at 1..N threads, and "
-                                          "the scheduler's overhead per task");
-  cmd->add_option("experiment", args.experiment, "experiment file (its planner and map)")
-      ->capture_default_str();
+  auto* cmd = app.add_subcommand("bench", "flights/s and re-solves/s at 1..N threads, and the "
+                                          "scheduler's overhead per task");
+  cmd->add_option("experiment", args.experiment,
+                  "experiment file (its planner and map), e.g. experiments/tiny.yaml")
+      ->required();
+  cmd->add_option("--set", args.set, "KEY=VALUE: change the experiment file's dotted KEY "
+                                     "(repeatable), e.g. --set planner.max_time=20");
   cmd->add_option("--max-threads", args.max_threads, "largest thread count")->capture_default_str();
   cmd->add_option("--flights", args.flights, "flights per thread count")->capture_default_str();
   cmd->add_option("--resolves", args.resolves, "re-solves per thread count")->capture_default_str();

@@ -2,12 +2,12 @@
 """Figures for quadtune outputs (matplotlib, Debian's python3 packages).
 
 Called by `quadtune plot`, or directly:
-    quadtune_plot.py flight DIR              top-down view of a flight: obstacles, flown and
+    quadtune_plot.py flight DIR [--out PNG]  top-down view of a flight: obstacles, flown and
                                              planned paths, speed over time
     quadtune_plot.py flights DIR... --out D  several flights (e.g. one per obstacle density):
                                              stacked top-down views, flight time against spacing,
                                              and a Markdown table
-    quadtune_plot.py run DIR                 a tuning run (DIR/results.sqlite from `quadtune run`):
+    quadtune_plot.py run DIR [--out D]       a tuning run (DIR/results.sqlite from `quadtune run`):
                                              best-so-far f_l per method, f_l per iteration, the
                                              number of f_s evaluations, Markdown/CSV tables with
                                              Mann–Whitney U tests between methods
@@ -270,7 +270,7 @@ def final_value(t):
     return statistics.fmean(t["long"]) if t["method"] == "default" else min(t["long"])
 
 
-def plot_run(directory):
+def plot_run(directory, out_dir=None):
     """Figures and tables of a tuning run, after the paper's benchmark figure: (A) best f_l so far
     (mean over repeats; band min–max), (B) f_l of each flight (mean; band min–max), (C) the number
     of f_s evaluations; a table of final values with Mann–Whitney U tests between methods."""
@@ -347,7 +347,9 @@ def plot_run(directory):
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=8, loc="upper left" if ax is ax_c else "lower left")
     fig.tight_layout()
-    figure = os.path.join(directory, "tuning.png")
+    out_dir = out_dir or directory
+    os.makedirs(out_dir, exist_ok=True)
+    figure = os.path.join(out_dir, "tuning.png")
     fig.savefig(figure, dpi=120)
     plt.close(fig)
 
@@ -362,8 +364,8 @@ def plot_run(directory):
         return float(mannwhitneyu(a, b, alternative="two-sided").pvalue)
 
     reference = "bo_pso" if "bo_pso" in finals else None
-    table = os.path.join(directory, "tuning.md")
-    csv_path = os.path.join(directory, "tuning.csv")
+    table = os.path.join(out_dir, "tuning.md")
+    csv_path = os.path.join(out_dir, "tuning.csv")
     with open(table, "w") as f, open(csv_path, "w", newline="") as fc:
         w = csv.writer(fc)
         w.writerow(["method", "repeats", "flights", "final_mean", "final_std", "final_min",
@@ -392,10 +394,10 @@ def plot_run(directory):
             w.writerow([r["method"], r["repeats"], r["flights"], m, s, min(r["finals"]),
                         r["early10"], r["early25"], r["k90"], r["shorts"], r["failed"], pd_, pb,
                         r["params"]])
-    return [figure, table, csv_path] + plot_validation(directory)
+    return [figure, table, csv_path] + plot_validation(directory, out_dir)
 
 
-def plot_validation(directory):
+def plot_validation(directory, out_dir=None):
     """The held-out validation of a run (kind 'validation' rows): a table appended to
     tuning.md, validation.csv, and validation.png: (A) mean f_l with its 95% CI per method on the
     held-out maps, ranked; (B) n_d, the count of θ_s changes the BO discount has seen, against
@@ -417,9 +419,10 @@ def plot_validation(directory):
     space = qv.space_of(config[0]) if config else []
     rows = qv.summarise(flights, space)
     maps = len({f["map"] for f in flights})
-    with open(os.path.join(directory, "tuning.md"), "a") as f:
+    out_dir = out_dir or directory
+    with open(os.path.join(out_dir, "tuning.md"), "a") as f:
         f.write("\n" + qv.markdown(rows, maps))
-    csv_path = os.path.join(directory, "validation.csv")
+    csv_path = os.path.join(out_dir, "validation.csv")
     with open(csv_path, "w", newline="") as fc:
         w = csv.writer(fc)
         w.writerow(qv.CSV_FIELDS)
@@ -451,7 +454,7 @@ def plot_validation(directory):
     ax_b.set_title("(B) BO+PSO: discount count n_d per trial")
     ax_b.grid(alpha=0.3)
     fig.tight_layout()
-    figure = os.path.join(directory, "validation.png")
+    figure = os.path.join(out_dir, "validation.png")
     fig.savefig(figure, dpi=120)
     plt.close(fig)
     return [figure, csv_path]
@@ -754,6 +757,7 @@ def main(argv):
     p.add_argument("--out", required=True)
     p = sub.add_parser("run", help="figures and table of a tuning run directory")
     p.add_argument("directory")
+    p.add_argument("--out", default=None, help="output folder (default: the run directory)")
     p = sub.add_parser("study", help="figures and tables of a study directory")
     p.add_argument("directory")
     p = sub.add_parser("bench", help="thread-scaling figure of a `quadtune bench --csv` file")
@@ -778,7 +782,7 @@ def main(argv):
         print(plot_adapt(args.directory))
         return 0
     if args.what == "run":
-        for path in plot_run(args.directory):
+        for path in plot_run(args.directory, args.out):
             print(path)
     elif args.what == "study":
         for path in plot_study(args.directory):
