@@ -87,7 +87,8 @@ std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quie
 }
 
 /// Logs the run's outcome and writes OUT/summary.json; returns the exit code.
-int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& store, bool tty) {
+int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& store, bool tty,
+           int queries_per_eval) {
   namespace fs = std::filesystem;
   if (tty) std::fprintf(stderr, "\n");
   nlohmann::json j;
@@ -99,16 +100,18 @@ int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& sto
   j["resolves"] = s.resolves;
   j["worlds"] = s.worlds;
   for (const auto& t : s.trials) {
-    spdlog::info("{} repeat {}: best f_l {:.3f} after {} flights, {} θ_s evaluations, {} failed, "
-                 "{} replayed",
-                 t.method, t.repeat, t.best_value, t.flights, t.short_evals, t.failed, t.replayed);
+    spdlog::info("{} repeat {}: best f_l {:.3f} after {} flights, {} θ_s candidates ({} "
+                 "re-solves), {} failed, {} replayed",
+                 t.method, t.repeat, t.best_value, t.flights, t.short_evals,
+                 static_cast<long>(t.short_evals) * queries_per_eval, t.failed, t.replayed);
     nlohmann::json tj;
     tj["method"] = t.method;
     tj["repeat"] = t.repeat;
     tj["best_value"] = t.best_value;
     tj["best"] = t.best;
     tj["flights"] = t.flights;
-    tj["short_evals"] = t.short_evals;
+    tj["short_evals"] = t.short_evals;  // θ_s candidates
+    tj["resolves"] = static_cast<long>(t.short_evals) * queries_per_eval;
     tj["failed"] = t.failed;
     tj["replayed"] = t.replayed;
     tj["recommended"] = t.recommended;
@@ -200,7 +203,7 @@ int RunMpi(const RunArgs& a) {
                    a.resume ? ", resuming" : "");
     }
     const engine::RunSummary s = engine::RunDistributed(mpi, e, options);
-    return rank == 0 ? Finish(s, a, store, tty) : 0;
+    return rank == 0 ? Finish(s, a, store, tty, e.budget.queries_per_eval) : 0;
   } catch (const engine::PeerError& ex) {
     // Another rank failed before the run started and reported why; rank 0 says which.
     if (rank == 0) spdlog::error("{}", ex.what());
@@ -255,7 +258,7 @@ int Run(const RunArgs& a) {
     s.status = engine::RunStatus::kCancelled;
     s.threads = threads;
   }
-  return Finish(s, a, store, tty);
+  return Finish(s, a, store, tty, e.budget.queries_per_eval);
 }
 
 /// Resident set size of this process (MiB), from /proc/self/statm: the pool's memory as the
@@ -351,7 +354,7 @@ int Soak(const engine::Experiment& e, int flights, int threads, const std::strin
   return spread <= 0.05 ? 0 : 3;
 }
 
-/// Flights/s and short-term evals/s at 1..N threads, and the scheduler's overhead per task.
+/// Flights/s and re-solves/s at 1..N threads, and the scheduler's overhead per task.
 int Bench(const BenchArgs& a) {
   const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
   if (a.soak > 0) return Soak(e, a.soak, a.max_threads, a.csv);

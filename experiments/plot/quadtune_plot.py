@@ -9,7 +9,7 @@ Called by `quadtune plot`, or directly:
                                              and a Markdown table
     quadtune_plot.py run DIR [--out D]       a tuning run (DIR/results.sqlite from `quadtune run`):
                                              best-so-far f_l per method, f_l per iteration, the
-                                             number of f_s evaluations, Markdown/CSV tables with
+                                             number of re-solves, Markdown/CSV tables with
                                              Mann–Whitney U tests between methods
     quadtune_plot.py study DIR               a study (`quadtune study`): validation and 90%-of-
                                              optimum table, sweep figure, refinement figures
@@ -203,24 +203,27 @@ def mean_std(values):
 
 
 def load_run(path):
-    """Per trial: method, repeat, the f_l sequence, the parameters of each flight, and the number
-    of f_s evaluations (re-solves: θ_s evaluations × queries_per_eval) before each flight."""
+    """Per trial: method, repeat, the f_l sequence, the parameters of each flight, whether each
+    flight failed (f_l at objective.failure_value), the number of re-solves (θ_s candidates ×
+    queries_per_eval) before each flight, and the f_s of each θ_s candidate."""
     con = sqlite3.connect("file:{}?mode=ro".format(path), uri=True)
     config = con.execute("SELECT config FROM experiment ORDER BY id LIMIT 1").fetchone()
     queries_per_eval = 1
+    failure_value = float("inf")
     if config:
         try:
             import yaml
-            queries_per_eval = int((yaml.safe_load(config[0]) or {}).get("budget", {}).get(
-                "queries_per_eval", 4))
-        except Exception:  # the figure still works, counting θ_s evaluations
+            doc = yaml.safe_load(config[0]) or {}
+            queries_per_eval = int(doc.get("budget", {}).get("queries_per_eval", 4))
+            failure_value = float(doc.get("objective", {}).get("failure_value", 1000.0))
+        except Exception:  # the figure still works, counting θ_s candidates
             queries_per_eval = 1
     trials = {}
     for tid, method, repeat, best_value, best_params in con.execute(
             "SELECT id, method, repeat, best_value, best_params FROM trial ORDER BY id"):
         trials[tid] = {"method": method, "repeat": repeat, "best_value": best_value,
                        "best_params": best_params, "long": [], "params": [], "short_before": [],
-                       "shorts": 0, "failed": 0}
+                       "long_failed": [], "short_values": [], "shorts": 0, "failed": 0}
     for tid, kind, value, status, params in con.execute(
             "SELECT trial_id, kind, value, status, params FROM evaluation "
             "ORDER BY trial_id, id"):
@@ -229,10 +232,12 @@ def load_run(path):
             continue
         if kind == "short":
             t["shorts"] += queries_per_eval
+            t["short_values"].append((t["shorts"], value))
         elif kind == "long":
             t["long"].append(value)
             t["params"].append(json.loads(params) if params else {})
             t["short_before"].append(t["shorts"])
+            t["long_failed"].append(status != "ok" or value >= failure_value)
             t["failed"] += status != "ok"
     con.close()
     return [t for t in trials.values() if t["long"]]
@@ -270,27 +275,45 @@ def final_value(t):
     return statistics.fmean(t["long"]) if t["method"] == "default" else min(t["long"])
 
 
+def mean_ci95(values):
+    """Mean and the half-width of its 95% confidence interval (Student t; 0 for one value)."""
+    values = list(values)
+    m = statistics.fmean(values)
+    if len(values) < 2:
+        return m, 0.0
+    from scipy.stats import t as student_t
+    half = student_t.ppf(0.975, len(values) - 1) * statistics.stdev(values) / math.sqrt(len(values))
+    return m, half
+
+
+def _plain_log_ticks(axis):
+    """Log-axis ticks at 1, 2 and 5 per decade, written as plain numbers."""
+    from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter
+    axis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    formatter = ScalarFormatter()
+    formatter.set_scientific(False)
+    axis.set_major_formatter(formatter)
+    axis.set_minor_formatter(NullFormatter())
+
+
 def plot_run(directory, out_dir=None):
-    """Figures and tables of a tuning run, after the paper's benchmark figure: (A) best f_l so far
-    (mean over repeats; band min–max), (B) f_l of each flight (mean; band min–max), (C) the number
-    of f_s evaluations; a table of final values with Mann–Whitney U tests between methods."""
+    """Figures and tables of a tuning run (tuning.png): (A) best f_l so far, one panel per method
+    (each repeat thin, the median thick, the defaults' mean dashed); (B) f_l of every flight, one
+    panel per method, completed flights as dots and failed ones (f_l = failure_value) counted in
+    a strip above; (C) BO+PSO's short-term search: best f_s so far against the re-solves run;
+    (D) final values ranked, mean with 95% CI and every repeat. A table of final values with
+    Mann–Whitney U tests between methods."""
     trials = load_run(os.path.join(directory, "results.sqlite"))
     methods = method_order(trials)
-    fig, (ax_a, ax_b, ax_c) = plt.subplots(1, 3, figsize=(17, 4.8))
-    inset = ax_a.inset_axes([0.5, 0.45, 0.46, 0.5])
+    tuned = [m for m in methods if m != "default"]
     rows = []
     finals = {}
+    mean_default = None
     for method in methods:
         runs = [t for t in trials if t["method"] == method]
-        c = COLORS.get(method)
-        label = LABELS.get(method, method)
         finals[method] = [final_value(t) for t in runs]
         if method == "default":
             mean_default = statistics.fmean(v for t in runs for v in t["long"])
-            for ax in (ax_a, ax_b, inset):
-                ax.axhline(mean_default, color=c, lw=1.5, ls="--",
-                           label=("Default (mean of {} flights)".format(
-                               sum(len(t["long"]) for t in runs)) if ax is not inset else None))
             rows.append(dict(method=method, repeats=len(runs), flights=len(runs[0]["long"]),
                              finals=finals[method], early10=mean_default, early25=mean_default,
                              k90=float("nan"), shorts=0.0, failed=sum(t["failed"] for t in runs),
@@ -298,23 +321,6 @@ def plot_run(directory, out_dir=None):
             continue
         n = min(len(t["long"]) for t in runs)
         best = [best_so_far(t["long"][:n]) for t in runs]
-        xs = list(range(1, n + 1))
-        mean = [statistics.fmean(col) for col in zip(*best)]
-        lo = [min(col) for col in zip(*best)]
-        hi = [max(col) for col in zip(*best)]
-        for ax in (ax_a, inset):
-            ax.plot(xs, mean, color=c, lw=1.8, label=label if ax is ax_a else None)
-            if len(runs) > 1:
-                ax.fill_between(xs, lo, hi, color=c, alpha=0.12)
-        per = [list(col) for col in zip(*(t["long"][:n] for t in runs))]
-        ax_b.plot(xs, [statistics.fmean(col) for col in per], color=c, lw=1.2, label=label)
-        if len(runs) > 1:
-            ax_b.fill_between(xs, [min(col) for col in per], [max(col) for col in per], color=c,
-                              alpha=0.1)
-        if any(t["shorts"] for t in runs):
-            ax_c.plot(xs, [statistics.fmean(col) for col in
-                           zip(*(t["short_before"][:n] for t in runs))], color=c, lw=1.8,
-                      label=label)
         at = lambda k: statistics.fmean(b[min(k, n) - 1] for b in best)  # noqa: E731
         rows.append(dict(method=method, repeats=len(runs), flights=n, finals=finals[method],
                          early10=at(max(1, n // 10)), early25=at(max(1, n // 4)),
@@ -322,35 +328,132 @@ def plot_run(directory, out_dir=None):
                          shorts=statistics.fmean(t["shorts"] for t in runs),
                          failed=sum(t["failed"] for t in runs),
                          params=min(runs, key=lambda t: t["best_value"])["best_params"]))
-    ax_a.set_title("(A) best f_l so far (mean; band: min–max over repeats)")
-    ax_a.set_xlabel("long-term evaluation (flight)")
-    ax_a.set_ylabel("f_l = t_f + t_f n_c + w_e n_e")
-    ax_a.set_yscale("log")
-    last = [r for r in rows if r["method"] != "default"]
-    if last:
-        n = max(r["flights"] for r in last)
-        inset.set_xlim(0.6 * n, n)
-        tail = [v for r in rows for v in r["finals"]]
-        lo, hi = min(tail), max(tail)
-        inset.set_ylim(lo - 0.05 * (hi - lo + 1), hi + 0.05 * (hi - lo + 1))
-        inset.set_title("final convergence", fontsize=8)
-        inset.tick_params(labelsize=7)
-        inset.grid(alpha=0.3)
-    ax_b.set_title("(B) f_l of each flight (mean; band: min–max)")
-    ax_b.set_xlabel("long-term evaluation (flight)")
-    ax_b.set_yscale("log")
-    ax_c.set_title("(C) f_s evaluations (re-solves) before each flight")
-    ax_c.set_xlabel("long-term evaluation (flight)")
-    ax_c.set_ylabel("f_s evaluations (cumulative)")
-    for ax in (ax_a, ax_b, ax_c):
+
+    from matplotlib.gridspec import GridSpec
+    from matplotlib.lines import Line2D
+    cols = max(2, len(tuned))
+    fig = plt.figure(figsize=(3.4 * cols + 1.0, 10.5))
+    grid = GridSpec(3, cols, figure=fig, height_ratios=[1, 1, 1.05], hspace=0.55, wspace=0.08)
+    completed = [v for t in trials if t["method"] != "default"
+                 for v, bad in zip(t["long"], t["long_failed"]) if not bad]
+    # (A) convergence: the y range of the trials' final quarter and the defaults, so that the
+    # first flights' large values do not flatten the part that matters.
+    finals_all = [v for m in tuned for v in finals[m]]
+    a_lo = min(finals_all + ([mean_default] if mean_default else [])) if finals_all else 0.0
+    a_hi = max([mean_default or 0.0] + finals_all)
+    a_pad = 0.25 * (a_hi - a_lo + 1e-9)
+    axes_a = []
+    for i, method in enumerate(tuned):
+        ax = fig.add_subplot(grid[0, i], sharey=axes_a[0] if axes_a else None)
+        axes_a.append(ax)
+        runs = [t for t in trials if t["method"] == method]
+        n = min(len(t["long"]) for t in runs)
+        xs = list(range(1, n + 1))
+        best = [best_so_far(t["long"][:n]) for t in runs]
+        c = COLORS.get(method, "0.3")
+        for b in best:
+            ax.plot(xs, b, color=c, lw=0.7, alpha=0.45)
+        ax.plot(xs, [statistics.median(col) for col in zip(*best)], color=c, lw=2.2)
+        if mean_default is not None:
+            ax.axhline(mean_default, color=COLORS["default"], lw=1.2, ls="--")
+        ax.set_title("{} ({} repeats)".format(LABELS.get(method, method), len(runs)), fontsize=10)
+        ax.set_xlabel("flight")
         ax.grid(alpha=0.3)
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=8, loc="upper left" if ax is ax_c else "lower left")
-    fig.tight_layout()
+        if i == 0:
+            ax.set_ylabel("best f_l so far (s)")
+        else:
+            ax.tick_params(labelleft=False)
+    if axes_a:
+        axes_a[0].set_ylim(a_lo - a_pad, a_hi + 2 * a_pad)
+        handles = [Line2D([], [], color="0.3", lw=0.7, alpha=0.6, label="one repeat"),
+                   Line2D([], [], color="0.3", lw=2.2, label="median over repeats")]
+        if mean_default is not None:
+            handles.append(Line2D([], [], color=COLORS["default"], ls="--",
+                                  label="Default (mean f_l)"))
+        axes_a[-1].legend(handles=handles, fontsize=7, loc="upper right")
+        axes_a[0].annotate("(A) convergence; early values above the panel are clipped",
+                           xy=(0, 1.18), xycoords="axes fraction", fontsize=11, weight="bold")
+    # (B) every flight: completed ones as dots on a log axis (they span a decade and more);
+    # failures (f_l = failure_value) as ticks in the strip at the top, counted in the title.
+    axes_b = []
+    b_lo = min(completed) if completed else 1.0
+    b_hi = max(completed) if completed else 10.0
+    for i, method in enumerate(tuned):
+        ax = fig.add_subplot(grid[1, i], sharey=axes_b[0] if axes_b else None)
+        axes_b.append(ax)
+        runs = [t for t in trials if t["method"] == method]
+        c = COLORS.get(method, "0.3")
+        ok_x, ok_y, bad_x = [], [], []
+        for t in runs:
+            for k, (v, bad) in enumerate(zip(t["long"], t["long_failed"]), start=1):
+                (bad_x if bad else ok_x).append(k)
+                if not bad:
+                    ok_y.append(v)
+        ax.scatter(ok_x, ok_y, s=6, color=c, alpha=0.45, lw=0)
+        top = b_hi * 1.6
+        ax.scatter(bad_x, [top] * len(bad_x), marker="|", s=60, color="k", lw=0.8)
+        ax.axhline(b_hi * 1.25, color="0.6", lw=0.6)
+        if mean_default is not None:
+            ax.axhline(mean_default, color=COLORS["default"], lw=1.2, ls="--")
+        n_flights = sum(len(t["long"]) for t in runs)
+        ax.set_title("{}: {} of {} flights failed".format(LABELS.get(method, method),
+                                                          len(bad_x), n_flights), fontsize=9)
+        ax.set_yscale("log")
+        ax.set_xlabel("flight")
+        ax.grid(alpha=0.3, which="both")
+        if i == 0:
+            ax.set_ylabel("f_l of the flight (s)")
+        else:
+            ax.tick_params(labelleft=False)
+    if axes_b:
+        axes_b[0].set_ylim(b_lo / 1.15, b_hi * 2.0)
+        _plain_log_ticks(axes_b[0].yaxis)
+        axes_b[0].text(0.01, 0.97, "failed", transform=axes_b[0].transAxes, fontsize=7,
+                       va="top", color="k")
+        axes_b[0].annotate("(B) f_l of every flight; failed flights (f_l = failure value) as "
+                           "ticks in the top strip", xy=(0, 1.18), xycoords="axes fraction",
+                           fontsize=11, weight="bold")
+    # (C) the short-term search of BO+PSO: best f_s so far against the re-solves it took.
+    bottom = grid[2, :].subgridspec(1, 2, wspace=0.3)
+    ax_c = fig.add_subplot(bottom[0, 0])
+    shorts = [t for t in trials if t["short_values"]]
+    for t in shorts:
+        xs = [r for r, _ in t["short_values"]]
+        ax_c.plot(xs, best_so_far(v for _, v in t["short_values"]),
+                  color=COLORS.get(t["method"], "0.3"), lw=1.0, alpha=0.7)
+    if shorts:
+        ax_c.set_xscale("log")  # most of the search's progress is in its first re-solves
+        ax_c.set_yscale("log")
+        _plain_log_ticks(ax_c.yaxis)
+        ax_c.set_title("(C) BO+PSO: best f_s so far, one line per repeat", loc="left",
+                       fontsize=11, weight="bold")
+    else:
+        ax_c.text(0.5, 0.5, "no θ_s candidates in this run", ha="center", va="center",
+                  transform=ax_c.transAxes)
+        ax_c.set_title("(C) short-term search", loc="left", fontsize=11, weight="bold")
+    ax_c.set_xlabel("re-solves (θ_s candidates × queries each)")
+    ax_c.set_ylabel("best f_s so far (objective units)")
+    ax_c.grid(alpha=0.3, which="both")
+    # (D) final values, ranked: every repeat, and the mean with its 95% CI.
+    ax_d = fig.add_subplot(bottom[0, 1])
+    ranked = sorted(methods, key=lambda m: statistics.fmean(finals[m]), reverse=True)
+    for y, method in enumerate(ranked):
+        c = COLORS.get(method, "0.3")
+        m, ci = mean_ci95(finals[method])
+        ax_d.scatter(finals[method], [y + 0.18] * len(finals[method]), s=12, color=c, alpha=0.5,
+                     lw=0)
+        ax_d.errorbar(m, y, xerr=ci, fmt="o", color=c, capsize=4, ms=7)
+    ax_d.set_yticks(range(len(ranked)))
+    ax_d.set_yticklabels([LABELS.get(m, m) for m in ranked])
+    ax_d.set_ylim(-0.6, len(ranked) - 0.4)
+    ax_d.set_xlabel("final f_l (s): best of the trial; Default: mean of its flights")
+    ax_d.set_title("(D) final values: mean ± 95% CI, dots: repeats", loc="left", fontsize=11,
+                   weight="bold")
+    ax_d.grid(alpha=0.3, axis="x")
     out_dir = out_dir or directory
     os.makedirs(out_dir, exist_ok=True)
     figure = os.path.join(out_dir, "tuning.png")
-    fig.savefig(figure, dpi=120)
+    fig.savefig(figure, dpi=120, bbox_inches="tight")
     plt.close(fig)
 
     try:
@@ -369,13 +472,13 @@ def plot_run(directory, out_dir=None):
     with open(table, "w") as f, open(csv_path, "w", newline="") as fc:
         w = csv.writer(fc)
         w.writerow(["method", "repeats", "flights", "final_mean", "final_std", "final_min",
-                     "best_at_10pct", "best_at_25pct", "flights_to_90pct", "fs_evaluations",
+                     "best_at_10pct", "best_at_25pct", "flights_to_90pct", "resolves",
                      "failed", "p_vs_default", "p_vs_bo_pso", "best_params"])
         f.write("Final value: best f_l of the trial (Default: mean f_l of its flights). Early "
                 "columns: mean best f_l after 10% and 25% of the flights. p: two-sided "
                 "Mann–Whitney U test of the final values over repeats.\n\n")
         f.write("| method | repeats | flights | final f_l (mean ± std) | min | after 10% | "
-                "after 25% | flights to 90% of optimum | f_s evaluations | failed | "
+                "after 25% | flights to 90% of optimum | re-solves | failed | "
                 "p vs Default | p vs BO+PSO | best parameters |\n")
         f.write("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
         for r in rows:
@@ -502,7 +605,7 @@ def study_validation_tables(directory, study, validation):
 
 def plot_study(directory):
     """Tables and figures of a study (`quadtune study`): per point the validation flights of the
-    tuned parameters against the defaults and the evaluations needed to reach 90% of the optimum
+    tuned parameters against the defaults and the flights needed to reach 90% of the optimum
     (the paper's density table); with stages, the refinement figure (normalised parameters and
     f_l over the flights of every stage, and the validation of each stage's result)."""
     with open(os.path.join(directory, "study.json")) as f:
@@ -544,16 +647,16 @@ def plot_study(directory):
         w.writerow([key, "method", "validation_flights", "flight_time_mean", "flight_time_std",
                     "f_l_mean", "max_emergency_stops", "collisions", "completed",
                     "default_flight_time_mean", "default_flight_time_std", "default_f_l_mean",
-                    "short_evals_to_90pct_mean", "short_evals_to_90pct_std",
-                    "long_evals_to_90pct_mean", "long_evals_to_90pct_std"])
+                    "resolves_to_90pct_mean", "resolves_to_90pct_std",
+                    "flights_to_90pct_mean", "flights_to_90pct_std"])
         f.write("Validation: {} held-out maps (no trial flew them) per tuned trial, flown with the "
                 "recommended point of each trial and with the defaults on the same maps. 90% of "
                 "optimum: first flight whose best f_l so far is within f*/0.9 of the trial's "
-                "final best f*; short-term count = f_s evaluations (re-solves) before it.\n\n"
+                "final best f*; re-solves: the planning queries re-solved before it.\n\n"
                 .format(study.get("validation_flights")))
         f.write("| {} | method | flight time (s) | f_l | max emergency stops | collisions | "
                 "completed | defaults: flight time (s) | defaults: f_l | 90% optimum: "
-                "short-term | 90% optimum: long-term |\n".format(key))
+                "re-solves | 90% optimum: flights |\n".format(key))
         f.write("|---|---|---|---|---|---|---|---|---|---|---|\n")
         for r in rows:
             f.write("| {} | {} | {:.2f} ± {:.2f} | {:.2f} | {} | {} | {} | {:.2f} ± {:.2f} | "
@@ -678,13 +781,13 @@ def plot_study(directory):
 
 
 def plot_bench(csv_path, out=None):
-    """Thread scaling (`quadtune bench --csv`): flights/s and short-term evaluations/s against the
+    """Thread scaling (`quadtune bench --csv`): flights/s and re-solves/s against the
     thread count, with parallel efficiency."""
     rows = read_rows(csv_path)
     threads = [int(r["threads"]) for r in rows]
     fig, (ax_a, ax_b) = plt.subplots(1, 2, figsize=(11, 4))
     for key, label, color in (("flights_per_s", "flights/s", "tab:blue"),
-                              ("resolves_per_s", "short-term evaluations/s", "tab:orange")):
+                              ("resolves_per_s", "re-solves/s", "tab:orange")):
         vals = [float(r[key]) for r in rows]
         ax_a.plot(threads, [v / vals[0] for v in vals], "o-", color=color, label=label)
         ax_b.plot(threads, [v / vals[0] / t for v, t in zip(vals, threads)], "o-", color=color,

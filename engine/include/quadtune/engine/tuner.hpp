@@ -111,7 +111,7 @@ struct TrialSummary {
   int recommended_rank = -1;
   int recheck_flights = 0;  ///< re-flights flown (or replayed) to pick `recommended`
   int flights = 0;
-  int short_evals = 0;      ///< θ_s evaluations
+  int short_evals = 0;      ///< θ_s candidates scored (PSO); each re-solves queries_per_eval queries
   int failed = 0;           ///< failed evaluations
   int replayed = 0;         ///< evaluations taken from the store on resume
   /// bo_pso: n_d, BayesOpt::NotifyContextChanged() calls: one per change of the θ_s that flies
