@@ -56,7 +56,27 @@ def draw_obstacles(ax, obstacles, z_slice=None):
             ax.add_patch(Circle((px, py), r["thickness"] / 2, color="tab:brown", alpha=0.9, lw=0))
 
 
+def flight_turn_index(flight, summary):
+    """Index of the row where a go-and-return flight turns back (closest to the goal), or None
+    for a flight that ends nearer the goal than the start (a go-to flight)."""
+    goal, start = summary.get("goal"), summary.get("start")
+    if not goal or not start or not flight.get("x"):
+        return None
+    def dist(i, p):
+        return math.hypot(flight["x"][i] - p[0], flight["y"][i] - p[1])
+    last = len(flight["x"]) - 1
+    if dist(last, start) >= dist(last, goal):
+        return None
+    return min(range(len(flight["x"])), key=lambda i: dist(i, goal))
+
+
 def plot_flight(directory, out=None):
+    """A flight (`quadtune fly` output): top-down views of the outbound and the return leg (one
+    panel each; a go-to flight has one), with cylinders, rings, every planned trajectory of that
+    leg, the flown path and the reference; below, speed and height against time on their own
+    axes, the turn marked. The legend sits beside the panels."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
     with open(os.path.join(directory, "obstacles.json")) as f:
         obstacles = json.load(f)
     flight = read_csv(os.path.join(directory, "flight.csv"))
@@ -64,57 +84,94 @@ def plot_flight(directory, out=None):
     if os.path.exists(os.path.join(directory, "summary.json")):
         with open(os.path.join(directory, "summary.json")) as f:
             summary = json.load(f)
-
-    fig, (ax, axv) = plt.subplots(2, 1, figsize=(12, 7.5), gridspec_kw={"height_ratios": [2.2, 1]})
-    draw_obstacles(ax, obstacles)
+    plans = {}
     plans_path = os.path.join(directory, "plans.csv")
     if os.path.exists(plans_path):
         plans = read_csv(plans_path)
+    turn = flight_turn_index(flight, summary)
+    t_turn = flight["t"][turn] if turn is not None else None
+    n = len(flight["t"])
+    legs = [("outbound leg", 0, turn + 1), ("return leg", turn, n)] if turn is not None else \
+        [("flight", 0, n)]
+
+    fig = plt.figure(figsize=(13, 3.4 * len(legs) + 3.2))
+    grid = fig.add_gridspec(len(legs) + 1, 2, height_ratios=[1.25] * len(legs) + [1],
+                            hspace=0.45, wspace=0.22)
+    xs, ys = flight["x"], flight["y"]
+    pad = 1.5
+    xlim = (min(xs) - pad, max(xs) + pad)
+    ylim = (min(min(ys) - pad, -4), max(max(ys) + pad, 4))
+    top_axes = []
+    for k, (name, i0, i1) in enumerate(legs):
+        ax = fig.add_subplot(grid[k, :])
+        top_axes.append(ax)
+        draw_obstacles(ax, obstacles)
         if plans:
-            ids = plans["plan"]
+            ids, t0s = plans["plan"], plans["t0"]
             start = 0
             for i in range(1, len(ids) + 1):
                 if i == len(ids) or ids[i] != ids[start]:
-                    ax.plot(plans["x"][start:i], plans["y"][start:i], color="tab:orange", lw=0.8,
-                            alpha=0.6, label="planned" if start == 0 else None)
+                    on_leg = t_turn is None or ((t0s[start] < t_turn) == (k == 0))
+                    if on_leg:
+                        ax.plot(plans["x"][start:i], plans["y"][start:i], color="tab:orange",
+                                lw=0.7, alpha=0.55)
                     start = i
-    ax.plot(flight["x"], flight["y"], color="tab:blue", lw=1.6, label="flown")
-    if "ref_x" in flight:
-        ax.plot(flight["ref_x"], flight["ref_y"], color="k", lw=0.6, ls="--", alpha=0.6,
-                label="reference")
-    for key, marker, label in (("start", "o", "start"), ("goal", "*", "goal")):
-        if key in summary:
-            ax.plot(summary[key][0], summary[key][1], marker, ms=12, color="tab:green", label=label)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    title = "Flight, top-down"
+        if "ref_x" in flight:
+            ax.plot(flight["ref_x"][i0:i1], flight["ref_y"][i0:i1], color="k", lw=0.6, ls="--",
+                    alpha=0.6)
+        ax.plot(xs[i0:i1], ys[i0:i1], color="tab:blue", lw=1.7)
+        for key, marker in (("start", "o"), ("goal", "*")):
+            if key in summary:
+                ax.plot(summary[key][0], summary[key][1], marker, ms=11, color="tab:green",
+                        mec="k", mew=0.5)
+        ax.set_aspect("equal")
+        ax.set_xlim(*xlim)
+        ax.set_ylim(*ylim)
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        ax.set_title("({}) {}, top-down: t = {:.1f}–{:.1f} s".format(
+            "AB"[k], name, flight["t"][i0], flight["t"][i1 - 1]), loc="left", fontsize=10)
+    handles = [Patch(color="0.35", alpha=0.8, label="cylinder"),
+               Line2D([], [], color="tab:brown", lw=3, label="ring (footprint)"),
+               Line2D([], [], color="tab:orange", lw=0.8, label="planned trajectories"),
+               Line2D([], [], color="tab:blue", lw=1.7, label="flown path"),
+               Line2D([], [], color="k", lw=0.6, ls="--", label="reference"),
+               Line2D([], [], marker="o", ls="", color="tab:green", mec="k", label="start"),
+               Line2D([], [], marker="*", ls="", ms=10, color="tab:green", mec="k",
+                      label="goal")]
+    top_axes[0].legend(handles=handles, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+                       borderaxespad=0)
     if summary:
-        title += " — t_f = {:.2f} s, collisions {}, emergency stops {}".format(
+        fig.suptitle("t_f = {:.2f} s, collisions {}, emergency stops {}, rings {}".format(
             summary.get("flight_time", float("nan")), summary.get("collisions", "?"),
-            summary.get("emergency_stops", "?"))
-    ax.set_title(title)
-    ax.legend(loc="upper right", fontsize=8)
-    xs = flight["x"]
-    pad = 2.0
-    ax.set_xlim(min(xs) - pad, max(xs) + pad)
-    ys = flight["y"]
-    ax.set_ylim(min(min(ys) - pad, -4), max(max(ys) + pad, 4))
+            summary.get("emergency_stops", "?"), len(obstacles.get("rings", []))),
+            x=0.01, ha="left", fontsize=11)
 
-    speed = [math.sqrt(a * a + b * b + c * c) for a, b, c in zip(flight["vx"], flight["vy"], flight["vz"])]
-    axv.plot(flight["t"], speed, color="tab:blue", label="speed")
+    ax_v = fig.add_subplot(grid[len(legs), 0])
+    ax_h = fig.add_subplot(grid[len(legs), 1], sharex=ax_v)
+    speed = [math.sqrt(a * a + b * b + c * c)
+             for a, b, c in zip(flight["vx"], flight["vy"], flight["vz"])]
+    ax_v.plot(flight["t"], speed, color="tab:blue", lw=1.2, label="flown")
     if "ref_vx" in flight:
         ref_speed = [math.sqrt(a * a + b * b + c * c)
                      for a, b, c in zip(flight["ref_vx"], flight["ref_vy"], flight["ref_vz"])]
-        axv.plot(flight["t"], ref_speed, color="k", ls="--", lw=0.8, label="reference speed")
-    axv.plot(flight["t"], flight["z"], color="tab:green", lw=0.8, label="height z (m)")
-    axv.set_xlabel("t (s)")
-    axv.set_ylabel("m/s, m")
-    axv.grid(alpha=0.3)
-    axv.legend(loc="upper right", fontsize=8)
-    fig.tight_layout()
+        ax_v.plot(flight["t"], ref_speed, color="k", ls="--", lw=0.8, label="reference")
+    ax_h.plot(flight["t"], flight["z"], color="tab:blue", lw=1.2, label="flown")
+    if "ref_z" in flight:
+        ax_h.plot(flight["t"], flight["ref_z"], color="k", ls="--", lw=0.8, label="reference")
+    for ax, label, letter in ((ax_v, "speed (m/s)", "C"), (ax_h, "height z (m)", "D")):
+        if t_turn is not None:
+            ax.axvline(t_turn, color="0.4", lw=0.8, ls=":")
+            ax.text(t_turn, 1.0, " turn", transform=ax.get_xaxis_transform(), fontsize=8,
+                    va="top", color="0.3")
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel(label)
+        ax.set_title("({}) {}".format(letter, label.split(" (")[0]), loc="left", fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=2,
+                  frameon=False)
     out = out or os.path.join(directory, "flight_topdown.png")
-    fig.savefig(out, dpi=120)
+    fig.savefig(out, dpi=120, bbox_inches="tight")
     plt.close(fig)
     return out
 
