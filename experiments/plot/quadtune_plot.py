@@ -765,76 +765,184 @@ def plot_study(directory):
     for p, point in enumerate(study["points"]):
         if len(point["stages"]) < 2:
             continue
-        fig, (ax_a, ax_b, ax_c) = plt.subplots(1, 3, figsize=(17, 4.6))
-        offset = 0
-        space = point["stages"][-1]["space"]
-        names = [s["name"] for s in space]
-        cmap = plt.get_cmap("tab10")
-        for k, stage in enumerate(point["stages"]):
-            trials = [t for t in load_run(os.path.join(directory, stage["store"]))
-                      if t["method"] != "default"]
-            if not trials:
-                continue
-            t = min(trials, key=lambda t: t["best_value"])
-            xs = [offset + i + 1 for i in range(len(t["long"]))]
-            for j, prm in enumerate(space):
-                lo, hi = prm["lower"], prm["upper"]
-                vals = []
-                for params in t["params"]:
-                    x = params.get(prm["name"], float("nan"))
-                    if prm.get("log"):
-                        x, lo_, hi_ = math.log(x), math.log(lo), math.log(hi)
-                    else:
-                        lo_, hi_ = lo, hi
-                    vals.append((x - lo_) / (hi_ - lo_) if hi_ > lo_ else 0.5)
-                ax_a.plot(xs, vals, ".-", color=cmap(j), lw=0.8, ms=3,
-                          label=prm["name"] if k == 0 else None)
-            ax_b.plot(xs, t["long"], ".", color=cmap(k), label="{} f_l".format(stage["name"]))
-            ax_b.plot(xs, best_so_far(t["long"]), "-", color=cmap(k))
-            if k > 0:
-                for ax in (ax_a, ax_b):
-                    ax.axvline(offset + 0.5, color="k", lw=1, ls=":")
-            offset += len(t["long"])
-        ax_a.set_title("(A) normalised parameters per flight (stage boundary dotted)")
-        ax_a.set_xlabel("flight")
-        ax_a.set_ylim(-0.05, 1.05)
-        ax_a.legend(fontsize=7, ncol=3)
-        ax_b.set_title("(B) f_l per flight and best so far")
-        ax_b.set_xlabel("flight")
-        ax_b.set_yscale("log")
-        ax_b.legend(fontsize=8)
-        v = [r for r in validation if int(r["point"]) == p]
-        groups = [("defaults", [r for r in v if r["method"] == "default"])]
-        for stage in point["stages"]:
-            groups.append(("{} best".format(stage["name"]),
-                           [r for r in v if r["source_stage"] == stage["name"]]))
-        groups = [(name, g) for name, g in groups if g]
-        # Mean, with the range of the flights as the bar (f_l of a failed flight is far above
-        # the others: a ± std bar would reach below zero) and every flight as a dot.
-        values = [[float(r["f_l"]) for r in g] for _, g in groups]
-        means = [sum(x) / len(x) for x in values]
-        ax_c.bar(range(len(groups)), means,
-                 yerr=[[m - min(x) for m, x in zip(means, values)],
-                       [max(x) - m for m, x in zip(means, values)]],
-                 capsize=4, color=[cmap(i) for i in range(len(groups))], alpha=0.8)
-        for i, x in enumerate(values):
-            ax_c.plot([i] * len(x), x, "k.", ms=4)
-        ax_c.set_xticks(range(len(groups)))
-        ax_c.set_xticklabels([name for name, _ in groups], rotation=15, fontsize=8)
-        ax_c.set_ylabel("f_l (mean; bar: min–max; dots: flights)")
-        if min(min(x) for x in values) > 0:
-            ax_c.set_yscale("log")  # one failed flight (f_l ≈ failure value) beside ≈ 20-40
-        ax_c.set_title("(C) validation flights in the {} world".format(point["stages"][-1]["name"]))
-        for ax in (ax_a, ax_b, ax_c):
-            ax.grid(alpha=0.3)
-        fig.suptitle("{} — {}".format(study["name"], point["label"]))
-        fig.tight_layout()
-        figure = os.path.join(directory, "refinement_{}.png".format(
-            "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in point["label"])))
-        fig.savefig(figure, dpi=120)
-        plt.close(fig)
+        figure = plot_refinement(directory, study, p, validation)
         outputs.append(figure)
     return outputs
+
+
+def _stage_config(store):
+    """The experiment file stored with a run (YAML text parsed), {} when unreadable."""
+    try:
+        import yaml
+        con = sqlite3.connect("file:{}?mode=ro".format(store), uri=True)
+        row = con.execute("SELECT config FROM experiment ORDER BY id LIMIT 1").fetchone()
+        con.close()
+        return (yaml.safe_load(row[0]) or {}) if row else {}
+    except Exception:
+        return {}
+
+
+def _unit(prm, x):
+    """A parameter value on the figure's normalised scale: 0 at its lower bound, 1 at its upper,
+    log-scaled for log parameters."""
+    lo, hi = prm["lower"], prm["upper"]
+    if prm.get("log"):
+        x, lo, hi = math.log(x), math.log(lo), math.log(hi)
+    return (x - lo) / (hi - lo) if hi > lo else 0.5
+
+
+def _bo_unit(prm, x):
+    """A parameter value in BO's unit coordinates: as _unit, but an integer parameter's unit
+    interval spans half a cell beyond its bounds."""
+    if prm.get("type") == "integer":
+        lo, hi = prm["lower"], prm["upper"]
+        return (x - lo + 0.5) / (hi - lo + 1.0)
+    return _unit(prm, x)
+
+
+def _bo_unit_to_plot(prm, u):
+    """BO's unit coordinate on the figure's normalised scale (see _bo_unit)."""
+    if prm.get("type") == "integer":
+        lo, hi = prm["lower"], prm["upper"]
+        x = lo - 0.5 + u * (hi - lo + 1.0)
+        return min(1.0, max(0.0, (x - lo) / (hi - lo))) if hi > lo else 0.5
+    return u
+
+
+def moving_bounds(trial, space, config, start):
+    """The damped moving bounds of BO (paper Sec. III-E) per flight of `trial`, per parameter, on
+    the figure's normalised scale: before flight i, the bounds current when it was asked.
+    Rebuilt from the stored flights: lo ← λ lo + (1 − λ)(θ* − r), hi likewise with + r, after each
+    told flight, θ* the best flight so far (BO's incumbent is its posterior-mean best; the best
+    observed flight stands in for it). None when the stage did not move its bounds."""
+    mb = (config.get("bo") or {}).get("moving_bounds") or {}
+    if not mb or not mb.get("enabled", True):
+        return None
+    lam, r = float(mb.get("damping", 0.8)), float(mb.get("half_width", 0.1))
+    integer = {q["name"] for q in config.get("parameters", []) if q.get("type") == "integer"}
+    space = [dict(prm, type="integer") if prm["name"] in integer else prm for prm in space]
+    names = [prm["name"] for prm in space]
+    if start:
+        lo = [max(0.0, _bo_unit(prm, start[prm["name"]]) - r) for prm in space]
+        hi = [min(1.0, _bo_unit(prm, start[prm["name"]]) + r) for prm in space]
+    else:
+        lo, hi = [0.0] * len(names), [1.0] * len(names)
+    bounds = []
+    best, best_value = None, float("inf")
+    for params, value in zip(trial["params"], trial["long"]):
+        bounds.append((list(lo), list(hi)))
+        if value < best_value:
+            best, best_value = params, value
+        u = [_bo_unit(prm, best.get(prm["name"], prm["lower"])) for prm in space]
+        lo = [min(1.0, max(0.0, lam * a + (1 - lam) * (b - r))) for a, b in zip(lo, u)]
+        hi = [min(1.0, max(0.0, lam * a + (1 - lam) * (b + r))) for a, b in zip(hi, u)]
+    return [([_bo_unit_to_plot(prm, x) for prm, x in zip(space, b[0])],
+             [_bo_unit_to_plot(prm, x) for prm, x in zip(space, b[1])]) for b in bounds]
+
+
+def plot_refinement(directory, study, p, validation):
+    """The refinement figure of study point `p`: (A) each tuned parameter per flight over the
+    stages, with the moving bounds of a stage that uses them; (B) f_l per flight and the best so
+    far; (C) the validation flights of the defaults and of each stage's result."""
+    point = study["points"][p]
+    space = point["stages"][-1]["space"]
+    cmap = plt.get_cmap("tab10")
+    fig = plt.figure(figsize=(2.6 * len(space) + 1.0, 8.6))
+    grid = fig.add_gridspec(2, 1, height_ratios=[1, 1.15], hspace=0.45)
+    top = grid[0].subgridspec(1, len(space), wspace=0.12)
+    bottom = grid[1].subgridspec(1, 2, wspace=0.28, width_ratios=[1.5, 1])
+    axes_a = [fig.add_subplot(top[0, j]) for j in range(len(space))]
+    ax_b = fig.add_subplot(bottom[0, 0])
+    ax_c = fig.add_subplot(bottom[0, 1])
+    offset = 0
+    boundaries = []
+    banded = set()
+    for k, stage in enumerate(point["stages"]):
+        store = os.path.join(directory, stage["store"])
+        trials = [t for t in load_run(store) if t["method"] != "default"]
+        if not trials:
+            continue
+        t = min(trials, key=lambda t: t["best_value"])
+        xs = [offset + i + 1 for i in range(len(t["long"]))]
+        bounds = moving_bounds(t, space, _stage_config(store), stage.get("start"))
+        for j, prm in enumerate(space):
+            ax = axes_a[j]
+            vals = [_unit(prm, params.get(prm["name"], float("nan"))) for params in t["params"]]
+            if bounds:
+                banded.add(k)
+                ax.fill_between(xs, [b[0][j] for b in bounds], [b[1][j] for b in bounds],
+                                step="mid",
+                                color=cmap(k), alpha=0.2, lw=0)
+            ax.plot(xs, vals, ".", color=cmap(k), ms=4)
+        ax_b.plot(xs, t["long"], ".", color=cmap(k), ms=5)
+        ax_b.plot(xs, best_so_far(t["long"]), "-", color=cmap(k),
+                  label="{}: f_l per flight (dots), best so far (line)".format(stage["name"]))
+        if k > 0:
+            boundaries.append(offset + 0.5)
+        offset += len(t["long"])
+    for j, prm in enumerate(space):
+        ax = axes_a[j]
+        ax.set_ylim(-0.05, 1.05)
+        ax.set_title(prm["name"], fontsize=10)
+        ax.set_xlabel("flight")
+        ax.set_yticks([0, 0.5, 1])
+        if j == 0:
+            ax.set_ylabel("value, 0 = lower bound, 1 = upper\n(log scale for log parameters)")
+        else:
+            ax.set_yticklabels([])
+        ax.set_xticks([x for x in ax.get_xticks() if 0 < x <= offset])
+        ax.set_xlim(0, offset + 1)
+        ax.grid(alpha=0.3)
+    for ax in axes_a + [ax_b]:
+        for x in boundaries:
+            ax.axvline(x, color="k", lw=1, ls=":")
+    from matplotlib.patches import Patch
+    handles = [Patch(color=cmap(k), alpha=0.6 if k in banded else 1.0,
+                     label=s_["name"] + (" (band: moving bounds)" if k in banded else ""))
+               for k, s_ in enumerate(point["stages"])]
+    axes_a[-1].legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0),
+                      borderaxespad=0)
+    axes_a[0].annotate("(A) tuned parameters per flight; dotted: next stage; band: BO's "
+                       "damped moving bounds", xy=(0, 1.2), xycoords="axes fraction",
+                       fontsize=11, weight="bold")
+    ax_b.set_title("(B) f_l per flight and best so far", loc="left", fontsize=11,
+                   weight="bold")
+    ax_b.set_xlabel("flight (stages in order)")
+    ax_b.set_ylabel("f_l (s)")
+    ax_b.set_yscale("log")  # a failed flight (f_l = failure value) beside values of 20-40 s
+    _plain_log_ticks(ax_b.yaxis)
+    ax_b.legend(fontsize=8, loc="upper right")
+    ax_b.grid(alpha=0.3, which="both")
+    v = [r for r in validation if int(r["point"]) == p]
+    groups = [("defaults", [r for r in v if r["method"] == "default"])]
+    for stage in point["stages"]:
+        groups.append(("{} result".format(stage["name"]),
+                       [r for r in v if r["source_stage"] == stage["name"]]))
+    groups = [(name, g) for name, g in groups if g]
+    # Every flight as a dot, the median as a bar across (a failed flight's f_l is far above the
+    # others, so the median, not the mean, marks the middle).
+    for i, (name, g) in enumerate(groups):
+        values = sorted(float(r["f_l"]) for r in g)
+        jitter = [i + 0.25 * ((k % 7) / 6.0 - 0.5) for k in range(len(values))]
+        ax_c.plot(jitter, values, ".", color=cmap(i), ms=6, alpha=0.7)
+        med = statistics.median(values)
+        ax_c.plot([i - 0.3, i + 0.3], [med, med], color="k", lw=2)
+    ax_c.set_xticks(range(len(groups)))
+    ax_c.set_xticklabels([name for name, _ in groups], rotation=15, fontsize=8)
+    ax_c.set_xlim(-0.6, len(groups) - 0.4)
+    ax_c.set_ylabel("f_l of the validation flight (s)")
+    if groups and min(float(r["f_l"]) for _, g in groups for r in g) > 0:
+        ax_c.set_yscale("log")
+        _plain_log_ticks(ax_c.yaxis)
+    ax_c.set_title("(C) validation in the {} world;\nbar: median".format(
+        point["stages"][-1]["name"]), loc="left", fontsize=11, weight="bold")
+    ax_c.grid(alpha=0.3, axis="y", which="both")
+    fig.suptitle("{} — {}".format(study["name"], point["label"]), x=0.01, ha="left")
+    figure = os.path.join(directory, "refinement_{}.png".format(
+        "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in point["label"])))
+    fig.savefig(figure, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    return figure
 
 
 def plot_bench(csv_path, out=None):
