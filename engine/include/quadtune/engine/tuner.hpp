@@ -21,7 +21,7 @@
 /// the round, never in completion order.
 ///
 /// Reproducible mode: batch sizes come from the experiment, not the thread count; every flight
-/// seed is DeriveSeed(trial seed, {iteration, index}); every θ_s evaluation of one PSO
+/// seed is DeriveSeed(trial seed, {iteration, index}); every θ_s candidate of one PSO
 /// generation re-solves the same queries, drawn with DeriveSeed(trial seed, {generation}) from
 /// the buffer as it stood at the start of the round (candidates compared on one problem set); t_c comes from compute units; a flight's θ_s is fixed when it starts. So
 /// the same seed gives identical results with 1, 2 or 8 threads. Realtime mode measures t_c by
