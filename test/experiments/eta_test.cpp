@@ -11,14 +11,9 @@ namespace {
 
 engine::Progress Report(const std::string& method, int repeat, int flights_done,
                         int flights_total, long resolves, double elapsed_s) {
-  engine::Progress p;
-  p.method = method;
-  p.repeat = repeat;
-  p.flights_done = flights_done;
-  p.flights_total = flights_total;
-  p.short_evals = resolves;
-  p.elapsed_s = elapsed_s;
-  return p;
+  return engine::Progress{.method = method, .repeat = repeat, .flights_done = flights_done,
+                          .flights_total = flights_total, .short_evals = resolves,
+                          .elapsed_s = elapsed_s};
 }
 
 TEST(CostFit, SeparatesFlightAndResolveCostsFromTwoMixes) {
