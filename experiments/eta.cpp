@@ -130,7 +130,14 @@ void EtaEstimator::Observe(const engine::Progress& p) {
   const std::pair<std::string, int> key{p.method, p.repeat};
   current_ = key;
   flights_[key] = p.flights_done;
+  if (p.rank > 0) {
+    // Another MPI rank's trial reports once, finished; its re-solves are not in short_evals.
+    for (const PlannedTrial& t : plan_.trials) {
+      if (t.method == p.method && t.repeat == p.repeat) remote_resolves_[key] = t.resolves;
+    }
+  }
   resolves_ = static_cast<double>(p.short_evals);
+  for (const auto& [trial, resolves] : remote_resolves_) resolves_ += resolves;
   const double f = TrialFlightsDone();
   fit_.Add(p.elapsed_s - last_t_, f - last_f_, resolves_ - last_r_);
   last_t_ = p.elapsed_s;

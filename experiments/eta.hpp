@@ -21,6 +21,9 @@
 ///   a and b cannot be told apart: each kind is charged half of the measured time per flight
 ///   with its re-solves. The sum is exact for work of the same mix.
 /// - Replayed evaluations (--resume) finish almost at once; the fit takes them as cheap work.
+/// - Under MPI, a trial on another rank reports once, when it has finished, and its re-solves
+///   are not in Progress::short_evals (rank 0's own count): its planned re-solves are counted
+///   done then.
 ///
 /// Thread safety: not thread-safe; the progress callback is called from one thread at a time.
 
@@ -99,6 +102,7 @@ class EtaEstimator {
   double planned_resolves_ = 0.0;
   std::map<std::pair<std::string, int>, int> flights_;  // (method, repeat) → flights reported
   std::pair<std::string, int> current_{};               // the trial of the last report
+  std::map<std::pair<std::string, int>, long> remote_resolves_;  // other ranks' trials, done
   double resolves_ = 0.0;
   double validation_done_ = 0.0;
   double validation_offset_ = -1.0;  // run seconds when validation began (< 0: not yet)

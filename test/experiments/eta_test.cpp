@@ -110,6 +110,24 @@ TEST(EtaEstimator, ChargesFlightsResolvesRechecksAndValidationLeft) {
   EXPECT_NEAR(eta.Remaining().seconds, 0.0, 1e-12);
 }
 
+TEST(EtaEstimator, CountsTheResolvesOfTrialsFinishedOnOtherRanks) {
+  WorkPlan plan;
+  plan.trials = {{"bo_pso", 0, 2, 0, 100}, {"bo_pso", 1, 2, 0, 100}};
+  EtaEstimator eta(plan);
+  // Rank 0 runs repeat 0: 1 flight and 50 re-solves in 3 s.
+  eta.Observe(Report("bo_pso", 0, 1, 2, 50, 3.0));
+  // Rank 1 reports repeat 1 finished: its 2 flights and 100 re-solves are done; rank 0's
+  // counter still says 50 re-solves.
+  engine::Progress remote = Report("bo_pso", 1, 2, 2, 50, 5.0);
+  remote.rank = 1;
+  eta.Observe(remote);
+  EXPECT_NEAR(eta.FlightsDone(), 3.0, 1e-12);
+  // Increments (3 s, 1 flight, 50 re-solves) and (2 s, 2 flights, 100 re-solves): one mix
+  // (50 re-solves per flight), Σ f·t / Σ f² = 7 / 5 = 1.4 s per flight with its re-solves;
+  // left: 1 flight and its 50 re-solves.
+  EXPECT_NEAR(eta.Remaining().seconds, 1.4, 1e-9);
+}
+
 TEST(WorkPlan, CountsAnExperimentFilesWork) {
   const engine::Experiment e = engine::Experiment::LoadFile(
       std::string(QUADTUNE_SOURCE_DIR) + "/experiments/tiny.yaml",

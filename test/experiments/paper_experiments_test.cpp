@@ -195,6 +195,14 @@ TEST(PaperExperiments, BenchmarkComparisonScaledDown) {
     EXPECT_LE(Number(r, "collision_free"), Number(r, "completed")) << r.at("method");
   }
   ExpectFigure(fs::path(out) / "validation.png");
+  // plot run --out: the same tables and figures in another folder; the run's own are kept.
+  const fs::path elsewhere = dir / "figures";
+  ASSERT_EQ(RunQuadtune("plot run " + out + " --out " + elsewhere.string(), dir / "plot2.log"), 0)
+      << ReadText(dir / "plot2.log");
+  ExpectFigure(elsewhere / "tuning.png");
+  ExpectFigure(elsewhere / "validation.png");
+  EXPECT_EQ(ReadText(elsewhere / "tuning.csv"), ReadText(fs::path(out) / "tuning.csv"));
+  EXPECT_EQ(ReadText(elsewhere / "validation.csv"), ReadText(fs::path(out) / "validation.csv"));
 }
 
 // Paper Sec. IV-B2: tune at several densities, then validation flights of the tuned parameters
@@ -370,6 +378,12 @@ TEST(PaperExperiments, FlightWritesTopDownFigure) {
             0)
       << ReadText(dir / "fly.log");
   ExpectFigure(dir / "f" / "flight_topdown.png");
+  ASSERT_EQ(RunQuadtune("plot flight " + (dir / "f").string() + " --out " +
+                            (dir / "again.png").string(),
+                        dir / "plot.log"),
+            0)
+      << ReadText(dir / "plot.log");
+  ExpectFigure(dir / "again.png");
   const nlohmann::json summary = nlohmann::json::parse(ReadText(dir / "f" / "summary.json"));
   EXPECT_EQ(summary["status"], "completed");
   EXPECT_GT(ReadCsv(dir / "f" / "plans.csv").size(), 50u);
