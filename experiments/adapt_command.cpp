@@ -7,16 +7,22 @@
 #include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
+#include <atomic>
 #include <chrono>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "commands.hpp"
 #include "result_dir.hpp"
+#include "quadtune/common/text_file.hpp"
+#include "quadtune/common/yaml.hpp"
 #include "quadtune/engine/online_adaptation.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/planning/flight.hpp"
@@ -32,6 +38,8 @@ struct AdaptArgs {
   std::optional<std::uint64_t> seed;
   bool plot = true;
   bool overwrite = false;  ///< replace the results already in OUT
+  std::vector<std::string> set;  ///< --set KEY=VALUE edits of the experiment file
+  int threads = 1;               ///< flights flown at once
 };
 
 /// Index of the zone holding x (the last zone also takes its upper end), or -1.
@@ -136,7 +144,10 @@ double Ratio(double num, double den) { return den > 0.0 ? num / den : 0.0; }
 
 int RunAdapt(const AdaptArgs& a) {
   const auto wall_start = std::chrono::steady_clock::now();
-  engine::AdaptExperiment e = engine::AdaptExperiment::LoadFile(a.experiment);
+  const std::string dir_of_file = fs::path(a.experiment).parent_path().string();
+  engine::AdaptExperiment e = engine::AdaptExperiment::FromString(
+      ApplyAssignments(ReadFileText(a.experiment), a.set, a.experiment), a.experiment,
+      dir_of_file.empty() ? "." : dir_of_file);
   if (a.seed) e.SetSeed(*a.seed);
   const ResultDir out_dir(a.out, ResultDirPolicy{false, a.overwrite, false});
   const layout::Layout layout = layout::GenerateLayout(e.layout, e.seed);
@@ -171,20 +182,48 @@ int RunAdapt(const AdaptArgs& a) {
   }
   std::vector<std::vector<ZoneSummary>> zone_tables;
   std::vector<engine::AdaptFlight> flights;
-  for (const auto& fixed : runs) {
-    const auto fly_start = std::chrono::steady_clock::now();
-    engine::AdaptFlight f = engine::RunAdaptFlight(
-        e, layout, fixed, [&](const engine::AdaptationSegment& s) {
-          const int z = ZoneOf(layout.options, s.p_s_W.x());
-          spdlog::info("segment {:3d} P_s x {:5.1f} m (zone {}): v_des {:.2f} -> {:.2f} m/s, {} "
-                       "({}/{} trials ok, best f_s {:.2f})",
-                       s.index, s.p_s_W.x(),
-                       z >= 0 ? fmt::format("{:.1f} m", layout.options.zones[z].spacing) : "-",
-                       s.v_des_before, s.v_des, engine::ToString(s.outcome), s.successes,
-                       s.trials, s.best_f_s);
-        });
-    const double fly_wall =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - fly_start).count();
+  // The flights are independent: up to `threads` of them fly at once; their files are written
+  // in order afterwards.
+  std::vector<engine::AdaptFlight> flown(runs.size());
+  std::vector<double> walls(runs.size(), 0.0);
+  {
+    std::atomic<std::size_t> next{0};
+    std::mutex error_mutex;
+    std::exception_ptr error;
+    const auto worker = [&] {
+      for (std::size_t i = next++; i < runs.size(); i = next++) {
+        try {
+          const auto fly_start = std::chrono::steady_clock::now();
+          flown[i] = engine::RunAdaptFlight(
+              e, layout, runs[i], [&](const engine::AdaptationSegment& s) {
+                const int z = ZoneOf(layout.options, s.p_s_W.x());
+                spdlog::info(
+                    "segment {:3d} P_s x {:5.1f} m (zone {}): v_des {:.2f} -> {:.2f} m/s, {} "
+                    "({}/{} trials ok, best f_s {:.2f})",
+                    s.index, s.p_s_W.x(),
+                    z >= 0 ? fmt::format("{:.1f} m", layout.options.zones[z].spacing) : "-",
+                    s.v_des_before, s.v_des, engine::ToString(s.outcome), s.successes,
+                    s.trials, s.best_f_s);
+              });
+          walls[i] =
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - fly_start).count();
+        } catch (...) {
+          const std::lock_guard<std::mutex> lock(error_mutex);
+          if (!error) error = std::current_exception();
+        }
+      }
+    };
+    const std::size_t workers =
+        std::min(runs.size(), static_cast<std::size_t>(std::max(1, a.threads)));
+    std::vector<std::thread> pool;
+    for (std::size_t w = 1; w < workers; ++w) pool.emplace_back(worker);
+    worker();
+    for (auto& t : pool) t.join();
+    if (error) std::rethrow_exception(error);
+  }
+  for (std::size_t run = 0; run < runs.size(); ++run) {
+    engine::AdaptFlight f = std::move(flown[run]);
+    const double fly_wall = walls[run];
     const auto& m = f.result.metrics;
     const std::string dir = (fs::path(a.out) / f.label).string();
     planning::WriteFlightFiles(dir, f.result, layout.obstacles,
@@ -322,7 +361,14 @@ void RegisterAdapt(CLI::App& app, int& exit_code) {
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();
   cmd->add_option("--seed", args.seed, "seed of the layout, the world and BO (default: the file's)")
       ->check(SeedValidator());
-  cmd->add_flag("!--no-plot", args.plot, "skip the figure");
+  cmd->add_option("--threads", args.threads,
+                  "flights flown at once (the adapted flight and each baseline)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1024));
+  cmd->add_option("--set", args.set,
+                  "KEY=VALUE: change the experiment file's dotted KEY, e.g. --set "
+                  "adaptation.trials_per_segment=4 --set 'baselines=[2.0]' (repeatable)");
+  AddNoPlotFlag(*cmd, args.plot, "skip the figure");
   cmd->add_flag("--overwrite", args.overwrite, "replace the results already in OUT");
   cmd->callback([&exit_code] { exit_code = RunAdapt(args); });
 }

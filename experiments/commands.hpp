@@ -30,6 +30,20 @@ void RegisterReport(CLI::App& app, int& exit_code);
 /// `quadtune sweep`: Sobol' indices of the objectives over the parameter box (sweep_command.cpp).
 void RegisterSweep(CLI::App& app, int& exit_code);
 
+/// Adds `--no-plot` to `cmd`: given, it sets `plot` to false (a plain flag, so that help shows no
+/// default value beside it).
+inline void AddNoPlotFlag(CLI::App& cmd, bool& plot, const std::string& help) {
+  cmd.add_flag_callback("--no-plot", [&plot] { plot = false; }, help);
+}
+
+/// The exit codes every command uses (shown by `quadtune --help`, listed in docs/config.md).
+inline constexpr const char* kExitCodes =
+    "Exit codes: 0 done; 1 failed while running (a file that cannot be written, a figure script "
+    "that failed, an internal error); 2 refused before any work (bad command line, configuration "
+    "file or result directory); 3 done, but the outcome is negative (fly: the flight did not "
+    "complete; bench --soak: memory not flat); 130 interrupted (SIGINT/SIGTERM; the store is "
+    "consistent, continue with --resume).";
+
 /// Checks a --seed option: a decimal integer in [0, 2^64), refused with one line otherwise (CLI11
 /// would wrap "-5" to 2^64 - 5).
 inline CLI::Validator SeedValidator() {

@@ -1,5 +1,6 @@
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -31,7 +32,7 @@ struct FlyArgs {
   std::uint64_t seed = 1;
   std::vector<std::string> set;
   std::string out = "results/flight";
-  std::string mission = "go-and-return";
+  std::string mission = "go_and_return";  ///< the experiment files' spelling
   double max_time = 120.0;
   std::string planner = "ipopt";
   bool plot = true;
@@ -99,7 +100,7 @@ int RunFly(const FlyArgs& a) {
   world_options.collision_response = physics::CollisionResponse::kPassThrough;
 
   const planning::Mission mission =
-      a.mission == "go-to" ? planning::Mission::GoTo(layout.start_W(), layout.goal_W())
+      a.mission == "go_to" ? planning::Mission::GoTo(layout.start_W(), layout.goal_W())
                            : planning::Mission::GoAndReturn(layout.start_W(), layout.goal_W());
   planning::FlightOptions options;
   options.max_time = a.max_time;
@@ -189,14 +190,20 @@ void RegisterFly(CLI::App& app, int& exit_code) {
   cmd->add_option("--world", args.world_file, "world options (YAML): rates, wind, noise, …");
   cmd->add_option("--set", args.set, "planner parameter override NAME=VALUE (repeatable), e.g. "
                                      "--set v_des=3 --set n_pol=6");
-  cmd->add_option("--mission", args.mission, "go-and-return or go-to")
-      ->check(CLI::IsMember({"go-and-return", "go-to"}))->capture_default_str();
+  cmd->add_option("--mission", args.mission, "go_and_return or go_to (as planner.mission in an "
+                                             "experiment file)")
+      ->transform([](std::string text) {  // go-and-return and go-to are read the same
+        std::replace(text.begin(), text.end(), '-', '_');
+        return text;
+      }, "", "")
+      ->check(CLI::IsMember({"go_and_return", "go_to"}))
+      ->capture_default_str();
   cmd->add_option("--planner", args.planner, "trajectory back end: ipopt or ego (EGO-Planner)")
       ->check(CLI::IsMember({"ipopt", "ego"}))
       ->capture_default_str();
   cmd->add_option("--max-time", args.max_time, "flight time limit (s)")->capture_default_str();
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();
-  cmd->add_flag("!--no-plot", args.plot, "skip the figure");
+  AddNoPlotFlag(*cmd, args.plot, "skip the figure");
   cmd->add_option("--from", args.from, "a results store (results.sqlite): fly one of its stored "
                                        "flights again exactly, with full logs");
   cmd->add_option("--evaluation", args.evaluation, "with --from: the evaluation id to fly");

@@ -49,8 +49,10 @@ int RunLayout(const LayoutArgs& a) {
 void RegisterLayout(CLI::App& app, int& exit_code) {
   static LayoutArgs args;
   auto* cmd = app.add_subcommand("layout", "generate an obstacle layout (CGAL) and save it");
-  cmd->add_option("--options", args.options_file, "generator options (YAML)");
-  cmd->add_option("--spacing", args.spacing, "average spacing (m) without --options: the "
+  cmd->add_option("--layout-options", args.options_file,
+                  "layout generator options (YAML) to generate from");
+  cmd->add_option("--options", args.options_file)->group("");  // an accepted alias, not shown in help
+  cmd->add_option("--spacing", args.spacing, "average spacing (m) without --layout-options: the "
                                              "shipped forest of that spacing, else forest_1p3")
       ->capture_default_str();
   cmd->add_option("--seed", args.seed, "seed")->capture_default_str()->check(SeedValidator());

@@ -35,18 +35,35 @@ int RunPlotScript(const std::string& args) {
   return RunPythonScript("experiments/plot/quadtune_plot.py", "QUADTUNE_PLOT_SCRIPT", args);
 }
 
+namespace {
+
+/// " --out 'PATH'" for the figure script, or "" when no --out was given.
+std::string OutArgument(const std::string& out) {
+  return out.empty() ? std::string() : " --out '" + out + "'";
+}
+
+}  // namespace
+
 void RegisterPlot(CLI::App& app, int& exit_code) {
   auto* cmd = app.add_subcommand("plot", "draw figures (PNG) from quadtune outputs");
   auto* flight = cmd->add_subcommand("flight", "top-down figure of a flight directory");
   static std::string dir;
   flight->add_option("DIR", dir, "directory written by `quadtune fly`")->required()->check(
       CLI::ExistingDirectory);
-  flight->callback([&exit_code] { exit_code = RunPlotScript("flight '" + dir + "'"); });
+  static std::string flight_out;
+  flight->add_option("--out", flight_out, "figure (PNG; default: DIR/flight_topdown.png)");
+  flight->callback([&exit_code] {
+    exit_code = RunPlotScript("flight '" + dir + "'" + OutArgument(flight_out));
+  });
   auto* run = cmd->add_subcommand("run", "figures and table of a tuning run (`quadtune run` output)");
   static std::string run_dir;
   run->add_option("DIR", run_dir, "directory holding results.sqlite")->required()->check(
       CLI::ExistingDirectory);
-  run->callback([&exit_code] { exit_code = RunPlotScript("run '" + run_dir + "'"); });
+  static std::string run_out;
+  run->add_option("--out", run_out, "output folder (default: DIR)");
+  run->callback([&exit_code] {
+    exit_code = RunPlotScript("run '" + run_dir + "'" + OutArgument(run_out));
+  });
   auto* study = cmd->add_subcommand("study", "figures and tables of a study (`quadtune study` output)");
   static std::string study_dir;
   study->add_option("DIR", study_dir, "directory holding study.json")->required()->check(
@@ -59,8 +76,7 @@ void RegisterPlot(CLI::App& app, int& exit_code) {
       CLI::ExistingFile);
   bench->add_option("--out", bench_out, "figure (PNG; default: next to the CSV)");
   bench->callback([&exit_code] {
-    exit_code = RunPlotScript("bench '" + bench_csv + "'" +
-                              (bench_out.empty() ? std::string() : " --out '" + bench_out + "'"));
+    exit_code = RunPlotScript("bench '" + bench_csv + "'" + OutArgument(bench_out));
   });
   auto* flights = cmd->add_subcommand("flights", "summary figures and table of several flights");
   static std::vector<std::string> dirs;

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <exception>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <mutex>
 
@@ -76,10 +77,17 @@ int main(int argc, char** argv) {
   quadtune::cli::RegisterStudy(app, exit_code);
   quadtune::cli::RegisterReport(app, exit_code);
   quadtune::cli::RegisterSweep(app, exit_code);
+  // Every command's --help, nested ones (plot run, …) included, ends with the exit codes.
+  const std::function<void(CLI::App*)> add_footer = [&add_footer](CLI::App* command) {
+    command->footer(quadtune::cli::kExitCodes);
+    for (CLI::App* sub : command->get_subcommands({})) add_footer(sub);
+  };
+  add_footer(&app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version exit 0; a malformed command line is refused like a bad file (2).
+    return app.exit(e) == 0 ? 0 : 2;
   } catch (const quadtune::ConfigError& e) {
     spdlog::error("{}", OneLine(e.what()));
     return 2;

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "eta.hpp"
 #include "stored_flight.hpp"
 #include "result_dir.hpp"
 #include "quadtune/common/cancel.hpp"
@@ -48,36 +49,28 @@ struct RunArgs {
 /// The progress line: on a terminal rewritten in place at every update; otherwise (a log file,
 /// a cluster job) an info log line at most every 30 s and whenever a trial ends, so long runs
 /// show progress without flooding the log. Every other update, and all of them with `quiet`,
-/// goes to the debug log.
-std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quiet = false) {
+/// goes to the debug log. The ETA is the measured cost of the work `plan` has left (eta.hpp).
+std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quiet,
+                                                             WorkPlan plan) {
   auto last = std::make_shared<std::chrono::steady_clock::time_point>();
-  return [tty, quiet, last](const engine::Progress& p) {
-    if (p.method == "validation") {  // the held-out validation after the trials
-      const double eta = p.flights_done > 0 ? p.elapsed_s * (p.flights_total - p.flights_done) /
-                                                  p.flights_done
-                                            : 0.0;
-      const std::string line =
-          fmt::format("validation on held-out maps: flights {}/{}, elapsed {:.0f} s, ETA {:.0f} s",
-                      p.flights_done, p.flights_total, p.elapsed_s, eta);
-      if (tty) {
-        std::fprintf(stderr, "\r\033[K%s", line.c_str());
-        std::fflush(stderr);
-      } else if (!quiet && (p.flights_done == p.flights_total ||
-                            std::chrono::steady_clock::now() - *last >= std::chrono::seconds(30))) {
-        *last = std::chrono::steady_clock::now();
-        spdlog::info("{}", line);
-      }
-      return;
+  auto eta = std::make_shared<EtaEstimator>(std::move(plan));
+  return [tty, quiet, last, eta](const engine::Progress& p) {
+    eta->Observe(p);
+    const bool validation = p.method == "validation";  // the held-out validation after the trials
+    std::string line;
+    if (validation) {
+      line = fmt::format("validation on held-out maps: flights {}/{}, elapsed {:.0f} s, {}",
+                         p.flights_done, p.flights_total, p.elapsed_s, eta->Remaining().Text());
+    } else {
+      const double rate =
+          p.elapsed_s > 0 ? static_cast<double>(p.short_evals) / p.elapsed_s : 0.0;
+      line = fmt::format(
+          "trial {}/{} {} r{}{}: flights {}/{}, best f_l {:.3f}, re-solves {:.0f}/s, "
+          "elapsed {:.0f} s, {}",
+          p.trials_done + 1, p.trials_total, p.method, p.repeat,
+          p.rank > 0 ? fmt::format(" (rank {})", p.rank) : std::string(), p.flights_done,
+          p.flights_total, p.best_long, rate, p.elapsed_s, eta->Remaining().Text());
     }
-    const double done = p.trials_done + static_cast<double>(p.flights_done) / p.flights_total;
-    const double eta = done > 0 ? p.elapsed_s * (p.trials_total - done) / done : 0.0;
-    const double rate = p.elapsed_s > 0 ? static_cast<double>(p.short_evals) / p.elapsed_s : 0.0;
-    const std::string line = fmt::format(
-        "trial {}/{} {} r{}{}: flights {}/{}, best f_l {:.3f}, short-term evals {:.0f}/s, "
-        "elapsed {:.0f} s, ETA {:.0f} s",
-        p.trials_done + 1, p.trials_total, p.method, p.repeat,
-        p.rank > 0 ? fmt::format(" (rank {})", p.rank) : std::string(), p.flights_done,
-        p.flights_total, p.best_long, rate, p.elapsed_s, eta);
     if (tty) {
       std::fprintf(stderr, "\r\033[K%s", line.c_str());
       std::fflush(stderr);
@@ -94,7 +87,8 @@ std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quie
 }
 
 /// Logs the run's outcome and writes OUT/summary.json; returns the exit code.
-int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& store, bool tty) {
+int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& store, bool tty,
+           int queries_per_eval) {
   namespace fs = std::filesystem;
   if (tty) std::fprintf(stderr, "\n");
   nlohmann::json j;
@@ -106,16 +100,18 @@ int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& sto
   j["resolves"] = s.resolves;
   j["worlds"] = s.worlds;
   for (const auto& t : s.trials) {
-    spdlog::info("{} repeat {}: best f_l {:.3f} after {} flights, {} θ_s evaluations, {} failed, "
-                 "{} replayed",
-                 t.method, t.repeat, t.best_value, t.flights, t.short_evals, t.failed, t.replayed);
+    spdlog::info("{} repeat {}: best f_l {:.3f} after {} flights, {} θ_s candidates ({} "
+                 "re-solves), {} failed, {} replayed",
+                 t.method, t.repeat, t.best_value, t.flights, t.short_evals,
+                 static_cast<long>(t.short_evals) * queries_per_eval, t.failed, t.replayed);
     nlohmann::json tj;
     tj["method"] = t.method;
     tj["repeat"] = t.repeat;
     tj["best_value"] = t.best_value;
     tj["best"] = t.best;
     tj["flights"] = t.flights;
-    tj["short_evals"] = t.short_evals;
+    tj["short_evals"] = t.short_evals;  // θ_s candidates
+    tj["resolves"] = static_cast<long>(t.short_evals) * queries_per_eval;
     tj["failed"] = t.failed;
     tj["replayed"] = t.replayed;
     tj["recommended"] = t.recommended;
@@ -189,7 +185,8 @@ int RunMpi(const RunArgs& a) {
         mpi.Abort(2);
       }
       options.run.store_path = store;
-      options.run.on_progress = ProgressPrinter(tty, a.quiet);
+      options.run.on_progress =
+          ProgressPrinter(tty, a.quiet, WorkPlan::Of(e, a.threads > 0 ? a.threads : e.threads));
       std::error_code ec;
       const fs::path self = fs::read_symlink("/proc/self/exe", ec);
       std::string sets;
@@ -206,7 +203,7 @@ int RunMpi(const RunArgs& a) {
                    a.resume ? ", resuming" : "");
     }
     const engine::RunSummary s = engine::RunDistributed(mpi, e, options);
-    return rank == 0 ? Finish(s, a, store, tty) : 0;
+    return rank == 0 ? Finish(s, a, store, tty, e.budget.queries_per_eval) : 0;
   } catch (const engine::PeerError& ex) {
     // Another rank failed before the run started and reported why; rank 0 says which.
     if (rank == 0) spdlog::error("{}", ex.what());
@@ -252,7 +249,7 @@ int Run(const RunArgs& a) {
                e.budget.flights, threads,
                e.mode == engine::TimingMode::kRealtime ? "realtime" : "reproducible",
                a.resume ? ", resuming" : "");
-  options.on_progress = ProgressPrinter(tty, a.quiet);
+  options.on_progress = ProgressPrinter(tty, a.quiet, WorkPlan::Of(e, threads));
   engine::RunSummary s;
   try {
     s = engine::RunExperiment(e, options);
@@ -261,7 +258,7 @@ int Run(const RunArgs& a) {
     s.status = engine::RunStatus::kCancelled;
     s.threads = threads;
   }
-  return Finish(s, a, store, tty);
+  return Finish(s, a, store, tty, e.budget.queries_per_eval);
 }
 
 /// Resident set size of this process (MiB), from /proc/self/statm: the pool's memory as the
@@ -283,6 +280,7 @@ struct BenchArgs {
   std::string csv;    ///< "": no CSV; else one row per thread count
   bool plot = false;  ///< draw the thread-scaling figure next to the CSV
   int soak = 0;       ///< > 0: the soak benchmark (Soak) with this many flights instead
+  std::vector<std::string> set;  ///< --set KEY=VALUE edits of the experiment file
 };
 
 /// The soak benchmark: `flights` closed-loop flights with the defaults on one map, through one
@@ -356,9 +354,9 @@ int Soak(const engine::Experiment& e, int flights, int threads, const std::strin
   return spread <= 0.05 ? 0 : 3;
 }
 
-/// Flights/s and short-term evals/s at 1..N threads, and the scheduler's overhead per task.
+/// Flights/s and re-solves/s at 1..N threads, and the scheduler's overhead per task.
 int Bench(const BenchArgs& a) {
-  const engine::Experiment e = engine::Experiment::LoadFile(a.experiment);
+  const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
   if (a.soak > 0) return Soak(e, a.soak, a.max_threads, a.csv);
   const engine::Opaque map = e.planner.PrepareMap(e.MapSeed(0));
   const engine::ParamValues defaults = e.planner.Defaults();
@@ -380,7 +378,7 @@ int Bench(const BenchArgs& a) {
   engine::ParamValues theta_s;
   for (const auto& p : e.planner.ShortTermParameters()) theta_s[p.name] = p.default_value;
   using Clock = std::chrono::steady_clock;
-  std::printf("%8s %12s %16s %16s %14s %20s\n", "threads", "flights/s", "short evals/s",
+  std::printf("%8s %12s %16s %16s %14s %20s\n", "threads", "flights/s", "re-solves/s",
               "mixed wall (s)", "mixed speed-up", "overhead/task (us)");
   double mixed_one_thread = 0.0;
   std::ofstream csv;
@@ -521,11 +519,13 @@ void RegisterExport(CLI::App& app, int& exit_code) {
 
 void RegisterBench(CLI::App& app, int& exit_code) {
   static BenchArgs args;
-  args.experiment = std::string(QUADTUNE_SOURCE_DIR) + "/experiments/tiny.yaml";
-  auto* cmd = app.add_subcommand("bench", "flights/s and short-term evals/s at 1..N threads, and "
-                                          "the scheduler's overhead per task");
-  cmd->add_option("experiment", args.experiment, "experiment file (its planner and map)")
-      ->capture_default_str();
+  auto* cmd = app.add_subcommand("bench", "flights/s and re-solves/s at 1..N threads, and the "
+                                          "scheduler's overhead per task");
+  cmd->add_option("experiment", args.experiment,
+                  "experiment file (its planner and map), e.g. experiments/tiny.yaml")
+      ->required();
+  cmd->add_option("--set", args.set, "KEY=VALUE: change the experiment file's dotted KEY "
+                                     "(repeatable), e.g. --set planner.max_time=20");
   cmd->add_option("--max-threads", args.max_threads, "largest thread count")->capture_default_str();
   cmd->add_option("--flights", args.flights, "flights per thread count")->capture_default_str();
   cmd->add_option("--resolves", args.resolves, "re-solves per thread count")->capture_default_str();

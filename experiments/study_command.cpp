@@ -109,7 +109,7 @@ void RegisterStudy(CLI::App& app, int& exit_code) {
   cmd->add_flag("--overwrite", args.overwrite, "replace the study already in OUT")
       ->excludes("--resume");
   cmd->add_flag("--quiet", args.quiet, "no progress line");
-  cmd->add_flag("!--no-plot", args.plot, "skip the figures");
+  AddNoPlotFlag(*cmd, args.plot, "skip the figures");
   cmd->add_option("--set", args.set,
                   "KEY=VALUE: change the study file's dotted KEY, e.g. --set "
                   "override.budget.flights=10 --set validation.flights=2 (repeatable)");

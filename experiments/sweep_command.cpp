@@ -369,7 +369,7 @@ void RegisterSweep(CLI::App& app, int& exit_code) {
                   "planner.layout takes e.g. planner.layout.spacing and spacings as values)")
       ->capture_default_str();
   cmd->add_flag("--overwrite", args.overwrite, "write into a non-empty --out");
-  cmd->add_flag("!--no-plot", args.plot, "do not draw OUT/sweep.png");
+  AddNoPlotFlag(*cmd, args.plot, "do not draw OUT/sweep.png");
   cmd->add_flag("--quiet", args.quiet, "no progress line");
   cmd->callback([&exit_code] { exit_code = RunSweepCommand(args); });
 }

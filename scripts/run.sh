@@ -38,7 +38,7 @@ done
 "$quadtune" plot flights "${dirs[@]}" --out "$results"
 echo
 echo "Results in $results:"
-echo "  tuning/tuning.png           best-so-far f_l per method, f_l per flight, short-term evaluations"
+echo "  tuning/tuning.png           best-so-far f_l per method, f_l per flight, re-solves"
 echo "  tuning/tuning.md            final best f_l per method, the tuned parameters, held-out validation"
 echo "  tuning/validation.png       held-out validation: mean f_l (95% CI) per method and the defaults"
 echo "  tuning/report.html          browser report: convergence, importance, slices, 3-D flight replay"

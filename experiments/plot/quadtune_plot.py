@@ -2,14 +2,14 @@
 """Figures for quadtune outputs (matplotlib, Debian's python3 packages).
 
 Called by `quadtune plot`, or directly:
-    quadtune_plot.py flight DIR              top-down view of a flight: obstacles, flown and
+    quadtune_plot.py flight DIR [--out PNG]  top-down view of a flight: obstacles, flown and
                                              planned paths, speed over time
     quadtune_plot.py flights DIR... --out D  several flights (e.g. one per obstacle density):
                                              stacked top-down views, flight time against spacing,
                                              and a Markdown table
-    quadtune_plot.py run DIR                 a tuning run (DIR/results.sqlite from `quadtune run`):
+    quadtune_plot.py run DIR [--out D]       a tuning run (DIR/results.sqlite from `quadtune run`):
                                              best-so-far f_l per method, f_l per iteration, the
-                                             number of f_s evaluations, Markdown/CSV tables with
+                                             number of re-solves, Markdown/CSV tables with
                                              Mann–Whitney U tests between methods
     quadtune_plot.py study DIR               a study (`quadtune study`): validation and 90%-of-
                                              optimum table, sweep figure, refinement figures
@@ -56,7 +56,27 @@ def draw_obstacles(ax, obstacles, z_slice=None):
             ax.add_patch(Circle((px, py), r["thickness"] / 2, color="tab:brown", alpha=0.9, lw=0))
 
 
+def flight_turn_index(flight, summary):
+    """Index of the row where a go-and-return flight turns back (closest to the goal), or None
+    for a flight that ends nearer the goal than the start (a go-to flight)."""
+    goal, start = summary.get("goal"), summary.get("start")
+    if not goal or not start or not flight.get("x"):
+        return None
+    def dist(i, p):
+        return math.hypot(flight["x"][i] - p[0], flight["y"][i] - p[1])
+    last = len(flight["x"]) - 1
+    if dist(last, start) >= dist(last, goal):
+        return None
+    return min(range(len(flight["x"])), key=lambda i: dist(i, goal))
+
+
 def plot_flight(directory, out=None):
+    """A flight (`quadtune fly` output): top-down views of the outbound and the return leg (one
+    panel each; a go-to flight has one), with cylinders, rings, every planned trajectory of that
+    leg, the flown path and the reference; below, speed and height against time on their own
+    axes, the turn marked. The legend sits beside the panels."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
     with open(os.path.join(directory, "obstacles.json")) as f:
         obstacles = json.load(f)
     flight = read_csv(os.path.join(directory, "flight.csv"))
@@ -64,57 +84,94 @@ def plot_flight(directory, out=None):
     if os.path.exists(os.path.join(directory, "summary.json")):
         with open(os.path.join(directory, "summary.json")) as f:
             summary = json.load(f)
-
-    fig, (ax, axv) = plt.subplots(2, 1, figsize=(12, 7.5), gridspec_kw={"height_ratios": [2.2, 1]})
-    draw_obstacles(ax, obstacles)
+    plans = {}
     plans_path = os.path.join(directory, "plans.csv")
     if os.path.exists(plans_path):
         plans = read_csv(plans_path)
+    turn = flight_turn_index(flight, summary)
+    t_turn = flight["t"][turn] if turn is not None else None
+    n = len(flight["t"])
+    legs = [("outbound leg", 0, turn + 1), ("return leg", turn, n)] if turn is not None else \
+        [("flight", 0, n)]
+
+    fig = plt.figure(figsize=(13, 3.4 * len(legs) + 3.2))
+    grid = fig.add_gridspec(len(legs) + 1, 2, height_ratios=[1.25] * len(legs) + [1],
+                            hspace=0.45, wspace=0.22)
+    xs, ys = flight["x"], flight["y"]
+    pad = 1.5
+    xlim = (min(xs) - pad, max(xs) + pad)
+    ylim = (min(min(ys) - pad, -4), max(max(ys) + pad, 4))
+    top_axes = []
+    for k, (name, i0, i1) in enumerate(legs):
+        ax = fig.add_subplot(grid[k, :])
+        top_axes.append(ax)
+        draw_obstacles(ax, obstacles)
         if plans:
-            ids = plans["plan"]
+            ids, t0s = plans["plan"], plans["t0"]
             start = 0
             for i in range(1, len(ids) + 1):
                 if i == len(ids) or ids[i] != ids[start]:
-                    ax.plot(plans["x"][start:i], plans["y"][start:i], color="tab:orange", lw=0.8,
-                            alpha=0.6, label="planned" if start == 0 else None)
+                    on_leg = t_turn is None or ((t0s[start] < t_turn) == (k == 0))
+                    if on_leg:
+                        ax.plot(plans["x"][start:i], plans["y"][start:i], color="tab:orange",
+                                lw=0.7, alpha=0.55)
                     start = i
-    ax.plot(flight["x"], flight["y"], color="tab:blue", lw=1.6, label="flown")
-    if "ref_x" in flight:
-        ax.plot(flight["ref_x"], flight["ref_y"], color="k", lw=0.6, ls="--", alpha=0.6,
-                label="reference")
-    for key, marker, label in (("start", "o", "start"), ("goal", "*", "goal")):
-        if key in summary:
-            ax.plot(summary[key][0], summary[key][1], marker, ms=12, color="tab:green", label=label)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    title = "Flight, top-down"
+        if "ref_x" in flight:
+            ax.plot(flight["ref_x"][i0:i1], flight["ref_y"][i0:i1], color="k", lw=0.6, ls="--",
+                    alpha=0.6)
+        ax.plot(xs[i0:i1], ys[i0:i1], color="tab:blue", lw=1.7)
+        for key, marker in (("start", "o"), ("goal", "*")):
+            if key in summary:
+                ax.plot(summary[key][0], summary[key][1], marker, ms=11, color="tab:green",
+                        mec="k", mew=0.5)
+        ax.set_aspect("equal")
+        ax.set_xlim(*xlim)
+        ax.set_ylim(*ylim)
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        ax.set_title("({}) {}, top-down: t = {:.1f}–{:.1f} s".format(
+            "AB"[k], name, flight["t"][i0], flight["t"][i1 - 1]), loc="left", fontsize=10)
+    handles = [Patch(color="0.35", alpha=0.8, label="cylinder"),
+               Line2D([], [], color="tab:brown", lw=3, label="ring (footprint)"),
+               Line2D([], [], color="tab:orange", lw=0.8, label="planned trajectories"),
+               Line2D([], [], color="tab:blue", lw=1.7, label="flown path"),
+               Line2D([], [], color="k", lw=0.6, ls="--", label="reference"),
+               Line2D([], [], marker="o", ls="", color="tab:green", mec="k", label="start"),
+               Line2D([], [], marker="*", ls="", ms=10, color="tab:green", mec="k",
+                      label="goal")]
+    top_axes[0].legend(handles=handles, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+                       borderaxespad=0)
     if summary:
-        title += " — t_f = {:.2f} s, collisions {}, emergency stops {}".format(
+        fig.suptitle("t_f = {:.2f} s, collisions {}, emergency stops {}, rings {}".format(
             summary.get("flight_time", float("nan")), summary.get("collisions", "?"),
-            summary.get("emergency_stops", "?"))
-    ax.set_title(title)
-    ax.legend(loc="upper right", fontsize=8)
-    xs = flight["x"]
-    pad = 2.0
-    ax.set_xlim(min(xs) - pad, max(xs) + pad)
-    ys = flight["y"]
-    ax.set_ylim(min(min(ys) - pad, -4), max(max(ys) + pad, 4))
+            summary.get("emergency_stops", "?"), len(obstacles.get("rings", []))),
+            x=0.01, ha="left", fontsize=11)
 
-    speed = [math.sqrt(a * a + b * b + c * c) for a, b, c in zip(flight["vx"], flight["vy"], flight["vz"])]
-    axv.plot(flight["t"], speed, color="tab:blue", label="speed")
+    ax_v = fig.add_subplot(grid[len(legs), 0])
+    ax_h = fig.add_subplot(grid[len(legs), 1], sharex=ax_v)
+    speed = [math.sqrt(a * a + b * b + c * c)
+             for a, b, c in zip(flight["vx"], flight["vy"], flight["vz"])]
+    ax_v.plot(flight["t"], speed, color="tab:blue", lw=1.2, label="flown")
     if "ref_vx" in flight:
         ref_speed = [math.sqrt(a * a + b * b + c * c)
                      for a, b, c in zip(flight["ref_vx"], flight["ref_vy"], flight["ref_vz"])]
-        axv.plot(flight["t"], ref_speed, color="k", ls="--", lw=0.8, label="reference speed")
-    axv.plot(flight["t"], flight["z"], color="tab:green", lw=0.8, label="height z (m)")
-    axv.set_xlabel("t (s)")
-    axv.set_ylabel("m/s, m")
-    axv.grid(alpha=0.3)
-    axv.legend(loc="upper right", fontsize=8)
-    fig.tight_layout()
+        ax_v.plot(flight["t"], ref_speed, color="k", ls="--", lw=0.8, label="reference")
+    ax_h.plot(flight["t"], flight["z"], color="tab:blue", lw=1.2, label="flown")
+    if "ref_z" in flight:
+        ax_h.plot(flight["t"], flight["ref_z"], color="k", ls="--", lw=0.8, label="reference")
+    for ax, label, letter in ((ax_v, "speed (m/s)", "C"), (ax_h, "height z (m)", "D")):
+        if t_turn is not None:
+            ax.axvline(t_turn, color="0.4", lw=0.8, ls=":")
+            ax.text(t_turn, 1.0, " turn", transform=ax.get_xaxis_transform(), fontsize=8,
+                    va="top", color="0.3")
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel(label)
+        ax.set_title("({}) {}".format(letter, label.split(" (")[0]), loc="left", fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=2,
+                  frameon=False)
     out = out or os.path.join(directory, "flight_topdown.png")
-    fig.savefig(out, dpi=120)
+    fig.savefig(out, dpi=120, bbox_inches="tight")
     plt.close(fig)
     return out
 
@@ -203,24 +260,27 @@ def mean_std(values):
 
 
 def load_run(path):
-    """Per trial: method, repeat, the f_l sequence, the parameters of each flight, and the number
-    of f_s evaluations (re-solves: θ_s evaluations × queries_per_eval) before each flight."""
+    """Per trial: method, repeat, the f_l sequence, the parameters of each flight, whether each
+    flight failed (f_l at objective.failure_value), the number of re-solves (θ_s candidates ×
+    queries_per_eval) before each flight, and the f_s of each θ_s candidate."""
     con = sqlite3.connect("file:{}?mode=ro".format(path), uri=True)
     config = con.execute("SELECT config FROM experiment ORDER BY id LIMIT 1").fetchone()
     queries_per_eval = 1
+    failure_value = float("inf")
     if config:
         try:
             import yaml
-            queries_per_eval = int((yaml.safe_load(config[0]) or {}).get("budget", {}).get(
-                "queries_per_eval", 4))
-        except Exception:  # the figure still works, counting θ_s evaluations
+            doc = yaml.safe_load(config[0]) or {}
+            queries_per_eval = int(doc.get("budget", {}).get("queries_per_eval", 4))
+            failure_value = float(doc.get("objective", {}).get("failure_value", 1000.0))
+        except Exception:  # the figure still works, counting θ_s candidates
             queries_per_eval = 1
     trials = {}
     for tid, method, repeat, best_value, best_params in con.execute(
             "SELECT id, method, repeat, best_value, best_params FROM trial ORDER BY id"):
         trials[tid] = {"method": method, "repeat": repeat, "best_value": best_value,
                        "best_params": best_params, "long": [], "params": [], "short_before": [],
-                       "shorts": 0, "failed": 0}
+                       "long_failed": [], "short_values": [], "shorts": 0, "failed": 0}
     for tid, kind, value, status, params in con.execute(
             "SELECT trial_id, kind, value, status, params FROM evaluation "
             "ORDER BY trial_id, id"):
@@ -229,10 +289,12 @@ def load_run(path):
             continue
         if kind == "short":
             t["shorts"] += queries_per_eval
+            t["short_values"].append((t["shorts"], value))
         elif kind == "long":
             t["long"].append(value)
             t["params"].append(json.loads(params) if params else {})
             t["short_before"].append(t["shorts"])
+            t["long_failed"].append(status != "ok" or value >= failure_value)
             t["failed"] += status != "ok"
     con.close()
     return [t for t in trials.values() if t["long"]]
@@ -270,27 +332,45 @@ def final_value(t):
     return statistics.fmean(t["long"]) if t["method"] == "default" else min(t["long"])
 
 
-def plot_run(directory):
-    """Figures and tables of a tuning run, after the paper's benchmark figure: (A) best f_l so far
-    (mean over repeats; band min–max), (B) f_l of each flight (mean; band min–max), (C) the number
-    of f_s evaluations; a table of final values with Mann–Whitney U tests between methods."""
+def mean_ci95(values):
+    """Mean and the half-width of its 95% confidence interval (Student t; 0 for one value)."""
+    values = list(values)
+    m = statistics.fmean(values)
+    if len(values) < 2:
+        return m, 0.0
+    from scipy.stats import t as student_t
+    half = student_t.ppf(0.975, len(values) - 1) * statistics.stdev(values) / math.sqrt(len(values))
+    return m, half
+
+
+def _plain_log_ticks(axis):
+    """Log-axis ticks at 1, 2 and 5 per decade, written as plain numbers."""
+    from matplotlib.ticker import LogLocator, NullFormatter, ScalarFormatter
+    axis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    formatter = ScalarFormatter()
+    formatter.set_scientific(False)
+    axis.set_major_formatter(formatter)
+    axis.set_minor_formatter(NullFormatter())
+
+
+def plot_run(directory, out_dir=None):
+    """Figures and tables of a tuning run (tuning.png): (A) best f_l so far, one panel per method
+    (each repeat thin, the median thick, the defaults' mean dashed); (B) f_l of every flight, one
+    panel per method, completed flights as dots and failed ones (f_l = failure_value) counted in
+    a strip above; (C) BO+PSO's short-term search: best f_s so far against the re-solves run;
+    (D) final values ranked, mean with 95% CI and every repeat. A table of final values with
+    Mann–Whitney U tests between methods."""
     trials = load_run(os.path.join(directory, "results.sqlite"))
     methods = method_order(trials)
-    fig, (ax_a, ax_b, ax_c) = plt.subplots(1, 3, figsize=(17, 4.8))
-    inset = ax_a.inset_axes([0.5, 0.45, 0.46, 0.5])
+    tuned = [m for m in methods if m != "default"]
     rows = []
     finals = {}
+    mean_default = None
     for method in methods:
         runs = [t for t in trials if t["method"] == method]
-        c = COLORS.get(method)
-        label = LABELS.get(method, method)
         finals[method] = [final_value(t) for t in runs]
         if method == "default":
             mean_default = statistics.fmean(v for t in runs for v in t["long"])
-            for ax in (ax_a, ax_b, inset):
-                ax.axhline(mean_default, color=c, lw=1.5, ls="--",
-                           label=("Default (mean of {} flights)".format(
-                               sum(len(t["long"]) for t in runs)) if ax is not inset else None))
             rows.append(dict(method=method, repeats=len(runs), flights=len(runs[0]["long"]),
                              finals=finals[method], early10=mean_default, early25=mean_default,
                              k90=float("nan"), shorts=0.0, failed=sum(t["failed"] for t in runs),
@@ -298,23 +378,6 @@ def plot_run(directory):
             continue
         n = min(len(t["long"]) for t in runs)
         best = [best_so_far(t["long"][:n]) for t in runs]
-        xs = list(range(1, n + 1))
-        mean = [statistics.fmean(col) for col in zip(*best)]
-        lo = [min(col) for col in zip(*best)]
-        hi = [max(col) for col in zip(*best)]
-        for ax in (ax_a, inset):
-            ax.plot(xs, mean, color=c, lw=1.8, label=label if ax is ax_a else None)
-            if len(runs) > 1:
-                ax.fill_between(xs, lo, hi, color=c, alpha=0.12)
-        per = [list(col) for col in zip(*(t["long"][:n] for t in runs))]
-        ax_b.plot(xs, [statistics.fmean(col) for col in per], color=c, lw=1.2, label=label)
-        if len(runs) > 1:
-            ax_b.fill_between(xs, [min(col) for col in per], [max(col) for col in per], color=c,
-                              alpha=0.1)
-        if any(t["shorts"] for t in runs):
-            ax_c.plot(xs, [statistics.fmean(col) for col in
-                           zip(*(t["short_before"][:n] for t in runs))], color=c, lw=1.8,
-                      label=label)
         at = lambda k: statistics.fmean(b[min(k, n) - 1] for b in best)  # noqa: E731
         rows.append(dict(method=method, repeats=len(runs), flights=n, finals=finals[method],
                          early10=at(max(1, n // 10)), early25=at(max(1, n // 4)),
@@ -322,33 +385,132 @@ def plot_run(directory):
                          shorts=statistics.fmean(t["shorts"] for t in runs),
                          failed=sum(t["failed"] for t in runs),
                          params=min(runs, key=lambda t: t["best_value"])["best_params"]))
-    ax_a.set_title("(A) best f_l so far (mean; band: min–max over repeats)")
-    ax_a.set_xlabel("long-term evaluation (flight)")
-    ax_a.set_ylabel("f_l = t_f + t_f n_c + w_e n_e")
-    ax_a.set_yscale("log")
-    last = [r for r in rows if r["method"] != "default"]
-    if last:
-        n = max(r["flights"] for r in last)
-        inset.set_xlim(0.6 * n, n)
-        tail = [v for r in rows for v in r["finals"]]
-        lo, hi = min(tail), max(tail)
-        inset.set_ylim(lo - 0.05 * (hi - lo + 1), hi + 0.05 * (hi - lo + 1))
-        inset.set_title("final convergence", fontsize=8)
-        inset.tick_params(labelsize=7)
-        inset.grid(alpha=0.3)
-    ax_b.set_title("(B) f_l of each flight (mean; band: min–max)")
-    ax_b.set_xlabel("long-term evaluation (flight)")
-    ax_b.set_yscale("log")
-    ax_c.set_title("(C) f_s evaluations (re-solves) before each flight")
-    ax_c.set_xlabel("long-term evaluation (flight)")
-    ax_c.set_ylabel("f_s evaluations (cumulative)")
-    for ax in (ax_a, ax_b, ax_c):
+
+    from matplotlib.gridspec import GridSpec
+    from matplotlib.lines import Line2D
+    cols = max(2, len(tuned))
+    fig = plt.figure(figsize=(3.4 * cols + 1.0, 10.5))
+    grid = GridSpec(3, cols, figure=fig, height_ratios=[1, 1, 1.05], hspace=0.55, wspace=0.08)
+    completed = [v for t in trials if t["method"] != "default"
+                 for v, bad in zip(t["long"], t["long_failed"]) if not bad]
+    # (A) convergence: the y range of the trials' final quarter and the defaults, so that the
+    # first flights' large values do not flatten the part that matters.
+    finals_all = [v for m in tuned for v in finals[m]]
+    a_lo = min(finals_all + ([mean_default] if mean_default else [])) if finals_all else 0.0
+    a_hi = max([mean_default or 0.0] + finals_all)
+    a_pad = 0.25 * (a_hi - a_lo + 1e-9)
+    axes_a = []
+    for i, method in enumerate(tuned):
+        ax = fig.add_subplot(grid[0, i], sharey=axes_a[0] if axes_a else None)
+        axes_a.append(ax)
+        runs = [t for t in trials if t["method"] == method]
+        n = min(len(t["long"]) for t in runs)
+        xs = list(range(1, n + 1))
+        best = [best_so_far(t["long"][:n]) for t in runs]
+        c = COLORS.get(method, "0.3")
+        for b in best:
+            ax.plot(xs, b, color=c, lw=0.7, alpha=0.45)
+        ax.plot(xs, [statistics.median(col) for col in zip(*best)], color=c, lw=2.2)
+        if mean_default is not None:
+            ax.axhline(mean_default, color=COLORS["default"], lw=1.2, ls="--")
+        ax.set_title("{} ({} repeats)".format(LABELS.get(method, method), len(runs)), fontsize=10)
+        ax.set_xlabel("flight")
         ax.grid(alpha=0.3)
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=8, loc="upper left" if ax is ax_c else "lower left")
-    fig.tight_layout()
-    figure = os.path.join(directory, "tuning.png")
-    fig.savefig(figure, dpi=120)
+        if i == 0:
+            ax.set_ylabel("best f_l so far (s)")
+        else:
+            ax.tick_params(labelleft=False)
+    if axes_a:
+        axes_a[0].set_ylim(a_lo - a_pad, a_hi + 2 * a_pad)
+        handles = [Line2D([], [], color="0.3", lw=0.7, alpha=0.6, label="one repeat"),
+                   Line2D([], [], color="0.3", lw=2.2, label="median over repeats")]
+        if mean_default is not None:
+            handles.append(Line2D([], [], color=COLORS["default"], ls="--",
+                                  label="Default (mean f_l)"))
+        axes_a[-1].legend(handles=handles, fontsize=7, loc="upper right")
+        axes_a[0].annotate("(A) convergence; early values above the panel are clipped",
+                           xy=(0, 1.18), xycoords="axes fraction", fontsize=11, weight="bold")
+    # (B) every flight: completed ones as dots on a log axis (they span a decade and more);
+    # failures (f_l = failure_value) as ticks in the strip at the top, counted in the title.
+    axes_b = []
+    b_lo = min(completed) if completed else 1.0
+    b_hi = max(completed) if completed else 10.0
+    for i, method in enumerate(tuned):
+        ax = fig.add_subplot(grid[1, i], sharey=axes_b[0] if axes_b else None)
+        axes_b.append(ax)
+        runs = [t for t in trials if t["method"] == method]
+        c = COLORS.get(method, "0.3")
+        ok_x, ok_y, bad_x = [], [], []
+        for t in runs:
+            for k, (v, bad) in enumerate(zip(t["long"], t["long_failed"]), start=1):
+                (bad_x if bad else ok_x).append(k)
+                if not bad:
+                    ok_y.append(v)
+        ax.scatter(ok_x, ok_y, s=6, color=c, alpha=0.45, lw=0)
+        top = b_hi * 1.6
+        ax.scatter(bad_x, [top] * len(bad_x), marker="|", s=60, color="k", lw=0.8)
+        ax.axhline(b_hi * 1.25, color="0.6", lw=0.6)
+        if mean_default is not None:
+            ax.axhline(mean_default, color=COLORS["default"], lw=1.2, ls="--")
+        n_flights = sum(len(t["long"]) for t in runs)
+        ax.set_title("{}: {} of {} flights failed".format(LABELS.get(method, method),
+                                                          len(bad_x), n_flights), fontsize=9)
+        ax.set_yscale("log")
+        ax.set_xlabel("flight")
+        ax.grid(alpha=0.3, which="both")
+        if i == 0:
+            ax.set_ylabel("f_l of the flight (s)")
+        else:
+            ax.tick_params(labelleft=False)
+    if axes_b:
+        axes_b[0].set_ylim(b_lo / 1.15, b_hi * 2.0)
+        _plain_log_ticks(axes_b[0].yaxis)
+        axes_b[0].text(0.01, 0.97, "failed", transform=axes_b[0].transAxes, fontsize=7,
+                       va="top", color="k")
+        axes_b[0].annotate("(B) f_l of every flight; failed flights (f_l = failure value) as "
+                           "ticks in the top strip", xy=(0, 1.18), xycoords="axes fraction",
+                           fontsize=11, weight="bold")
+    # (C) the short-term search of BO+PSO: best f_s so far against the re-solves it took.
+    bottom = grid[2, :].subgridspec(1, 2, wspace=0.3)
+    ax_c = fig.add_subplot(bottom[0, 0])
+    shorts = [t for t in trials if t["short_values"]]
+    for t in shorts:
+        xs = [r for r, _ in t["short_values"]]
+        ax_c.plot(xs, best_so_far(v for _, v in t["short_values"]),
+                  color=COLORS.get(t["method"], "0.3"), lw=1.0, alpha=0.7)
+    if shorts:
+        ax_c.set_xscale("log")  # most of the search's progress is in its first re-solves
+        ax_c.set_yscale("log")
+        _plain_log_ticks(ax_c.yaxis)
+        ax_c.set_title("(C) BO+PSO: best f_s so far, one line per repeat", loc="left",
+                       fontsize=11, weight="bold")
+    else:
+        ax_c.text(0.5, 0.5, "no θ_s candidates in this run", ha="center", va="center",
+                  transform=ax_c.transAxes)
+        ax_c.set_title("(C) short-term search", loc="left", fontsize=11, weight="bold")
+    ax_c.set_xlabel("re-solves (θ_s candidates × queries each)")
+    ax_c.set_ylabel("best f_s so far (objective units)")
+    ax_c.grid(alpha=0.3, which="both")
+    # (D) final values, ranked: every repeat, and the mean with its 95% CI.
+    ax_d = fig.add_subplot(bottom[0, 1])
+    ranked = sorted(methods, key=lambda m: statistics.fmean(finals[m]), reverse=True)
+    for y, method in enumerate(ranked):
+        c = COLORS.get(method, "0.3")
+        m, ci = mean_ci95(finals[method])
+        ax_d.scatter(finals[method], [y + 0.18] * len(finals[method]), s=12, color=c, alpha=0.5,
+                     lw=0)
+        ax_d.errorbar(m, y, xerr=ci, fmt="o", color=c, capsize=4, ms=7)
+    ax_d.set_yticks(range(len(ranked)))
+    ax_d.set_yticklabels([LABELS.get(m, m) for m in ranked])
+    ax_d.set_ylim(-0.6, len(ranked) - 0.4)
+    ax_d.set_xlabel("final f_l (s): best of the trial; Default: mean of its flights")
+    ax_d.set_title("(D) final values: mean ± 95% CI, dots: repeats", loc="left", fontsize=11,
+                   weight="bold")
+    ax_d.grid(alpha=0.3, axis="x")
+    out_dir = out_dir or directory
+    os.makedirs(out_dir, exist_ok=True)
+    figure = os.path.join(out_dir, "tuning.png")
+    fig.savefig(figure, dpi=120, bbox_inches="tight")
     plt.close(fig)
 
     try:
@@ -362,18 +524,18 @@ def plot_run(directory):
         return float(mannwhitneyu(a, b, alternative="two-sided").pvalue)
 
     reference = "bo_pso" if "bo_pso" in finals else None
-    table = os.path.join(directory, "tuning.md")
-    csv_path = os.path.join(directory, "tuning.csv")
+    table = os.path.join(out_dir, "tuning.md")
+    csv_path = os.path.join(out_dir, "tuning.csv")
     with open(table, "w") as f, open(csv_path, "w", newline="") as fc:
         w = csv.writer(fc)
         w.writerow(["method", "repeats", "flights", "final_mean", "final_std", "final_min",
-                     "best_at_10pct", "best_at_25pct", "flights_to_90pct", "fs_evaluations",
+                     "best_at_10pct", "best_at_25pct", "flights_to_90pct", "resolves",
                      "failed", "p_vs_default", "p_vs_bo_pso", "best_params"])
         f.write("Final value: best f_l of the trial (Default: mean f_l of its flights). Early "
                 "columns: mean best f_l after 10% and 25% of the flights. p: two-sided "
                 "Mann–Whitney U test of the final values over repeats.\n\n")
         f.write("| method | repeats | flights | final f_l (mean ± std) | min | after 10% | "
-                "after 25% | flights to 90% of optimum | f_s evaluations | failed | "
+                "after 25% | flights to 90% of optimum | re-solves | failed | "
                 "p vs Default | p vs BO+PSO | best parameters |\n")
         f.write("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
         for r in rows:
@@ -392,10 +554,10 @@ def plot_run(directory):
             w.writerow([r["method"], r["repeats"], r["flights"], m, s, min(r["finals"]),
                         r["early10"], r["early25"], r["k90"], r["shorts"], r["failed"], pd_, pb,
                         r["params"]])
-    return [figure, table, csv_path] + plot_validation(directory)
+    return [figure, table, csv_path] + plot_validation(directory, out_dir)
 
 
-def plot_validation(directory):
+def plot_validation(directory, out_dir=None):
     """The held-out validation of a run (kind 'validation' rows): a table appended to
     tuning.md, validation.csv, and validation.png: (A) mean f_l with its 95% CI per method on the
     held-out maps, ranked; (B) n_d, the count of θ_s changes the BO discount has seen, against
@@ -417,9 +579,10 @@ def plot_validation(directory):
     space = qv.space_of(config[0]) if config else []
     rows = qv.summarise(flights, space)
     maps = len({f["map"] for f in flights})
-    with open(os.path.join(directory, "tuning.md"), "a") as f:
+    out_dir = out_dir or directory
+    with open(os.path.join(out_dir, "tuning.md"), "a") as f:
         f.write("\n" + qv.markdown(rows, maps))
-    csv_path = os.path.join(directory, "validation.csv")
+    csv_path = os.path.join(out_dir, "validation.csv")
     with open(csv_path, "w", newline="") as fc:
         w = csv.writer(fc)
         w.writerow(qv.CSV_FIELDS)
@@ -451,7 +614,7 @@ def plot_validation(directory):
     ax_b.set_title("(B) BO+PSO: discount count n_d per trial")
     ax_b.grid(alpha=0.3)
     fig.tight_layout()
-    figure = os.path.join(directory, "validation.png")
+    figure = os.path.join(out_dir, "validation.png")
     fig.savefig(figure, dpi=120)
     plt.close(fig)
     return [figure, csv_path]
@@ -499,7 +662,7 @@ def study_validation_tables(directory, study, validation):
 
 def plot_study(directory):
     """Tables and figures of a study (`quadtune study`): per point the validation flights of the
-    tuned parameters against the defaults and the evaluations needed to reach 90% of the optimum
+    tuned parameters against the defaults and the flights needed to reach 90% of the optimum
     (the paper's density table); with stages, the refinement figure (normalised parameters and
     f_l over the flights of every stage, and the validation of each stage's result)."""
     with open(os.path.join(directory, "study.json")) as f:
@@ -541,16 +704,16 @@ def plot_study(directory):
         w.writerow([key, "method", "validation_flights", "flight_time_mean", "flight_time_std",
                     "f_l_mean", "max_emergency_stops", "collisions", "completed",
                     "default_flight_time_mean", "default_flight_time_std", "default_f_l_mean",
-                    "short_evals_to_90pct_mean", "short_evals_to_90pct_std",
-                    "long_evals_to_90pct_mean", "long_evals_to_90pct_std"])
+                    "resolves_to_90pct_mean", "resolves_to_90pct_std",
+                    "flights_to_90pct_mean", "flights_to_90pct_std"])
         f.write("Validation: {} held-out maps (no trial flew them) per tuned trial, flown with the "
                 "recommended point of each trial and with the defaults on the same maps. 90% of "
                 "optimum: first flight whose best f_l so far is within f*/0.9 of the trial's "
-                "final best f*; short-term count = f_s evaluations (re-solves) before it.\n\n"
+                "final best f*; re-solves: the planning queries re-solved before it.\n\n"
                 .format(study.get("validation_flights")))
         f.write("| {} | method | flight time (s) | f_l | max emergency stops | collisions | "
                 "completed | defaults: flight time (s) | defaults: f_l | 90% optimum: "
-                "short-term | 90% optimum: long-term |\n".format(key))
+                "re-solves | 90% optimum: flights |\n".format(key))
         f.write("|---|---|---|---|---|---|---|---|---|---|---|\n")
         for r in rows:
             f.write("| {} | {} | {:.2f} ± {:.2f} | {:.2f} | {} | {} | {} | {:.2f} ± {:.2f} | "
@@ -575,18 +738,15 @@ def plot_study(directory):
         ax_a.errorbar(xs, [r["default"][0] for r in rows], yerr=[r["default"][1] for r in rows],
                       fmt="s--", color="tab:green", capsize=4, label="defaults")
         ax_a.set_title("(A) validation flight time (mean ± std)")
+        ax_a.set_ylim(bottom=0)
         ax_a.set_ylabel("flight time t_f (s)")
         ax_b.errorbar(xs, [r["k90"][0] for r in rows], yerr=[r["k90"][1] for r in rows],
-                      fmt="o-", color="tab:blue", capsize=4, label="long-term (flights)")
-        ax_b.set_ylabel("long-term evaluations to 90% of optimum")
-        ax_b2 = ax_b.twinx()
-        ax_b2.errorbar(xs, [r["s90"][0] for r in rows], yerr=[r["s90"][1] for r in rows],
-                       fmt="s--", color="tab:orange", capsize=4, label="short-term (re-solves)")
-        ax_b2.set_ylabel("short-term evaluations to 90% of optimum")
-        ax_b.set_title("(B) evaluations to reach 90% of the optimum")
-        h1, l1 = ax_b.get_legend_handles_labels()
-        h2, l2 = ax_b2.get_legend_handles_labels()
-        ax_b.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper left")
+                      fmt="o-", color="tab:blue", capsize=4)
+        ax_b.set_ylabel("flights to 90% of the optimum")
+        ax_b.set_ylim(bottom=0)
+        # The re-solves before that flight follow the flights (a fixed number per flight): they
+        # are in study.md, not drawn again here.
+        ax_b.set_title("(B) flights to reach 90% of the optimum (mean ± std)")
         for ax in (ax_a, ax_b):
             ax.set_xticks(xs)
             ax.set_xticklabels(labels)
@@ -602,100 +762,222 @@ def plot_study(directory):
     for p, point in enumerate(study["points"]):
         if len(point["stages"]) < 2:
             continue
-        fig, (ax_a, ax_b, ax_c) = plt.subplots(1, 3, figsize=(17, 4.6))
-        offset = 0
-        space = point["stages"][-1]["space"]
-        names = [s["name"] for s in space]
-        cmap = plt.get_cmap("tab10")
-        for k, stage in enumerate(point["stages"]):
-            trials = [t for t in load_run(os.path.join(directory, stage["store"]))
-                      if t["method"] != "default"]
-            if not trials:
-                continue
-            t = min(trials, key=lambda t: t["best_value"])
-            xs = [offset + i + 1 for i in range(len(t["long"]))]
-            for j, prm in enumerate(space):
-                lo, hi = prm["lower"], prm["upper"]
-                vals = []
-                for params in t["params"]:
-                    x = params.get(prm["name"], float("nan"))
-                    if prm.get("log"):
-                        x, lo_, hi_ = math.log(x), math.log(lo), math.log(hi)
-                    else:
-                        lo_, hi_ = lo, hi
-                    vals.append((x - lo_) / (hi_ - lo_) if hi_ > lo_ else 0.5)
-                ax_a.plot(xs, vals, ".-", color=cmap(j), lw=0.8, ms=3,
-                          label=prm["name"] if k == 0 else None)
-            ax_b.plot(xs, t["long"], ".", color=cmap(k), label="{} f_l".format(stage["name"]))
-            ax_b.plot(xs, best_so_far(t["long"]), "-", color=cmap(k))
-            if k > 0:
-                for ax in (ax_a, ax_b):
-                    ax.axvline(offset + 0.5, color="k", lw=1, ls=":")
-            offset += len(t["long"])
-        ax_a.set_title("(A) normalised parameters per flight (stage boundary dotted)")
-        ax_a.set_xlabel("flight")
-        ax_a.set_ylim(-0.05, 1.05)
-        ax_a.legend(fontsize=7, ncol=3)
-        ax_b.set_title("(B) f_l per flight and best so far")
-        ax_b.set_xlabel("flight")
-        ax_b.set_yscale("log")
-        ax_b.legend(fontsize=8)
-        v = [r for r in validation if int(r["point"]) == p]
-        groups = [("defaults", [r for r in v if r["method"] == "default"])]
-        for stage in point["stages"]:
-            groups.append(("{} best".format(stage["name"]),
-                           [r for r in v if r["source_stage"] == stage["name"]]))
-        groups = [(name, g) for name, g in groups if g]
-        # Mean, with the range of the flights as the bar (f_l of a failed flight is far above
-        # the others: a ± std bar would reach below zero) and every flight as a dot.
-        values = [[float(r["f_l"]) for r in g] for _, g in groups]
-        means = [sum(x) / len(x) for x in values]
-        ax_c.bar(range(len(groups)), means,
-                 yerr=[[m - min(x) for m, x in zip(means, values)],
-                       [max(x) - m for m, x in zip(means, values)]],
-                 capsize=4, color=[cmap(i) for i in range(len(groups))], alpha=0.8)
-        for i, x in enumerate(values):
-            ax_c.plot([i] * len(x), x, "k.", ms=4)
-        ax_c.set_xticks(range(len(groups)))
-        ax_c.set_xticklabels([name for name, _ in groups], rotation=15, fontsize=8)
-        ax_c.set_ylabel("f_l (mean; bar: min–max; dots: flights)")
-        if min(min(x) for x in values) > 0:
-            ax_c.set_yscale("log")  # one failed flight (f_l ≈ failure value) beside ≈ 20-40
-        ax_c.set_title("(C) validation flights in the {} world".format(point["stages"][-1]["name"]))
-        for ax in (ax_a, ax_b, ax_c):
-            ax.grid(alpha=0.3)
-        fig.suptitle("{} — {}".format(study["name"], point["label"]))
-        fig.tight_layout()
-        figure = os.path.join(directory, "refinement_{}.png".format(
-            "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in point["label"])))
-        fig.savefig(figure, dpi=120)
-        plt.close(fig)
+        figure = plot_refinement(directory, study, p, validation)
         outputs.append(figure)
     return outputs
 
 
+def _stage_config(store):
+    """The experiment file stored with a run (YAML text parsed), {} when unreadable."""
+    try:
+        import yaml
+        con = sqlite3.connect("file:{}?mode=ro".format(store), uri=True)
+        row = con.execute("SELECT config FROM experiment ORDER BY id LIMIT 1").fetchone()
+        con.close()
+        return (yaml.safe_load(row[0]) or {}) if row else {}
+    except Exception:
+        return {}
+
+
+def _unit(prm, x):
+    """A parameter value on the figure's normalised scale: 0 at its lower bound, 1 at its upper,
+    log-scaled for log parameters."""
+    lo, hi = prm["lower"], prm["upper"]
+    if prm.get("log"):
+        x, lo, hi = math.log(x), math.log(lo), math.log(hi)
+    return (x - lo) / (hi - lo) if hi > lo else 0.5
+
+
+def _bo_unit(prm, x):
+    """A parameter value in BO's unit coordinates: as _unit, but an integer parameter's unit
+    interval spans half a cell beyond its bounds."""
+    if prm.get("type") == "integer":
+        lo, hi = prm["lower"], prm["upper"]
+        return (x - lo + 0.5) / (hi - lo + 1.0)
+    return _unit(prm, x)
+
+
+def _bo_unit_to_plot(prm, u):
+    """BO's unit coordinate on the figure's normalised scale (see _bo_unit)."""
+    if prm.get("type") == "integer":
+        lo, hi = prm["lower"], prm["upper"]
+        x = lo - 0.5 + u * (hi - lo + 1.0)
+        return min(1.0, max(0.0, (x - lo) / (hi - lo))) if hi > lo else 0.5
+    return u
+
+
+def moving_bounds(trial, space, config, start):
+    """The damped moving bounds of BO (paper Sec. III-E) per flight of `trial`, per parameter, on
+    the figure's normalised scale: before flight i, the bounds current when it was asked.
+    Rebuilt from the stored flights: lo ← λ lo + (1 − λ)(θ* − r), hi likewise with + r, after each
+    told flight, θ* the best flight so far (BO's incumbent is its posterior-mean best; the best
+    observed flight stands in for it). None when the stage did not move its bounds."""
+    mb = (config.get("bo") or {}).get("moving_bounds") or {}
+    if not mb or not mb.get("enabled", True):
+        return None
+    lam, r = float(mb.get("damping", 0.8)), float(mb.get("half_width", 0.1))
+    integer = {q["name"] for q in config.get("parameters", []) if q.get("type") == "integer"}
+    space = [dict(prm, type="integer") if prm["name"] in integer else prm for prm in space]
+    names = [prm["name"] for prm in space]
+    if start:
+        lo = [max(0.0, _bo_unit(prm, start[prm["name"]]) - r) for prm in space]
+        hi = [min(1.0, _bo_unit(prm, start[prm["name"]]) + r) for prm in space]
+    else:
+        lo, hi = [0.0] * len(names), [1.0] * len(names)
+    bounds = []
+    best, best_value = None, float("inf")
+    for params, value in zip(trial["params"], trial["long"]):
+        bounds.append((list(lo), list(hi)))
+        if value < best_value:
+            best, best_value = params, value
+        u = [_bo_unit(prm, best.get(prm["name"], prm["lower"])) for prm in space]
+        lo = [min(1.0, max(0.0, lam * a + (1 - lam) * (b - r))) for a, b in zip(lo, u)]
+        hi = [min(1.0, max(0.0, lam * a + (1 - lam) * (b + r))) for a, b in zip(hi, u)]
+    return [([_bo_unit_to_plot(prm, x) for prm, x in zip(space, b[0])],
+             [_bo_unit_to_plot(prm, x) for prm, x in zip(space, b[1])]) for b in bounds]
+
+
+def plot_refinement(directory, study, p, validation):
+    """The refinement figure of study point `p`: (A) each tuned parameter per flight over the
+    stages, with the moving bounds of a stage that uses them; (B) f_l per flight and the best so
+    far; (C) the validation flights of the defaults and of each stage's result."""
+    point = study["points"][p]
+    space = point["stages"][-1]["space"]
+    cmap = plt.get_cmap("tab10")
+    fig = plt.figure(figsize=(2.6 * len(space) + 1.0, 8.6))
+    grid = fig.add_gridspec(2, 1, height_ratios=[1, 1.15], hspace=0.45)
+    top = grid[0].subgridspec(1, len(space), wspace=0.12)
+    bottom = grid[1].subgridspec(1, 2, wspace=0.28, width_ratios=[1.5, 1])
+    axes_a = [fig.add_subplot(top[0, j]) for j in range(len(space))]
+    ax_b = fig.add_subplot(bottom[0, 0])
+    ax_c = fig.add_subplot(bottom[0, 1])
+    offset = 0
+    boundaries = []
+    banded = set()
+    for k, stage in enumerate(point["stages"]):
+        store = os.path.join(directory, stage["store"])
+        trials = [t for t in load_run(store) if t["method"] != "default"]
+        if not trials:
+            continue
+        t = min(trials, key=lambda t: t["best_value"])
+        xs = [offset + i + 1 for i in range(len(t["long"]))]
+        bounds = moving_bounds(t, space, _stage_config(store), stage.get("start"))
+        for j, prm in enumerate(space):
+            ax = axes_a[j]
+            vals = [_unit(prm, params.get(prm["name"], float("nan"))) for params in t["params"]]
+            if bounds:
+                banded.add(k)
+                ax.fill_between(xs, [b[0][j] for b in bounds], [b[1][j] for b in bounds],
+                                step="mid",
+                                color=cmap(k), alpha=0.2, lw=0)
+            ax.plot(xs, vals, ".", color=cmap(k), ms=4)
+        ax_b.plot(xs, t["long"], ".", color=cmap(k), ms=5)
+        ax_b.plot(xs, best_so_far(t["long"]), "-", color=cmap(k),
+                  label="{}: f_l per flight (dots), best so far (line)".format(stage["name"]))
+        if k > 0:
+            boundaries.append(offset + 0.5)
+        offset += len(t["long"])
+    for j, prm in enumerate(space):
+        ax = axes_a[j]
+        ax.set_ylim(-0.05, 1.05)
+        ax.set_title(prm["name"], fontsize=10)
+        ax.set_xlabel("flight")
+        ax.set_yticks([0, 0.5, 1])
+        if j == 0:
+            ax.set_ylabel("value, 0 = lower bound, 1 = upper\n(log scale for log parameters)")
+        else:
+            ax.set_yticklabels([])
+        ax.set_xticks([x for x in ax.get_xticks() if 0 < x <= offset])
+        ax.set_xlim(0, offset + 1)
+        ax.grid(alpha=0.3)
+    for ax in axes_a + [ax_b]:
+        for x in boundaries:
+            ax.axvline(x, color="k", lw=1, ls=":")
+    from matplotlib.patches import Patch
+    handles = [Patch(color=cmap(k), alpha=0.6 if k in banded else 1.0,
+                     label=s_["name"] + (" (band: moving bounds)" if k in banded else ""))
+               for k, s_ in enumerate(point["stages"])]
+    axes_a[-1].legend(handles=handles, fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0),
+                      borderaxespad=0)
+    axes_a[0].annotate("(A) tuned parameters per flight; dotted: next stage; band: BO's "
+                       "damped moving bounds", xy=(0, 1.2), xycoords="axes fraction",
+                       fontsize=11, weight="bold")
+    ax_b.set_title("(B) f_l per flight and best so far", loc="left", fontsize=11,
+                   weight="bold")
+    ax_b.set_xlabel("flight (stages in order)")
+    ax_b.set_ylabel("f_l (s)")
+    ax_b.set_yscale("log")  # a failed flight (f_l = failure value) beside values of 20-40 s
+    _plain_log_ticks(ax_b.yaxis)
+    ax_b.legend(fontsize=8, loc="upper right")
+    ax_b.grid(alpha=0.3, which="both")
+    v = [r for r in validation if int(r["point"]) == p]
+    groups = [("defaults", [r for r in v if r["method"] == "default"])]
+    for stage in point["stages"]:
+        groups.append(("{} result".format(stage["name"]),
+                       [r for r in v if r["source_stage"] == stage["name"]]))
+    groups = [(name, g) for name, g in groups if g]
+    # Every flight as a dot, the median as a bar across (a failed flight's f_l is far above the
+    # others, so the median, not the mean, marks the middle).
+    for i, (name, g) in enumerate(groups):
+        values = sorted(float(r["f_l"]) for r in g)
+        jitter = [i + 0.25 * ((k % 7) / 6.0 - 0.5) for k in range(len(values))]
+        ax_c.plot(jitter, values, ".", color=cmap(i), ms=6, alpha=0.7)
+        med = statistics.median(values)
+        ax_c.plot([i - 0.3, i + 0.3], [med, med], color="k", lw=2)
+    ax_c.set_xticks(range(len(groups)))
+    ax_c.set_xticklabels([name for name, _ in groups], rotation=15, fontsize=8)
+    ax_c.set_xlim(-0.6, len(groups) - 0.4)
+    ax_c.set_ylabel("f_l of the validation flight (s)")
+    if groups and min(float(r["f_l"]) for _, g in groups for r in g) > 0:
+        ax_c.set_yscale("log")
+        _plain_log_ticks(ax_c.yaxis)
+    ax_c.set_title("(C) validation in the {} world;\nbar: median".format(
+        point["stages"][-1]["name"]), loc="left", fontsize=11, weight="bold")
+    ax_c.grid(alpha=0.3, axis="y", which="both")
+    fig.suptitle("{} — {}".format(study["name"], point["label"]), x=0.01, ha="left")
+    figure = os.path.join(directory, "refinement_{}.png".format(
+        "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in point["label"])))
+    fig.savefig(figure, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    return figure
+
+
 def plot_bench(csv_path, out=None):
-    """Thread scaling (`quadtune bench --csv`): flights/s and short-term evaluations/s against the
-    thread count, with parallel efficiency."""
+    """Thread scaling (`quadtune bench --csv`): (A) flights/s and re-solves/s as speed-up over
+    one thread, each point labelled with its measured rate; (B) parallel efficiency. Ticks sit
+    at the thread counts measured."""
+    from matplotlib.ticker import FixedLocator, MaxNLocator, PercentFormatter
     rows = read_rows(csv_path)
     threads = [int(r["threads"]) for r in rows]
     fig, (ax_a, ax_b) = plt.subplots(1, 2, figsize=(11, 4))
-    for key, label, color in (("flights_per_s", "flights/s", "tab:blue"),
-                              ("resolves_per_s", "short-term evaluations/s", "tab:orange")):
+    for key, label, unit, color in (("flights_per_s", "flights", "flights/s", "tab:blue"),
+                                    ("resolves_per_s", "re-solves", "re-solves/s",
+                                     "tab:orange")):
         vals = [float(r[key]) for r in rows]
-        ax_a.plot(threads, [v / vals[0] for v in vals], "o-", color=color, label=label)
-        ax_b.plot(threads, [v / vals[0] / t for v, t in zip(vals, threads)], "o-", color=color,
-                  label=label)
-    ax_a.plot(threads, threads, "k:", label="ideal")
-    ax_a.set_title("(A) speed-up over 1 thread")
-    ax_a.set_ylabel("speed-up")
-    ax_b.set_title("(B) parallel efficiency")
-    ax_b.set_ylim(0, 1.1)
+        speedup = [v / vals[0] for v in vals]
+        ax_a.plot(threads, speedup, "o-", color=color, label=label)
+        for t, s_, v in zip(threads, speedup, vals):
+            ax_a.annotate("{:.3g} {}".format(v, unit), (t, s_), textcoords="offset points",
+                          xytext=(6, -12 if key == "flights_per_s" else 6), fontsize=7,
+                          color=color)
+        ax_b.plot(threads, [100.0 * v / vals[0] / t for v, t in zip(vals, threads)], "o-",
+                  color=color, label=label)
+    ax_a.plot(threads, threads, "k:", label="ideal (= threads)")
+    ax_a.set_title("(A) speed-up over 1 thread", loc="left")
+    ax_a.set_ylabel("speed-up (× one thread)")
+    ax_a.yaxis.set_major_locator(MaxNLocator(integer=True, nbins=6))
+    ax_a.set_ylim(0, max(threads) * 1.15)
+    ax_b.set_title("(B) parallel efficiency", loc="left")
+    ax_b.set_ylabel("efficiency (speed-up / threads)")
+    ax_b.set_ylim(0, 110)
+    ax_b.yaxis.set_major_formatter(PercentFormatter())
     cores = rows[0].get("cores")
     for ax in (ax_a, ax_b):
-        ax.set_xlabel("threads" + (" ({} cores)".format(cores) if cores else ""))
+        ax.xaxis.set_major_locator(FixedLocator(threads))
+        ax.set_xlim(min(threads) - 0.5, max(threads) + 0.5)
+        ax.set_xlabel("worker threads" + (" (machine: {} cores)".format(cores) if cores else ""))
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, loc="lower left")
     fig.tight_layout()
     out = out or os.path.splitext(csv_path)[0] + ".png"
     fig.savefig(out, dpi=120)
@@ -754,6 +1036,7 @@ def main(argv):
     p.add_argument("--out", required=True)
     p = sub.add_parser("run", help="figures and table of a tuning run directory")
     p.add_argument("directory")
+    p.add_argument("--out", default=None, help="output folder (default: the run directory)")
     p = sub.add_parser("study", help="figures and tables of a study directory")
     p.add_argument("directory")
     p = sub.add_parser("bench", help="thread-scaling figure of a `quadtune bench --csv` file")
@@ -778,7 +1061,7 @@ def main(argv):
         print(plot_adapt(args.directory))
         return 0
     if args.what == "run":
-        for path in plot_run(args.directory):
+        for path in plot_run(args.directory, args.out):
             print(path)
     elif args.what == "study":
         for path in plot_study(args.directory):

@@ -196,5 +196,32 @@ TEST(AdaptCli, BadKeyStopsBeforeAnyWorkNamingFileAndKey) {
   EXPECT_FALSE(fs::exists(dir / "out"));
 }
 
+// --set edits the adaptation file (a third flight from one more baseline); --threads flies the
+// flights at once, and each flight is the same as when they fly one after another.
+TEST(AdaptCli, SetAddsABaselineAndThreadsKeepEveryFlight) {
+  const fs::path dir = test::FreshTempDir("quadtune_adapt_threads");
+  const std::string common = "--log-level warn adapt '" + kSmall + "' --seed 3 --no-plot " +
+                             "--set 'baselines=[2.0, 3.0]' --out '";
+  ASSERT_EQ(test::RunQuadtune(common + (dir / "one").string() + "' --threads 1",
+                              dir / "one.log"),
+            0)
+      << test::ReadText(dir / "one.log");
+  ASSERT_EQ(test::RunQuadtune(common + (dir / "three").string() + "' --threads 3",
+                              dir / "three.log"),
+            0)
+      << test::ReadText(dir / "three.log");
+  for (const char* flight : {"adapted", "fixed_2", "fixed_3"}) {
+    const std::string one = test::ReadText(dir / "one" / flight / "flight.csv");
+    EXPECT_GT(one.size(), 1000U) << flight;
+    EXPECT_EQ(one, test::ReadText(dir / "three" / flight / "flight.csv")) << flight;
+  }
+  // A key the file does not have is refused, naming it.
+  EXPECT_EQ(test::RunQuadtune(common + (dir / "bad").string() + "' --set adaptation.nope=1",
+                              dir / "bad.log"),
+            2);
+  EXPECT_NE(test::ReadText(dir / "bad.log").find("nope"), std::string::npos)
+      << test::ReadText(dir / "bad.log");
+}
+
 }  // namespace
 }  // namespace quadtune::engine

@@ -1,5 +1,5 @@
 // Paths of the `quadtune` program not covered by the paper experiments: the layout command, fly's
-// options (--layout, --drone, --world, --set and its errors, --mission go-to), plot flights, the
+// options (--layout, --drone, --world, --set and its errors, --mission go_to), plot flights, the
 // exit codes 1 (an unexpected error), 2 (bad input), 3 (a flight that did not complete) and 130
 // (interrupted), study --resume, and the real planner's timeout in a stored evaluation.
 // Small scenes and short flights; outputs are checked for content, not only existence.
@@ -82,7 +82,7 @@ TEST(CliLayout, SavesAReproducibleLayout) {
   std::ofstream(dir / "options.yaml") << kSmallLayoutOptions;
   auto make = [&](int seed, const std::string& name) {
     const fs::path out = dir / name;
-    EXPECT_EQ(RunQuadtune("--log-level warn layout --options " + (dir / "options.yaml").string() +
+    EXPECT_EQ(RunQuadtune("--log-level warn layout --layout-options " + (dir / "options.yaml").string() +
                               " --seed " + std::to_string(seed) + " --out " + out.string(),
                           dir / "layout.log"),
               0)
@@ -126,7 +126,7 @@ TEST(CliLayout, SavesAReproducibleLayout) {
 TEST(CliFly, LayoutDroneWorldSetAndGoTo) {
   const fs::path dir = Fresh("fly");
   std::ofstream(dir / "options.yaml") << kSmallLayoutOptions;
-  ASSERT_EQ(RunQuadtune("--log-level warn layout --options " + (dir / "options.yaml").string() +
+  ASSERT_EQ(RunQuadtune("--log-level warn layout --layout-options " + (dir / "options.yaml").string() +
                             " --seed 4 --out " + (dir / "layout.yaml").string(),
                         dir / "layout.log"),
             0)
@@ -136,7 +136,7 @@ TEST(CliFly, LayoutDroneWorldSetAndGoTo) {
   const int code =
       RunQuadtune("--log-level warn fly --layout " + (dir / "layout.yaml").string() +
                       " --drone drones/agile_small.yaml --world " + (dir / "world.yaml").string() +
-                      " --set v_des=1.0 --set h_pl=5.0 --mission go-to --seed 3 --max-time 60 "
+                      " --set v_des=1.0 --set h_pl=5.0 --mission go_to --seed 3 --max-time 60 "
                       "--no-plot --out " +
                       f.string(),
                   dir / "fly.log");

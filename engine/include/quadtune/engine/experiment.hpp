@@ -55,8 +55,8 @@
 ///       default_flights: 5     # flights of method `default` (absent: flights)
 ///       flight_batch: 2        # flights asked and flown together, >= 1 (fixed: not the threads);
 ///                              # 0 in realtime mode: one per thread
-///       short_evals_per_flight: 40   # θ_s evaluations (PSO candidates) per flight (paper ≈ 3500 re-solves)
-///       queries_per_eval: 4    # recorded queries re-solved per θ_s evaluation, >= 1
+///       short_evals_per_flight: 40   # θ_s candidates (PSO) per flight (paper ≈ 3500 re-solves)
+///       queries_per_eval: 4    # recorded queries re-solved per θ_s candidate, >= 1
 ///       query_window: 200      # most recent recorded queries kept, >= 1
 ///       short_term_while_flying: false  # realtime only: PSO uses the whole flight time
 ///     pso: {num_particles: 8, ...}             # PsoOptions (seed derived per trial)
@@ -142,8 +142,8 @@ struct Budget {
   /// Flights asked and flown together, >= 1; 0 (realtime mode only): one per worker thread
   /// ("ask for as many candidates as there are free worlds").
   int flight_batch = 2;
-  int short_evals_per_flight = 40; ///< θ_s evaluations per flight (bo_pso), >= 0
-  int queries_per_eval = 4;        ///< queries re-solved per θ_s evaluation, >= 1
+  int short_evals_per_flight = 40; ///< θ_s candidates per flight (bo_pso), >= 0
+  int queries_per_eval = 4;        ///< queries re-solved per θ_s candidate, >= 1
   int query_window = 200;          ///< recorded queries kept (most recent), >= 1
   /// Realtime mode only: after its short_evals_per_flight × flights evaluations, PSO keeps
   /// running generations until the round's flights have landed (a wall-time share, as in the

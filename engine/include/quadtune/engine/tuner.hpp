@@ -21,7 +21,7 @@
 /// the round, never in completion order.
 ///
 /// Reproducible mode: batch sizes come from the experiment, not the thread count; every flight
-/// seed is DeriveSeed(trial seed, {iteration, index}); every θ_s evaluation of one PSO
+/// seed is DeriveSeed(trial seed, {iteration, index}); every θ_s candidate of one PSO
 /// generation re-solves the same queries, drawn with DeriveSeed(trial seed, {generation}) from
 /// the buffer as it stood at the start of the round (candidates compared on one problem set); t_c comes from compute units; a flight's θ_s is fixed when it starts. So
 /// the same seed gives identical results with 1, 2 or 8 threads. Realtime mode measures t_c by
@@ -111,7 +111,7 @@ struct TrialSummary {
   int recommended_rank = -1;
   int recheck_flights = 0;  ///< re-flights flown (or replayed) to pick `recommended`
   int flights = 0;
-  int short_evals = 0;      ///< θ_s evaluations
+  int short_evals = 0;      ///< θ_s candidates scored (PSO); each re-solves queries_per_eval queries
   int failed = 0;           ///< failed evaluations
   int replayed = 0;         ///< evaluations taken from the store on resume
   /// bo_pso: n_d, BayesOpt::NotifyContextChanged() calls: one per change of the θ_s that flies

@@ -1,0 +1,153 @@
+// The progress line's ETA (experiments/eta.hpp): the cost fit, the bookkeeping of progress
+// reports and the plan of an experiment file, on given numbers (no clock).
+#include "eta.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+namespace quadtune::cli {
+namespace {
+
+engine::Progress Report(const std::string& method, int repeat, int flights_done,
+                        int flights_total, long resolves, double elapsed_s) {
+  return engine::Progress{.method = method, .repeat = repeat, .flights_done = flights_done,
+                          .flights_total = flights_total, .short_evals = resolves,
+                          .elapsed_s = elapsed_s};
+}
+
+TEST(CostFit, SeparatesFlightAndResolveCostsFromTwoMixes) {
+  // Made with 2 s per flight and 0.01 s per re-solve.
+  CostFit fit;
+  fit.Add(4.0, 2.0, 0.0);
+  fit.Add(12.0, 2.0, 800.0);
+  fit.Add(6.0, 1.0, 400.0);
+  EXPECT_NEAR(fit.FlightCost(), 2.0, 1e-9);
+  EXPECT_NEAR(fit.ResolveCost(), 0.01, 1e-12);
+  const Eta eta = fit.Cost(10.0, 1000.0);
+  EXPECT_NEAR(eta.seconds, 30.0, 1e-9);
+  EXPECT_FALSE(eta.lower_bound);
+  EXPECT_EQ(eta.Text(), "ETA 30 s");
+}
+
+TEST(CostFit, LeastSquaresOverNoisyIncrements) {
+  // ΔT = 3·ΔF + 0.5·ΔR, the first two ± 1 s.
+  CostFit fit;
+  fit.Add(4.0, 1.0, 0.0);  // 3 + 1
+  fit.Add(2.0, 1.0, 0.0);  // 3 - 1
+  fit.Add(4.0, 1.0, 2.0);  // 4
+  fit.Add(5.0, 0.0, 10.0);  // 5
+  // Σf² = 3, Σfr = 2, Σr² = 104, Σft = 10, Σrt = 58; det = 308;
+  // a = (10·104 - 58·2) / 308 = 3, b = (3·58 - 2·10) / 308 = 0.5.
+  EXPECT_NEAR(fit.FlightCost(), 3.0, 1e-12);
+  EXPECT_NEAR(fit.ResolveCost(), 0.5, 1e-12);
+}
+
+TEST(CostFit, UnmeasuredKindMakesALowerBound) {
+  CostFit fit;
+  EXPECT_LT(fit.FlightCost(), 0.0);
+  EXPECT_TRUE(fit.Cost(1.0, 0.0).lower_bound);
+  fit.Add(9.0, 3.0, 0.0);
+  EXPECT_NEAR(fit.FlightCost(), 3.0, 1e-12);
+  EXPECT_LT(fit.ResolveCost(), 0.0);
+  const Eta eta = fit.Cost(5.0, 100.0);
+  EXPECT_NEAR(eta.seconds, 15.0, 1e-12);
+  EXPECT_TRUE(eta.lower_bound);
+  EXPECT_EQ(eta.Text(), "ETA > 15 s");
+  EXPECT_FALSE(fit.Cost(5.0, 0.0).lower_bound);  // nothing of the unknown kind is left
+}
+
+TEST(CostFit, OneMixSplitsTheTimeInHalves) {
+  // Every increment: 2 flights and 100 re-solves in 10 s (a bo_pso-only run).
+  CostFit fit;
+  fit.Add(10.0, 2.0, 100.0);
+  fit.Add(20.0, 4.0, 200.0);
+  EXPECT_NEAR(fit.FlightCost(), 2.5, 1e-12);
+  EXPECT_NEAR(fit.ResolveCost(), 0.05, 1e-12);
+  EXPECT_NEAR(fit.Cost(4.0, 200.0).seconds, 20.0, 1e-9);  // exact for the same mix
+}
+
+TEST(CostFit, NegativeCostIsClampedToTheOneVariableFit) {
+  // Re-solves that look free: the unconstrained fit gives b < 0, so b = 0 and a = Σft/Σf².
+  CostFit fit;
+  fit.Add(10.0, 2.0, 0.0);
+  fit.Add(8.0, 2.0, 100.0);
+  EXPECT_NEAR(fit.ResolveCost(), 0.0, 1e-12);
+  EXPECT_NEAR(fit.FlightCost(), (20.0 + 16.0) / 8.0, 1e-12);
+  // Ignored: no work, or no time.
+  fit.Add(0.0, 3.0, 0.0);
+  fit.Add(5.0, 0.0, 0.0);
+  EXPECT_NEAR(fit.FlightCost(), 4.5, 1e-12);
+}
+
+TEST(EtaEstimator, ChargesFlightsResolvesRechecksAndValidationLeft) {
+  WorkPlan plan;
+  plan.trials = {{"default", 0, 2, 0, 0}, {"bo_pso", 0, 4, 2, 400}};
+  plan.validation_flights = 6;
+  plan.validation_speedup = 2.0;
+  EtaEstimator eta(plan);
+  // The defaults: 2 flights in 4 s → 2 s per flight; re-solves not measured yet.
+  eta.Observe(Report("default", 0, 2, 2, 0, 4.0));
+  EXPECT_NEAR(eta.Fit().FlightCost(), 2.0, 1e-12);
+  Eta left = eta.Remaining();
+  // 4 + 2 re-check flights × 2 s, 6 validation flights × 2 s / 2, re-solves not charged.
+  EXPECT_NEAR(left.seconds, 12.0 + 6.0, 1e-9);
+  EXPECT_TRUE(left.lower_bound);
+  // bo_pso: 2 flights and 200 re-solves in 6 s → 0.01 s per re-solve.
+  eta.Observe(Report("bo_pso", 0, 2, 4, 200, 10.0));
+  EXPECT_NEAR(eta.Fit().ResolveCost(), 0.01, 1e-12);
+  left = eta.Remaining();
+  EXPECT_NEAR(left.seconds, (2 + 2) * 2.0 + 200 * 0.01 + 6.0, 1e-9);
+  EXPECT_FALSE(left.lower_bound);
+  eta.Observe(Report("bo_pso", 0, 4, 4, 400, 16.0));
+  EXPECT_NEAR(eta.Remaining().seconds, 2 * 2.0 + 6.0, 1e-9);  // its re-checks, then validation
+  EXPECT_NEAR(eta.FlightsDone(), 6.0, 1e-12);
+  // Validation: its own clock; 2 flights in 3 s → 1.5 s per validation flight.
+  eta.Observe(Report("validation", -1, 2, 6, 0, 3.0));
+  EXPECT_NEAR(eta.FlightsDone(), 2 + 4 + 2 + 2, 1e-12);
+  EXPECT_NEAR(eta.Remaining().seconds, 4 * 1.5, 1e-9);
+  eta.Observe(Report("validation", -1, 6, 6, 0, 9.0));  // 4 flights in 6 s
+  EXPECT_NEAR(eta.Remaining().seconds, 0.0, 1e-12);
+}
+
+TEST(EtaEstimator, CountsTheResolvesOfTrialsFinishedOnOtherRanks) {
+  WorkPlan plan;
+  plan.trials = {{"bo_pso", 0, 2, 0, 100}, {"bo_pso", 1, 2, 0, 100}};
+  EtaEstimator eta(plan);
+  // Rank 0 runs repeat 0: 1 flight and 50 re-solves in 3 s.
+  eta.Observe(Report("bo_pso", 0, 1, 2, 50, 3.0));
+  // Rank 1 reports repeat 1 finished: its 2 flights and 100 re-solves are done; rank 0's
+  // counter still says 50 re-solves.
+  engine::Progress remote = Report("bo_pso", 1, 2, 2, 50, 5.0);
+  remote.rank = 1;
+  eta.Observe(remote);
+  EXPECT_NEAR(eta.FlightsDone(), 3.0, 1e-12);
+  // Increments (3 s, 1 flight, 50 re-solves) and (2 s, 2 flights, 100 re-solves): one mix
+  // (50 re-solves per flight), Σ f·t / Σ f² = 7 / 5 = 1.4 s per flight with its re-solves;
+  // left: 1 flight and its 50 re-solves.
+  EXPECT_NEAR(eta.Remaining().seconds, 1.4, 1e-9);
+}
+
+TEST(WorkPlan, CountsAnExperimentFilesWork) {
+  const engine::Experiment e = engine::Experiment::LoadFile(
+      std::string(QUADTUNE_SOURCE_DIR) + "/experiments/tiny.yaml",
+      {"methods=[default, bo, bo_pso]", "repeats=2", "recommend.candidates=3",
+       "recommend.flights=2", "budget.default_flights=5", "budget.flight_batch=1"});
+  const WorkPlan plan = WorkPlan::Of(e, 4);
+  ASSERT_EQ(plan.trials.size(), 6U);
+  EXPECT_EQ(plan.trials[0].method, "default");
+  EXPECT_EQ(plan.trials[0].flights, 5);
+  EXPECT_EQ(plan.trials[0].recheck_flights, 0);
+  EXPECT_EQ(plan.trials[1].method, "bo");
+  EXPECT_EQ(plan.trials[1].flights, 3);
+  EXPECT_EQ(plan.trials[1].recheck_flights, 2);
+  EXPECT_EQ(plan.trials[1].resolves, 0);
+  EXPECT_EQ(plan.trials[5].method, "bo_pso");
+  EXPECT_EQ(plan.trials[5].repeat, 1);
+  EXPECT_EQ(plan.trials[5].resolves, 4 * 3 * 2);  // short_evals_per_flight × flights × queries
+  EXPECT_EQ(plan.validation_flights, 2 * (1 + 4));  // maps × (defaults + tuned trials)
+  EXPECT_NEAR(plan.validation_speedup, 4.0, 1e-12);  // 4 threads against 1 flight at once
+}
+
+}  // namespace
+}  // namespace quadtune::cli
