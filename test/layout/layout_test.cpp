@@ -477,7 +477,7 @@ TEST(Layout, LoadRejectsWrongFormat) {
 
 TEST(Layout, LoadRejectsMissingFile) {
   EXPECT_TRUE(ThrowsConfigError([] { (void)Layout::Load("/nonexistent/quadtune/layout.yaml"); }, "",
-                                {"/nonexistent/quadtune/layout.yaml", "cannot"}));
+                                {"/nonexistent/quadtune/layout.yaml", "no such file"}));
 }
 
 TEST(GenerateLayout, UnreachableDensityFailsWithClearError) {
