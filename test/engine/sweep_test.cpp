@@ -9,10 +9,13 @@
 #include <numbers>
 #include <set>
 
+#include "../config_error_util.hpp"
 #include "test_util.hpp"
 
 namespace quadtune::engine {
 namespace {
+
+using quadtune::test::ThrowsConfigError;
 
 /// f at every design point, split into f_A, f_B and f_AB^(i).
 struct Evaluated {
@@ -74,8 +77,10 @@ TEST(SaltelliDesign, PlainSequenceStartsAfterTheOriginAndTheShiftIsSeeded) {
     for (int r = 7; r < 15; ++r) cells.insert(static_cast<int>(net.a(r, j) * 8));
     EXPECT_EQ(cells.size(), 8u) << "column " << j;
   }
-  EXPECT_THROW((void)MakeSaltelliDesign(0, 2, 1), ConfigError);
-  EXPECT_THROW((void)MakeSaltelliDesign(4, 0, 1), ConfigError);
+  EXPECT_TRUE(ThrowsConfigError([] { (void)MakeSaltelliDesign(0, 2, 1); }, "points",
+                                {"at least 1 base row", "got 0"}));
+  EXPECT_TRUE(ThrowsConfigError([] { (void)MakeSaltelliDesign(4, 0, 1); }, "parameters",
+                                {"1 to 1833 parameters", "got 0"}));
 }
 
 // Ishigami, a = 7, b = 0.1, x ∈ [−π, π]³: S1 = (0.314, 0.442, 0), ST = (0.558, 0.442, 0.244).
@@ -274,15 +279,12 @@ TEST(Sweep, BadOptionsNameTheOption) {
   const Experiment e = Experiment::FromString(test::ToyYaml());
   SweepOptions o = SmallSweep(1);
   o.points = 1;
-  try {
-    (void)RunSweep(e, o);
-    FAIL() << "no error";
-  } catch (const ConfigError& ex) {
-    EXPECT_EQ(ex.key(), "--points");
-  }
+  EXPECT_TRUE(ThrowsConfigError([&] { (void)RunSweep(e, o); }, "--points",
+                                {"at least 2 base rows", "got 1"}));
   o = SmallSweep(1);
   o.queries = 0;
-  EXPECT_THROW((void)RunSweep(e, o), ConfigError);
+  EXPECT_TRUE(
+      ThrowsConfigError([&] { (void)RunSweep(e, o); }, "--queries", {"at least 1 query", "got 0"}));
 }
 
 }  // namespace
