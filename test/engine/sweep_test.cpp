@@ -15,6 +15,8 @@
 namespace quadtune::engine {
 namespace {
 
+using quadtune::test::ThrowsWithMessage;
+
 using quadtune::test::ThrowsConfigError;
 
 /// f at every design point, split into f_A, f_B and f_AB^(i).
@@ -138,9 +140,17 @@ TEST(SobolIndices, ConstantOutputHasNoIndicesAndBadSizesThrow) {
   for (const auto& x : s.index) {
     EXPECT_TRUE(std::isnan(x.s1) && std::isnan(x.st) && std::isnan(x.s1_lo));
   }
-  EXPECT_THROW((void)EstimateSobolIndices(one, {1.0, 2.0}, {one}, 10, 1), std::invalid_argument);
-  EXPECT_THROW((void)EstimateSobolIndices(one, one, {{1.0}}, 10, 1), std::invalid_argument);
-  EXPECT_THROW((void)EstimateSobolIndices({1.0}, {1.0}, {}, 10, 1), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        (void)EstimateSobolIndices(one, {1.0, 2.0}, {one}, 10, 1);
+      },
+      {"f_a and f_b need the same N"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { (void)EstimateSobolIndices(one, one, {{1.0}}, 10, 1); },
+      {"every f_ab needs N values"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { (void)EstimateSobolIndices({1.0}, {1.0}, {}, 10, 1); },
+      {"need the same N >= 2 values"}));
 }
 
 TEST(SobolIndices, BootstrapIsSeeded) {
@@ -162,7 +172,11 @@ TEST(Spearman, RanksWithTies) {
   // x ranks (1, 2.5, 2.5, 4), y ranks (1, 3, 2, 4): Pearson of the ranks = 4.5 / sqrt(4.5 · 5).
   EXPECT_NEAR(SpearmanCorrelation({1, 2, 2, 3}, {1, 3, 2, 4}), 4.5 / std::sqrt(4.5 * 5.0), 1e-12);
   EXPECT_TRUE(std::isnan(SpearmanCorrelation({1, 1, 1}, {1, 2, 3})));
-  EXPECT_THROW((void)SpearmanCorrelation({1, 2}, {1}), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        (void)SpearmanCorrelation({1, 2}, {1});
+      },
+      {"SpearmanCorrelation", "sizes differ"}));
 }
 
 SweepOptions SmallSweep(int threads) {
