@@ -2,8 +2,8 @@
 // and owns the SQLite store, the other ranks run the trials they are handed and forward their
 // rows in batches. Rows travel in the binary form of row_codec.hpp, control messages as JSON
 // texts; doubles travel as their bit patterns either way, so they arrive exactly.
-// Without MPI (no QUADTUNE_HAVE_MPI) only MpiLaunchSize() works and the rest reports that
-// quadtune was built without MPI.
+// Without MPI (no QUADTUNE_HAVE_MPI) only MpiLaunchSize() and CheckMpiLaunch() work and the rest
+// reports that quadtune was built without MPI.
 //
 // Thread safety: MPI runs on the thread that built the MpiSession only; on rank 0 a second
 // thread runs trials and reaches the store through LockedStore.
@@ -68,6 +68,15 @@ int MpiLaunchSize() {
     if (const int n = EnvCount("SLURM_STEP_NUM_TASKS")) return n;
   }
   return 1;
+}
+
+void CheckMpiLaunch(int processes, bool mpi_built) {
+  if (processes <= 1 || mpi_built) return;
+  throw ConfigError("", "mpirun",
+                    "started as one of " + std::to_string(processes) +
+                        " MPI processes, but this quadtune was built without MPI "
+                        "(QUADTUNE_WITH_MPI=OFF or MPI not found); run it without mpirun/srun "
+                        "or rebuild with MPI");
 }
 
 #if !defined(QUADTUNE_HAVE_MPI)

@@ -221,13 +221,7 @@ int RunMpi(const RunArgs& a) {
 
 int Run(const RunArgs& a) {
   if (const int processes = engine::MpiLaunchSize(); processes > 1) {
-    if (!engine::MpiBuilt()) {
-      throw ConfigError("", "mpirun",
-                        fmt::format("started as one of {} MPI processes, but this quadtune was "
-                                    "built without MPI (QUADTUNE_WITH_MPI=OFF or MPI not found); "
-                                    "run it without mpirun/srun or rebuild with MPI",
-                                    processes));
-    }
+    engine::CheckMpiLaunch(processes, engine::MpiBuilt());
     return RunMpi(a);
   }
   // Every configuration error is reported here, before any work starts.

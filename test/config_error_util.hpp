@@ -1,8 +1,9 @@
 #pragma once
 /// \file
-/// A check for tests of bad input: the code throws ConfigError with the expected key, and its
-/// message holds the expected words. Checking the key (not only the exception type) makes a test
-/// fail when the rule it names is deleted and some later rule happens to reject the same input.
+/// Checks for tests of bad input: the code throws ConfigError with the expected key, or another
+/// exception type, and its message holds the expected words. Checking the key and the words (not
+/// only the exception type) makes a test fail when the rule it names is deleted and some later
+/// rule happens to reject the same input.
 
 #include <gtest/gtest.h>
 
@@ -30,6 +31,28 @@ inline ::testing::AssertionResult ThrowsConfigError(const std::function<void()>&
     for (std::string_view w : words) {
       if (what.find(w) == std::string::npos) {
         return ::testing::AssertionFailure() << "ConfigError message lacks '" << w << "': " << what;
+      }
+    }
+    return ::testing::AssertionSuccess();
+  } catch (const std::exception& e) {
+    return ::testing::AssertionFailure() << "threw another exception: " << e.what();
+  }
+  return ::testing::AssertionFailure() << "nothing thrown";
+}
+
+/// Success when `f` throws an E (or a type derived from it) whose what() contains every entry of
+/// `words`; a failure naming what was thrown otherwise. For errors without a key
+/// (std::invalid_argument from a function's precondition check).
+template <typename E>
+::testing::AssertionResult ThrowsWithMessage(const std::function<void()>& f,
+                                             std::initializer_list<std::string_view> words) {
+  try {
+    f();
+  } catch (const E& e) {
+    const std::string what = e.what();
+    for (std::string_view w : words) {
+      if (what.find(w) == std::string::npos) {
+        return ::testing::AssertionFailure() << "message lacks '" << w << "': " << what;
       }
     }
     return ::testing::AssertionSuccess();

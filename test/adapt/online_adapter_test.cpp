@@ -10,10 +10,13 @@
 #include <fstream>
 #include <string>
 
+#include "../config_error_util.hpp"
 #include "../planning/scene_util.hpp"
 
 namespace quadtune::engine {
 namespace {
+
+using quadtune::test::ThrowsConfigError;
 
 using planning::PlannerParams;
 
@@ -205,18 +208,20 @@ TEST(AdaptExperiment, ClearanceBeyondTheDistanceFieldsTruncationNamesFileAndKey)
 
 TEST(AdaptExperiment, OutOfRangeValuesNameKeyAndRange) {
   ExpectFileKeyError("range", "adaptation: {lookahead: -1}\n", "adaptation.lookahead", "(0, 20]");
-  EXPECT_THROW((void)AdaptExperiment::FromString(
-                   std::string(kMinimal) + "adaptation: {v_des_bounds: [6, 1]}\n", "x.yaml"),
-               ConfigError);
-  EXPECT_THROW((void)AdaptExperiment::FromString(
-                   std::string(kMinimal) + "adaptation: {objective: {short_term: {kind: "
-                                           "solve_time}}}\n",
-                   "x.yaml"),
-               ConfigError);
-  EXPECT_THROW((void)AdaptExperiment::FromString(
-                   "layout_file: layouts/changing_density.yaml\nbaselines: [0]\n", "x.yaml"),
-               ConfigError);
-  EXPECT_THROW((void)AdaptExperiment::FromString("baselines: [2.0]\n", "x.yaml"), ConfigError);
+  const auto parse = [](const std::string& text) {
+    return [text] { (void)AdaptExperiment::FromString(text, "x.yaml"); };
+  };
+  EXPECT_TRUE(
+      ThrowsConfigError(parse(std::string(kMinimal) + "adaptation: {v_des_bounds: [6, 1]}\n"),
+                        "adaptation.v_des_bounds", {"x.yaml", "0 < lo < hi <= 15"}));
+  EXPECT_TRUE(ThrowsConfigError(
+      parse(std::string(kMinimal) + "adaptation: {objective: {short_term: {kind: solve_time}}}\n"),
+      "adaptation.objective.short_term.kind", {"x.yaml", "must be changing_environment"}));
+  EXPECT_TRUE(
+      ThrowsConfigError(parse("layout_file: layouts/changing_density.yaml\nbaselines: [0]\n"),
+                        "baselines", {"x.yaml", "(0, 15]"}));
+  EXPECT_TRUE(ThrowsConfigError(parse("baselines: [2.0]\n"), "layout_file",
+                                {"x.yaml", "exactly one of layout"}));
 }
 
 TEST(AdaptExperiment, ObjectiveKeysWithoutKindKeepTheChangingEnvironmentDefaults) {

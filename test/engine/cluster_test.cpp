@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "../config_error_util.hpp"
 #include "quadtune/engine/experiment.hpp"
 #include "quadtune/engine/planners.hpp"
 #include "quadtune/engine/result_store.hpp"
@@ -20,6 +21,8 @@
 
 namespace quadtune::engine {
 namespace {
+
+using quadtune::test::ThrowsConfigError;
 
 /// Rows whose every field differs, with doubles a text encoding would round or lose.
 std::vector<EvaluationRow> AwkwardRows() {
@@ -227,10 +230,13 @@ TEST(SleepPlanner, ExperimentFileSelectsItAndChecksItsKeys) {
   EXPECT_EQ(s.trials[0].flights, 2);
   std::string bad = yaml;
   bad.replace(bad.find("resolve_p95_s: 2.0e-5"), 21, "resolve_p95_s: 1.0e-6");
-  EXPECT_THROW(Experiment::FromString(bad), ConfigError);
+  EXPECT_TRUE(ThrowsConfigError([&] { (void)Experiment::FromString(bad); },
+                                "planner.sleep.resolve_p95_s", {"must be >= resolve_median_s"}));
   std::string unknown = yaml;
   unknown.replace(unknown.find("queries_per_flight"), 18, "queries_per_fligth");
-  EXPECT_THROW(Experiment::FromString(unknown), ConfigError);
+  EXPECT_TRUE(ThrowsConfigError([&] { (void)Experiment::FromString(unknown); },
+                                "planner.sleep.queries_per_fligth",
+                                {"unknown key", "queries_per_flight"}));
 }
 
 }  // namespace

@@ -1,10 +1,11 @@
-// MpiLaunchSize: how `quadtune run` tells that an MPI launcher started it (the seam through which
-// a build without MPI refuses a multi-process launch; cli_paths_tests checks the refusal itself
-// in such a build).
+// MpiLaunchSize: how `quadtune run` tells that an MPI launcher started it; CheckMpiLaunch: the
+// refusal of a multi-process launch by a build without MPI, tested here in every build
+// (cli_paths_tests checks the program's exit code and message in a build without MPI).
 #include <gtest/gtest.h>
 
 #include <cstdlib>
 
+#include "../config_error_util.hpp"
 #include "quadtune/engine/distributed.hpp"
 
 namespace quadtune::engine {
@@ -38,6 +39,20 @@ TEST(MpiLaunchSize, ReadsOpenMpiMpichAndSlurm) {
   setenv("SLURM_PROCID", "0", 1);
   EXPECT_EQ(MpiLaunchSize(), 6);
   ClearLauncherEnvironment();
+}
+
+TEST(CheckMpiLaunch, BuildWithoutMpiRefusesSeveralProcesses) {
+  EXPECT_TRUE(quadtune::test::ThrowsConfigError([] { CheckMpiLaunch(2, /*mpi_built=*/false); },
+                                                "mpirun",
+                                                {"one of 2 MPI processes", "built without MPI"}));
+  EXPECT_TRUE(quadtune::test::ThrowsConfigError([] { CheckMpiLaunch(16, /*mpi_built=*/false); },
+                                                "mpirun", {"one of 16 MPI processes"}));
+}
+
+TEST(CheckMpiLaunch, OneProcessOrAnMpiBuildIsAccepted) {
+  EXPECT_NO_THROW(CheckMpiLaunch(1, /*mpi_built=*/false));
+  EXPECT_NO_THROW(CheckMpiLaunch(1, /*mpi_built=*/true));
+  EXPECT_NO_THROW(CheckMpiLaunch(4, /*mpi_built=*/true));
 }
 
 }  // namespace

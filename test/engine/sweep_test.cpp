@@ -9,10 +9,15 @@
 #include <numbers>
 #include <set>
 
+#include "../config_error_util.hpp"
 #include "test_util.hpp"
 
 namespace quadtune::engine {
 namespace {
+
+using quadtune::test::ThrowsWithMessage;
+
+using quadtune::test::ThrowsConfigError;
 
 /// f at every design point, split into f_A, f_B and f_AB^(i).
 struct Evaluated {
@@ -74,8 +79,10 @@ TEST(SaltelliDesign, PlainSequenceStartsAfterTheOriginAndTheShiftIsSeeded) {
     for (int r = 7; r < 15; ++r) cells.insert(static_cast<int>(net.a(r, j) * 8));
     EXPECT_EQ(cells.size(), 8u) << "column " << j;
   }
-  EXPECT_THROW((void)MakeSaltelliDesign(0, 2, 1), ConfigError);
-  EXPECT_THROW((void)MakeSaltelliDesign(4, 0, 1), ConfigError);
+  EXPECT_TRUE(ThrowsConfigError([] { (void)MakeSaltelliDesign(0, 2, 1); }, "points",
+                                {"at least 1 base row", "got 0"}));
+  EXPECT_TRUE(ThrowsConfigError([] { (void)MakeSaltelliDesign(4, 0, 1); }, "parameters",
+                                {"1 to 1833 parameters", "got 0"}));
 }
 
 // Ishigami, a = 7, b = 0.1, x ∈ [−π, π]³: S1 = (0.314, 0.442, 0), ST = (0.558, 0.442, 0.244).
@@ -133,9 +140,17 @@ TEST(SobolIndices, ConstantOutputHasNoIndicesAndBadSizesThrow) {
   for (const auto& x : s.index) {
     EXPECT_TRUE(std::isnan(x.s1) && std::isnan(x.st) && std::isnan(x.s1_lo));
   }
-  EXPECT_THROW((void)EstimateSobolIndices(one, {1.0, 2.0}, {one}, 10, 1), std::invalid_argument);
-  EXPECT_THROW((void)EstimateSobolIndices(one, one, {{1.0}}, 10, 1), std::invalid_argument);
-  EXPECT_THROW((void)EstimateSobolIndices({1.0}, {1.0}, {}, 10, 1), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        (void)EstimateSobolIndices(one, {1.0, 2.0}, {one}, 10, 1);
+      },
+      {"f_a and f_b need the same N"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { (void)EstimateSobolIndices(one, one, {{1.0}}, 10, 1); },
+      {"every f_ab needs N values"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { (void)EstimateSobolIndices({1.0}, {1.0}, {}, 10, 1); },
+      {"need the same N >= 2 values"}));
 }
 
 TEST(SobolIndices, BootstrapIsSeeded) {
@@ -157,7 +172,11 @@ TEST(Spearman, RanksWithTies) {
   // x ranks (1, 2.5, 2.5, 4), y ranks (1, 3, 2, 4): Pearson of the ranks = 4.5 / sqrt(4.5 · 5).
   EXPECT_NEAR(SpearmanCorrelation({1, 2, 2, 3}, {1, 3, 2, 4}), 4.5 / std::sqrt(4.5 * 5.0), 1e-12);
   EXPECT_TRUE(std::isnan(SpearmanCorrelation({1, 1, 1}, {1, 2, 3})));
-  EXPECT_THROW((void)SpearmanCorrelation({1, 2}, {1}), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        (void)SpearmanCorrelation({1, 2}, {1});
+      },
+      {"SpearmanCorrelation", "sizes differ"}));
 }
 
 SweepOptions SmallSweep(int threads) {
@@ -274,15 +293,12 @@ TEST(Sweep, BadOptionsNameTheOption) {
   const Experiment e = Experiment::FromString(test::ToyYaml());
   SweepOptions o = SmallSweep(1);
   o.points = 1;
-  try {
-    (void)RunSweep(e, o);
-    FAIL() << "no error";
-  } catch (const ConfigError& ex) {
-    EXPECT_EQ(ex.key(), "--points");
-  }
+  EXPECT_TRUE(ThrowsConfigError([&] { (void)RunSweep(e, o); }, "--points",
+                                {"at least 2 base rows", "got 1"}));
   o = SmallSweep(1);
   o.queries = 0;
-  EXPECT_THROW((void)RunSweep(e, o), ConfigError);
+  EXPECT_TRUE(
+      ThrowsConfigError([&] { (void)RunSweep(e, o); }, "--queries", {"at least 1 query", "got 0"}));
 }
 
 }  // namespace

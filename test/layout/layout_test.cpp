@@ -9,11 +9,14 @@
 #include <numbers>
 #include <string>
 
+#include "../config_error_util.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/layout/footprint.hpp"
 
 namespace quadtune::layout {
 namespace {
+
+using quadtune::test::ThrowsConfigError;
 
 using physics::CylinderObstacle;
 using physics::RingObstacle;
@@ -442,31 +445,39 @@ TEST(Layout, ValidateRejectsOverlappingObstacles) {
   ASSERT_GE(l.obstacles.cylinders.size(), 2u);
   l.obstacles.cylinders[1].center_W =
       l.obstacles.cylinders[0].center_W + Eigen::Vector2d(l.obstacles.cylinders[0].radius, 0.0);
-  EXPECT_THROW(l.Validate(), ConfigError);
+  EXPECT_TRUE(ThrowsConfigError([&] { l.Validate(); }, "obstacles.cylinders[1]",
+                                {"from the footprint of obstacles.cylinders[0]", "min_gap"}));
 }
 
 TEST(Layout, ValidateRejectsObstacleInKeepOutZone) {
   Layout l = GenerateLayout(Asset("forest_3p0.yaml"), 1);
   l.obstacles.cylinders.push_back({l.start_W().head<2>() + Eigen::Vector2d(0.5, 0.0), 0.2, 0, 3});
-  EXPECT_THROW(l.Validate(), ConfigError);
+  const std::string key =
+      "obstacles.cylinders[" + std::to_string(l.obstacles.cylinders.size() - 1) + "]";
+  EXPECT_TRUE(ThrowsConfigError([&] { l.Validate(); }, key, {"enters the keep-out"}));
 }
 
 TEST(Layout, ValidateRejectsObstacleOutsideRegion) {
   Layout l = GenerateLayout(Asset("forest_3p0.yaml"), 1);
   l.obstacles.rings.push_back({Eigen::Vector3d(12.0, 4.5, 1.5), 0.0, 1.0, 0.1});
-  EXPECT_THROW(l.Validate(), ConfigError);
+  const std::string key = "obstacles.rings[" + std::to_string(l.obstacles.rings.size() - 1) + "]";
+  EXPECT_TRUE(ThrowsConfigError([&] { l.Validate(); }, key, {"leaves the region"}));
 }
 
 TEST(Layout, LoadRejectsUnknownKey) {
-  EXPECT_THROW(Layout::FromYamlString("obstacles: {cylinders: [], trees: []}"), ConfigError);
+  EXPECT_TRUE(ThrowsConfigError(
+      [] { (void)Layout::FromYamlString("obstacles: {cylinders: [], trees: []}"); },
+      "obstacles.trees", {"unknown key", "cylinders"}));
 }
 
 TEST(Layout, LoadRejectsWrongFormat) {
-  EXPECT_THROW(Layout::FromYamlString("format: quadtune.layout/99"), ConfigError);
+  EXPECT_TRUE(ThrowsConfigError([] { (void)Layout::FromYamlString("format: quadtune.layout/99"); },
+                                "format", {"quadtune.layout/99", "quadtune.layout/1"}));
 }
 
 TEST(Layout, LoadRejectsMissingFile) {
-  EXPECT_THROW(Layout::Load("/nonexistent/quadtune/layout.yaml"), ConfigError);
+  EXPECT_TRUE(ThrowsConfigError([] { (void)Layout::Load("/nonexistent/quadtune/layout.yaml"); }, "",
+                                {"/nonexistent/quadtune/layout.yaml", "no such file"}));
 }
 
 TEST(GenerateLayout, UnreachableDensityFailsWithClearError) {
@@ -511,7 +522,7 @@ TEST(GenerateLayout, ZoneCoveredByKeepOutFailsNamingTheZone) {
 TEST(GenerateLayout, InvalidOptionsThrow) {
   LayoutOptions o;
   o.min_gap = -1.0;
-  EXPECT_THROW((void)GenerateLayout(o, 1), ConfigError);
+  EXPECT_TRUE(ThrowsConfigError([&] { (void)GenerateLayout(o, 1); }, "min_gap", {"-1"}));
 }
 
 }  // namespace

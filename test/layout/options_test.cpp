@@ -5,6 +5,7 @@
 
 #include <string>
 
+#include "../config_error_util.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/yaml.hpp"
 
@@ -15,18 +16,11 @@ LayoutOptions Parse(const std::string& text) {
   return LayoutOptions::FromYaml(YamlMap::FromString(text, "test.yaml"));
 }
 
-// Expects a ConfigError whose key is `key`.
-#define EXPECT_CONFIG_ERROR(statement, expected_key)    \
-  EXPECT_THROW(                                         \
-      {                                                 \
-        try {                                           \
-          statement;                                    \
-        } catch (const ConfigError& e) {                \
-          EXPECT_EQ(e.key(), expected_key) << e.what(); \
-          throw;                                        \
-        }                                               \
-      },                                                \
-      ConfigError)
+// Expects a ConfigError whose key is `expected_key` and whose message holds each of the
+// remaining arguments (quadtune::test::ThrowsConfigError).
+#define EXPECT_CONFIG_ERROR(statement, expected_key, ...) \
+  EXPECT_TRUE(                                            \
+      quadtune::test::ThrowsConfigError([&] { (void)(statement); }, expected_key, {__VA_ARGS__}))
 
 TEST(LayoutOptions, DefaultsAreValid) {
   const LayoutOptions o;
@@ -151,11 +145,12 @@ TEST(LayoutOptions, RejectsLayoutThatCouldNeverFinish) {
     EXPECT_EQ(e.key(), "spacing");
     EXPECT_NE(std::string(e.what()).find("100000"), std::string::npos) << e.what();
   }
-  EXPECT_CONFIG_ERROR(Parse(huge + "density: nearest_neighbour"), "spacing");
+  EXPECT_CONFIG_ERROR(Parse(huge + "density: nearest_neighbour"), "spacing",
+                      "at most 100000 obstacles");
   EXPECT_CONFIG_ERROR(Parse("region: {min: [0, -500000], max: [1000000, 500000]}\n"
                             "zones: [{x_range: [0, 10], spacing: 3}, "
                             "{x_range: [10, 1000000], spacing: 3}]"),
-                      "zones");
+                      "zones", "at most 100000 obstacles");
   // Just inside the limit: 100 000 obstacles at spacing 1 m (400 000 m²) are accepted.
   EXPECT_NO_THROW(
       Parse("region: {min: [0, 0], max: [400, 1000]}\nspacing: 1.0\n"
@@ -164,14 +159,15 @@ TEST(LayoutOptions, RejectsLayoutThatCouldNeverFinish) {
   EXPECT_CONFIG_ERROR(Parse("region: {min: [0, 0], max: [400.01, 1000]}\nspacing: 1.0\n"
                             "obstacles: {cylinder: {radius: [0.1, 0.2]}, ring_fraction: 0}\n"
                             "mission: {start: [1, 1, 1], goal: [399, 1, 1]}"),
-                      "spacing");
+                      "spacing", "asks for 100003 obstacles");
 }
 
 // --- One EXPECT_THROW per documented bad input. ---
 
 TEST(LayoutOptions, RejectsSpacingSmallerThanObstaclesAllow) {
   // Default pillars up to 0.525 m radius need centres 1.25 m apart with min_gap 0.2.
-  EXPECT_CONFIG_ERROR(Parse("spacing: 0.9"), "spacing");
+  EXPECT_CONFIG_ERROR(Parse("spacing: 0.9"), "spacing", "smaller than the obstacles allow",
+                      "1.25 m");
 }
 
 TEST(LayoutOptions, RejectsZoneSpacingSmallerThanObstaclesAllow) {
@@ -180,7 +176,7 @@ zones:
   - {x_range: [0, 12], spacing: 2.0}
   - {x_range: [12, 24], spacing: 0.5, obstacles: {cylinder: {radius: [0.1, 0.3]}}}
 )"),
-                      "zones[1].spacing");
+                      "zones[1].spacing", "smaller than the obstacles allow", "0.8 m");
 }
 
 TEST(LayoutOptions, RejectsRegionTooSmallForKeepOutZones) {
@@ -189,7 +185,7 @@ region: {min: [0, -2], max: [6, 2]}
 mission: {start: [0, 0, 1], goal: [6, 0, 1], keep_out_radius: 2.0}
 obstacles: {ring_fraction: 0}
 )"),
-                      "region");
+                      "region", "too small for the keep-out zones");
 }
 
 TEST(LayoutOptions, RejectsRegionTooSmallForTheObstacles) {
@@ -197,109 +193,117 @@ TEST(LayoutOptions, RejectsRegionTooSmallForTheObstacles) {
 region: {min: [0, -1], max: [24, 1]}
 mission: {keep_out_radius: 0}
 )"),
-                      "region");
+                      "region", "too small for the largest obstacle footprint");
 }
 
 TEST(LayoutOptions, RejectsInvertedRegion) {
-  EXPECT_CONFIG_ERROR(Parse("region: {min: [0, 5], max: [24, -5]}"), "region.max");
+  EXPECT_CONFIG_ERROR(Parse("region: {min: [0, 5], max: [24, -5]}"), "region.max",
+                      "must exceed region.min");
 }
 
 TEST(LayoutOptions, RejectsNegativeCylinderRadius) {
   EXPECT_CONFIG_ERROR(Parse("obstacles: {cylinder: {radius: [-0.1, 0.3]}}"),
-                      "obstacles.cylinder.radius");
+                      "obstacles.cylinder.radius", "got [-0.1, 0.3]");
 }
 
 TEST(LayoutOptions, RejectsNegativeRingThickness) {
   EXPECT_CONFIG_ERROR(Parse("obstacles: {ring: {thickness: [-0.1, 0.1]}}"),
-                      "obstacles.ring.thickness");
+                      "obstacles.ring.thickness", "got [-0.1, 0.1]");
 }
 
 TEST(LayoutOptions, RejectsNegativeMinGap) {
-  EXPECT_CONFIG_ERROR(Parse("min_gap: -0.1"), "min_gap");
+  EXPECT_CONFIG_ERROR(Parse("min_gap: -0.1"), "min_gap", "got -0.1", "[0, inf)");
 }
 
 TEST(LayoutOptions, RejectsNegativeKeepOutRadius) {
-  EXPECT_CONFIG_ERROR(Parse("mission: {keep_out_radius: -1}"), "mission.keep_out_radius");
+  EXPECT_CONFIG_ERROR(Parse("mission: {keep_out_radius: -1}"), "mission.keep_out_radius", "got -1",
+                      "[0, inf)");
 }
 
 TEST(LayoutOptions, RejectsNonPositiveKeepOutZoneRadius) {
-  EXPECT_CONFIG_ERROR(Parse("keep_out: [{center: [3, 0], radius: 0}]"), "keep_out[0].radius");
+  EXPECT_CONFIG_ERROR(Parse("keep_out: [{center: [3, 0], radius: 0}]"), "keep_out[0].radius",
+                      "got 0", "(0, inf)");
 }
 
 TEST(LayoutOptions, RejectsNonPositiveSpacing) {
-  EXPECT_CONFIG_ERROR(Parse("spacing: 0"), "spacing");
+  EXPECT_CONFIG_ERROR(Parse("spacing: 0"), "spacing", "got 0", "(0, inf)");
 }
 
 TEST(LayoutOptions, RejectsMinAboveMaxInARange) {
   EXPECT_CONFIG_ERROR(Parse("obstacles: {cylinder: {radius: [0.5, 0.2]}}"),
-                      "obstacles.cylinder.radius");
+                      "obstacles.cylinder.radius", "lower bound 0.5 exceeds the upper bound 0.2");
 }
 
 TEST(LayoutOptions, RejectsMinAboveMaxInHeightRange) {
   EXPECT_CONFIG_ERROR(Parse("obstacles: {ring: {center_height: [2.0, 1.0]}}"),
-                      "obstacles.ring.center_height");
+                      "obstacles.ring.center_height", "lower bound 2 exceeds the upper bound 1");
 }
 
 TEST(LayoutOptions, RejectsRingThickerThanItsHole) {
   EXPECT_CONFIG_ERROR(Parse("obstacles: {ring: {radius: [0.3, 1.0], thickness: [0.1, 0.6]}}"),
-                      "obstacles.ring.thickness");
+                      "obstacles.ring.thickness", "below twice the smallest ring radius");
 }
 
 TEST(LayoutOptions, RejectsRingFractionOutsideUnitInterval) {
-  EXPECT_CONFIG_ERROR(Parse("obstacles: {ring_fraction: 1.5}"), "obstacles.ring_fraction");
+  EXPECT_CONFIG_ERROR(Parse("obstacles: {ring_fraction: 1.5}"), "obstacles.ring_fraction",
+                      "got 1.5", "[0, 1]");
 }
 
 TEST(LayoutOptions, RejectsHardCoreRatioOutOfRange) {
-  EXPECT_CONFIG_ERROR(Parse("hard_core_ratio: 0.95"), "hard_core_ratio");
+  EXPECT_CONFIG_ERROR(Parse("hard_core_ratio: 0.95"), "hard_core_ratio", "got 0.95", "(0, 0.9]");
 }
 
 TEST(LayoutOptions, RejectsToleranceOutOfRange) {
-  EXPECT_CONFIG_ERROR(Parse("tolerance: 0"), "tolerance");
+  EXPECT_CONFIG_ERROR(Parse("tolerance: 0"), "tolerance", "got 0", "(0, 0.1]");
 }
 
 TEST(LayoutOptions, RejectsTooFewMaxRejections) {
-  EXPECT_CONFIG_ERROR(Parse("max_rejections: 10"), "max_rejections");
+  EXPECT_CONFIG_ERROR(Parse("max_rejections: 10"), "max_rejections", "got 10", "[100, 1e+08]");
 }
 
 TEST(LayoutOptions, RejectsUnknownTopLevelKey) {
-  EXPECT_CONFIG_ERROR(Parse("spacingg: 2.0"), "spacingg");
+  EXPECT_CONFIG_ERROR(Parse("spacingg: 2.0"), "spacingg", "unknown key", "spacing");
 }
 
 TEST(LayoutOptions, RejectsUnknownNestedKey) {
   EXPECT_CONFIG_ERROR(Parse("obstacles: {cylinder: {radius: [0.1, 0.2], colour: red}}"),
-                      "obstacles.cylinder.colour");
+                      "obstacles.cylinder.colour", "unknown key", "radius, height");
 }
 
 TEST(LayoutOptions, RejectsUnknownZoneKey) {
   EXPECT_CONFIG_ERROR(Parse("zones: [{x_range: [0, 24], spacing: 2, density: 3}]"),
-                      "zones[0].density");
+                      "zones[0].density", "unknown key", "x_range, spacing, obstacles");
 }
 
-TEST(LayoutOptions, RejectsWrongType) { EXPECT_CONFIG_ERROR(Parse("spacing: dense"), "spacing"); }
+TEST(LayoutOptions, RejectsWrongType) {
+  EXPECT_CONFIG_ERROR(Parse("spacing: dense"), "spacing", "'dense' is not a number");
+}
 
 TEST(LayoutOptions, RejectsRangeWithoutTwoNumbers) {
   EXPECT_CONFIG_ERROR(Parse("obstacles: {cylinder: {radius: [0.1, 0.2, 0.3]}}"),
-                      "obstacles.cylinder.radius");
+                      "obstacles.cylinder.radius", "has 3 entries");
 }
 
 TEST(LayoutOptions, RejectsZonesNotStartingAtTheRegion) {
-  EXPECT_CONFIG_ERROR(Parse("zones: [{x_range: [2, 24], spacing: 2}]"), "zones[0].x_range");
+  EXPECT_CONFIG_ERROR(Parse("zones: [{x_range: [2, 24], spacing: 2}]"), "zones[0].x_range",
+                      "must start at 0");
 }
 
 TEST(LayoutOptions, RejectsZonesWithAGap) {
   EXPECT_CONFIG_ERROR(
       Parse("zones: [{x_range: [0, 10], spacing: 2}, {x_range: [11, 24], spacing: 2}]"),
-      "zones[1].x_range");
+      "zones[1].x_range", "must start at 10");
 }
 
 TEST(LayoutOptions, RejectsZonesNotCoveringTheRegion) {
-  EXPECT_CONFIG_ERROR(Parse("zones: [{x_range: [0, 20], spacing: 2}]"), "zones[0].x_range");
+  EXPECT_CONFIG_ERROR(Parse("zones: [{x_range: [0, 20], spacing: 2}]"), "zones[0].x_range",
+                      "must end at 24");
 }
 
 TEST(LayoutOptions, RejectsEmptyZone) {
   EXPECT_CONFIG_ERROR(
       Parse("zones: [{x_range: [0, 0], spacing: 2}, {x_range: [0, 24], spacing: 2}]"),
-      "zones[0].x_range");
+      "zones[0].x_range", "x_min < x_max");
 }
 
 TEST(LayoutOptions, ErrorsNameTheFile) {
@@ -315,7 +319,8 @@ TEST(LayoutOptions, ErrorsNameTheFile) {
 TEST(LayoutOptions, ValidateNamesThePrefixedKey) {
   LayoutOptions o;
   o.min_gap = -1.0;
-  EXPECT_CONFIG_ERROR(o.Validate("layout.yaml", "options"), "options.min_gap");
+  EXPECT_CONFIG_ERROR(o.Validate("layout.yaml", "options"), "options.min_gap", "got -1",
+                      "[0, inf)");
 }
 
 }  // namespace

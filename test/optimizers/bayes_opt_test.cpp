@@ -10,6 +10,8 @@
 namespace quadtune::optimizers {
 namespace {
 
+using quadtune::test::ThrowsWithMessage;
+
 using testing::Branin;
 using testing::BraninSpace;
 using testing::BoxSpace;
@@ -379,23 +381,32 @@ TEST(BayesOpt, RejectsCrossedSearchBounds) {
   Eigen::VectorXd lo(3), hi(3);
   lo << 4.0, 3, 0.1;
   hi << 2.0, 5, 1.0;
-  EXPECT_THROW(bo.SetBounds(lo, hi), std::invalid_argument);
-  EXPECT_THROW(bo.SetBounds(lo.head(2), hi.head(2)), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>([&] { bo.SetBounds(lo, hi); },
+                                                       {"parameter 'v_des'", "lower <= upper"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { bo.SetBounds(lo.head(2), hi.head(2)); }, {"expected vectors of size 3"}));
 }
 
 TEST(BayesOpt, RejectsNegativeAge) {
   BayesOpt bo(MixedSpace(), {});
-  EXPECT_THROW(bo.AdvanceAge(-1.0), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>([&] { bo.AdvanceAge(-1.0); },
+                                                       {"finite and >= 0", "got -1"}));
 }
 
 TEST(BayesOpt, RejectsStateOfAnotherMethodOrDimension) {
   BayesOpt bo(MixedSpace(), {});
   BayesOpt other(BoxSpace(2, 0.0, 1.0), {});
-  EXPECT_THROW(bo.RestoreState(other.SaveState()), std::invalid_argument);
-  EXPECT_THROW(bo.RestoreState(nlohmann::json{{"method", "pso"}, {"dim", 3}}), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>([&] { bo.RestoreState(other.SaveState()); },
+                                                       {"saved for dimension 2", "has 3"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        bo.RestoreState(nlohmann::json{{"method", "pso"}, {"dim", 3}});
+      },
+      {"saved by 'pso'", "bayes_opt"}));
   nlohmann::json broken = bo.SaveState();
   broken.erase("rng");
-  EXPECT_THROW(bo.RestoreState(broken), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>([&] { bo.RestoreState(broken); },
+                                                       {"malformed", "rng"}));
 }
 
 }  // namespace

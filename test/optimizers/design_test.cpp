@@ -4,8 +4,12 @@
 
 #include <set>
 
+#include "../config_error_util.hpp"
+
 namespace quadtune::optimizers {
 namespace {
+
+using quadtune::test::ThrowsWithMessage;
 
 TEST(LatinHypercube, OnePointPerStratumInsideTheBox) {
   Rng rng(3);
@@ -35,9 +39,12 @@ TEST(LatinHypercube, SameSeedSameDesign) {
 TEST(LatinHypercube, RejectsBadArguments) {
   Rng rng(1);
   const Eigen::VectorXd lo = Eigen::VectorXd::Zero(2), hi = Eigen::VectorXd::Ones(2);
-  EXPECT_THROW((void)LatinHypercube(0, lo, hi, rng), std::invalid_argument);
-  EXPECT_THROW((void)LatinHypercube(3, hi, lo, rng), std::invalid_argument);
-  EXPECT_THROW((void)UniformDesign(3, lo, Eigen::VectorXd::Ones(3), rng), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { (void)LatinHypercube(0, lo, hi, rng); }, {"n must be >= 1", "got 0"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { (void)LatinHypercube(3, hi, lo, rng); }, {"lower must not exceed upper"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { (void)UniformDesign(3, lo, Eigen::VectorXd::Ones(3), rng); }, {"same, non-zero size"}));
 }
 
 }  // namespace

@@ -10,6 +10,8 @@
 namespace quadtune::optimizers {
 namespace {
 
+using quadtune::test::ThrowsWithMessage;
+
 struct Data {
   Eigen::MatrixXd x;
   Eigen::VectorXd y, noise, mult;
@@ -192,13 +194,20 @@ TEST(GaussianProcess, NoiseMultiplierRaisesVarianceAsTheFormulaSays) {
 
 TEST(GaussianProcess, RejectsBadData) {
   GaussianProcess<Matern52Kernel> gp(2);
-  EXPECT_THROW(gp.SetData(Eigen::MatrixXd::Zero(3, 2), Eigen::VectorXd::Zero(2), Eigen::VectorXd::Zero(3)),
-               std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        gp.SetData(Eigen::MatrixXd::Zero(3, 2), Eigen::VectorXd::Zero(2), Eigen::VectorXd::Zero(3));
+      },
+      {"sizes differ"}));
   Eigen::VectorXd y = Eigen::VectorXd::Zero(3);
   y[1] = std::nan("");
-  EXPECT_THROW(gp.SetData(Eigen::MatrixXd::Zero(3, 2), y, Eigen::VectorXd::Zero(3)), std::invalid_argument);
-  EXPECT_THROW(gp.Append(Eigen::VectorXd::Zero(3), 1.0), std::invalid_argument);
-  EXPECT_THROW(GaussianProcess<Matern52Kernel>(0), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { gp.SetData(Eigen::MatrixXd::Zero(3, 2), y, Eigen::VectorXd::Zero(3)); },
+      {"non-finite or out-of-range"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { gp.Append(Eigen::VectorXd::Zero(3), 1.0); }, {"wrong size or out-of-range"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>([&] { GaussianProcess<Matern52Kernel>(0); },
+                                                       {"dimension must be >= 1", "got 0"}));
 }
 
 TEST(GaussianProcess, RejectsBadOptions) {

@@ -7,6 +7,7 @@
 #include <functional>
 #include <memory>
 
+#include "../config_error_util.hpp"
 #include "quadtune/optimizers/bayes_opt.hpp"
 #include "quadtune/optimizers/pso.hpp"
 #include "quadtune/optimizers/random_search.hpp"
@@ -14,6 +15,8 @@
 
 namespace quadtune::optimizers {
 namespace {
+
+using quadtune::test::ThrowsWithMessage;
 
 using Factory = std::function<std::unique_ptr<Optimizer>()>;
 
@@ -31,46 +34,67 @@ class OptimizerContract : public ::testing::TestWithParam<int> {
 
 TEST_P(OptimizerContract, RejectsNonPositiveAsk) {
   auto opt = Make();
-  EXPECT_THROW(opt->Ask(0), std::invalid_argument);
+  EXPECT_TRUE(
+      ThrowsWithMessage<std::invalid_argument>([&] { opt->Ask(0); }, {"k must be >= 1", "got 0"}));
 }
 
 TEST_P(OptimizerContract, RejectsNaNValue) {
   auto opt = Make();
   const auto c = opt->Ask(1);
-  EXPECT_THROW(opt->Tell(c[0].id, std::nan("")), std::invalid_argument);
-  EXPECT_THROW(opt->Tell(c[0].id, INFINITY), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>([&] { opt->Tell(c[0].id, std::nan("")); },
+                                                       {"must be finite", "got nan"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>([&] { opt->Tell(c[0].id, INFINITY); },
+                                                       {"must be finite", "got inf"}));
   EXPECT_EQ(opt->NumPending(), 1u);  // nothing applied
 }
 
 TEST_P(OptimizerContract, RejectsBadNoiseVariance) {
   auto opt = Make();
   const auto c = opt->Ask(1);
-  EXPECT_THROW(opt->Tell(c[0].id, 1.0, -1.0), std::invalid_argument);
-  EXPECT_THROW(opt->Tell(c[0].id, 1.0, std::nan("")), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>([&] { opt->Tell(c[0].id, 1.0, -1.0); },
+                                                       {"noise variance must be finite and >= 0"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { opt->Tell(c[0].id, 1.0, std::nan("")); }, {"noise variance is NaN"}));
 }
 
 TEST_P(OptimizerContract, RejectsUnknownCandidateId) {
   auto opt = Make();
   const auto c = opt->Ask(1);
-  EXPECT_THROW(opt->Tell(c[0].id + 1000, 1.0), std::invalid_argument);
-  EXPECT_THROW(opt->Cancel(c[0].id + 1000), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>([&] { opt->Tell(c[0].id + 1000, 1.0); },
+                                                       {"unknown candidate id"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>([&] { opt->Cancel(c[0].id + 1000); },
+                                                       {"unknown candidate id"}));
   opt->Tell(c[0].id, 1.0);
-  EXPECT_THROW(opt->Tell(c[0].id, 1.0), std::invalid_argument);  // told twice
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { opt->Tell(c[0].id, 1.0); }, {"unknown candidate id", "already told"}));  // told twice
 }
 
 TEST_P(OptimizerContract, RejectsWrongVectorSizes) {
   auto opt = Make();
   const auto c = opt->Ask(2);
-  EXPECT_THROW(opt->Tell(c, {1.0}), std::invalid_argument);
-  EXPECT_THROW(opt->Tell(c, {1.0, 2.0}, {0.1}), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>([&] { opt->Tell(c, {1.0}); },
+                                                       {"2 ids but 1 values"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        opt->Tell(c, {1.0, 2.0}, {0.1});
+      },
+      {"2 values but 1 noise variances"}));
   EXPECT_EQ(opt->NumPending(), 2u);
 }
 
 TEST_P(OptimizerContract, RejectsDuplicateIdsAtomically) {
   auto opt = Make();
   const auto c = opt->Ask(2);
-  EXPECT_THROW(opt->Tell(std::vector<CandidateId>{c[0].id, c[0].id}, {1.0, 2.0}), std::invalid_argument);
-  EXPECT_THROW(opt->Tell(std::vector<CandidateId>{c[0].id, c[1].id}, {1.0, std::nan("")}), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        opt->Tell(std::vector<CandidateId>{c[0].id, c[0].id}, {1.0, 2.0});
+      },
+      {"appears twice"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        opt->Tell(std::vector<CandidateId>{c[0].id, c[1].id}, {1.0, std::nan("")});
+      },
+      {"must be finite", "got nan"}));
   EXPECT_EQ(opt->NumPending(), 2u);
   EXPECT_EQ(opt->NumTold(), 0u);
   opt->Tell(c, {1.0, 2.0});
@@ -79,8 +103,13 @@ TEST_P(OptimizerContract, RejectsDuplicateIdsAtomically) {
 
 TEST_P(OptimizerContract, RejectsMalformedState) {
   auto opt = Make();
-  EXPECT_THROW(opt->RestoreState(nlohmann::json::object()), std::invalid_argument);
-  EXPECT_THROW(opt->RestoreState(nlohmann::json{{"method", "other"}, {"dim", 2}}), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { opt->RestoreState(nlohmann::json::object()); }, {"not a saved optimizer state"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        opt->RestoreState(nlohmann::json{{"method", "other"}, {"dim", 2}});
+      },
+      {"saved by 'other'", "cannot restore"}));
 }
 
 TEST_P(OptimizerContract, BestIsEmptyBeforeResults) {

@@ -9,6 +9,8 @@
 namespace quadtune::optimizers {
 namespace {
 
+using quadtune::test::ThrowsWithMessage;
+
 ParameterSpace Mixed() {
   return ParameterSpace::FromYaml(YamlMap::FromString(R"(
 parameters:
@@ -132,20 +134,30 @@ TEST(ParameterSpace, RejectsUnknownYamlKey) {
 
 TEST(ParameterSpace, RejectsUnknownParameterName) {
   const ParameterSpace s = Mixed();
-  EXPECT_THROW((void)s.IndexOf("nope"), std::invalid_argument);
-  EXPECT_THROW((void)s.FromNamed({{"nope", 1.0}}), std::invalid_argument);
-  EXPECT_THROW((void)s.Subspace({"nope"}), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>([&] { (void)s.IndexOf("nope"); },
+                                                       {"unknown parameter 'nope'"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        (void)s.FromNamed({{"nope", 1.0}});
+      },
+      {"unknown parameter 'nope'"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>([&] { (void)s.Subspace({"nope"}); },
+                                                       {"unknown parameter 'nope'"}));
 }
 
 TEST(ParameterSpace, RejectsWrongVectorSize) {
   const ParameterSpace s = Mixed();
-  EXPECT_THROW((void)s.ToUnit(Eigen::VectorXd::Zero(2)), std::invalid_argument);
-  EXPECT_THROW((void)s.FromUnit(Eigen::VectorXd::Zero(4)), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { (void)s.ToUnit(Eigen::VectorXd::Zero(2)); }, {"expected a vector of size 3", "got 2"}));
+  EXPECT_TRUE(
+      ThrowsWithMessage<std::invalid_argument>([&] { (void)s.FromUnit(Eigen::VectorXd::Zero(4)); },
+                                               {"expected a vector of size 3", "got 4"}));
 }
 
 TEST(ParameterSpace, RejectsNaNVector) {
   const ParameterSpace s = Mixed();
-  EXPECT_THROW((void)s.ToUnit(Eigen::VectorXd::Constant(3, std::nan(""))), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { (void)s.ToUnit(Eigen::VectorXd::Constant(3, std::nan(""))); }, {"NaN"}));
 }
 
 }  // namespace

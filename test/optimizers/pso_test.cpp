@@ -12,6 +12,8 @@
 namespace quadtune::optimizers {
 namespace {
 
+using quadtune::test::ThrowsWithMessage;
+
 using testing::BoxSpace;
 using testing::Rosenbrock;
 using testing::Sphere;
@@ -188,8 +190,12 @@ TEST(Pso, RestartForgetsBestsAndDropsStaleResults) {
   EXPECT_FALSE(pso.Best().has_value());
   const auto fresh = pso.Ask(1);
   EXPECT_TRUE(fresh[0].x.isApprox(seed_point));
-  EXPECT_THROW(pso.Tell(stale[0].id, 1.0), std::invalid_argument);  // already told
-  EXPECT_THROW(pso.Restart(Eigen::VectorXd::Constant(2, 2.0)), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { pso.Tell(stale[0].id, 1.0); },
+      {"unknown candidate id", "already told"}));  // already told
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { pso.Restart(Eigen::VectorXd::Constant(2, 2.0)); },
+      {"wrong size or lies outside the space"}));
 }
 
 TEST(Pso, CancelledParticleIsReissuedAtTheSamePosition) {
@@ -284,7 +290,8 @@ TEST(Pso, RejectsStateWithOtherSwarmSize) {
   o.num_particles = 3;
   Pso a(BoxSpace(2, 0.0, 1.0), {});
   Pso b(BoxSpace(2, 0.0, 1.0), o);
-  EXPECT_THROW(b.RestoreState(a.SaveState()), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>([&] { b.RestoreState(a.SaveState()); },
+                                                       {"different number of particles"}));
 }
 
 }  // namespace

@@ -13,6 +13,8 @@
 namespace quadtune::planning {
 namespace {
 
+using quadtune::test::ThrowsWithMessage;
+
 using Eigen::Vector3d;
 using Eigen::Vector3i;
 
@@ -317,10 +319,15 @@ TEST(EsdfOptions, ValidateRejectsEachBadValue) {
   EXPECT_DOUBLE_EQ(EsdfOptions::FromYaml(YamlMap::FromString("max_distance: 1.5\n")).max_distance,
                    1.5);
   LocalMap map(LocalMapOptions{});
-  EXPECT_THROW((void)Esdf::Build(map, Eigen::AlignedBox3d()), std::invalid_argument);
-  EXPECT_THROW((void)Esdf::FromOccupancy(Vector3d::Zero(), 0.1, Vector3i(2, 2, 2),
-                                         std::vector<std::uint8_t>(7, 0)),
-               std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { (void)Esdf::Build(map, Eigen::AlignedBox3d()); },
+      {"Esdf::Build", "finite and non-empty"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        (void)Esdf::FromOccupancy(Vector3d::Zero(), 0.1, Vector3i(2, 2, 2),
+                                  std::vector<std::uint8_t>(7, 0));
+      },
+      {"7 cells", "dims need 8"}));
 }
 
 // Two voxelised pillars, 0.25 and 0.15 m in radius, in a 3 × 2.5 × 2 m box.

@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -11,11 +10,14 @@
 #include <optional>
 #include <string>
 
+#include "../config_error_util.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
 
 namespace quadtune::planning {
 namespace {
+
+using quadtune::test::ThrowsConfigError;
 
 physics::DroneDescription ResearchDrone() {
   return physics::LoadDroneDescription(std::string(QUADTUNE_SOURCE_DIR) +
@@ -241,22 +243,30 @@ TEST(Flight, BadArgumentsThrowConfigError) {
   ForestFlight f(3.0, 1);
   const physics::DroneDescription drone = ResearchDrone();
   physics::World world(f.forest.obstacles, drone, f.world_options);
-  Mission empty;
-  EXPECT_THROW((void)Fly(world, empty, PlannerParams{}, FlightOptions{}, f.optimizer), ConfigError);
+  const auto fly = [&](const Mission& mission, const PlannerParams& params,
+                       const FlightOptions& options) {
+    return [&world, &f, mission, params, options] {
+      (void)Fly(world, mission, params, options, f.optimizer);
+    };
+  };
+  EXPECT_TRUE(ThrowsConfigError(fly(Mission{}, PlannerParams{}, FlightOptions{}),
+                                "mission.waypoints", {"at least one waypoint"}));
   FlightOptions options;
   options.tick_rate_hz = 300.0;  // does not divide 1000 Hz
-  EXPECT_THROW((void)Fly(world, f.mission, PlannerParams{}, options, f.optimizer), ConfigError);
+  EXPECT_TRUE(ThrowsConfigError(fly(f.mission, PlannerParams{}, options), "tick_rate_hz",
+                                {"must divide", "1000"}));
   PlannerParams params;
   params.h_pl = -1.0;
-  EXPECT_THROW((void)Fly(world, f.mission, params, FlightOptions{}, f.optimizer), ConfigError);
+  EXPECT_TRUE(
+      ThrowsConfigError(fly(f.mission, params, FlightOptions{}), "h_pl", {"got -1", "[1, 30]"}));
   FlightOptions no_stall_time;
   no_stall_time.stall_time = 0.0;
-  EXPECT_THROW((void)Fly(world, f.mission, PlannerParams{}, no_stall_time, f.optimizer),
-               ConfigError);
+  EXPECT_TRUE(ThrowsConfigError(fly(f.mission, PlannerParams{}, no_stall_time), "stall_time",
+                                {"got 0", "(0, "}));
   FlightOptions negative_stall_distance;
   negative_stall_distance.stall_distance = -1.0;
-  EXPECT_THROW((void)Fly(world, f.mission, PlannerParams{}, negative_stall_distance, f.optimizer),
-               ConfigError);
+  EXPECT_TRUE(ThrowsConfigError(fly(f.mission, PlannerParams{}, negative_stall_distance),
+                                "stall_distance", {"got -1", "[0, "}));
 }
 
 }  // namespace

@@ -6,11 +6,14 @@
 #include <cstring>
 #include <vector>
 
+#include "../config_error_util.hpp"
 #include "analytic_fields.hpp"
 #include "quadtune/planning/esdf.hpp"
 
 namespace quadtune::planning {
 namespace {
+
+using quadtune::test::ThrowsWithMessage;
 
 using testing::CylinderField;
 using testing::HalfSpaceField;
@@ -428,13 +431,30 @@ TEST(MinJerkProblem, ValueCacheGivesTheSameBitsAndIsUsedOnlyForItsProblemAndPoin
 
 TEST(MinJerkProblem, RejectsBadInput) {
   const HalfSpaceField field(Eigen::Vector3d::UnitZ(), 0.0);
-  EXPECT_THROW(MinJerkProblem(Boundary(), {}, {}, field, {}), std::invalid_argument);
-  EXPECT_THROW(MinJerkProblem(Boundary(), {1.0, -1.0}, {3, 3}, field, {}), std::invalid_argument);
-  EXPECT_THROW(MinJerkProblem(Boundary(), {1.0, 1.0}, {3}, field, {}), std::invalid_argument);
-  EXPECT_THROW(MinJerkProblem(Boundary(), {1.0, 1.0}, {3, 0}, field, {}), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { MinJerkProblem(Boundary(), {}, {}, field, {}); }, {"need >= 1 piece"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        MinJerkProblem(Boundary(), {1.0, -1.0}, {3, 3}, field, {});
+      },
+      {"nominal duration", "finite and > 0"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        MinJerkProblem(Boundary(), {1.0, 1.0}, {3}, field, {});
+      },
+      {"one sample count per piece"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        MinJerkProblem(Boundary(), {1.0, 1.0}, {3, 0}, field, {});
+      },
+      {"samples_per_piece must be >= 1"}));
   MinJerkCostParams bad;
   bad.clearance = 0.0;
-  EXPECT_THROW(MinJerkProblem(Boundary(), {1.0, 1.0}, {3, 3}, field, bad), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        MinJerkProblem(Boundary(), {1.0, 1.0}, {3, 3}, field, bad);
+      },
+      {"weights/limits out of range"}));
 }
 
 }  // namespace

@@ -8,6 +8,8 @@
 namespace quadtune::planning {
 namespace {
 
+using quadtune::test::ThrowsWithMessage;
+
 TEST(QuinticBoundaryValue, MeetsBothEnds) {
   const Eigen::Vector3d p0(1, 2, 3), v0(0.5, -1, 0.2), a0(0.1, 0.3, -0.2);
   const Eigen::Vector3d p1(4, 0, 2), v1(1, 1, 0), a1(0, 0.5, 0);
@@ -261,8 +263,9 @@ TEST(Replanner, FliesTheFrontEndsPathStopAndGoWhenEveryAttemptFromRestFails) {
 TEST(Replanner, RejectsAnEmptyMission) {
   TrajectoryOptimizer optimizer;
   Replanner replanner(optimizer, PlannerParams{});
-  EXPECT_THROW(replanner.StartMission({}, Eigen::Vector3d::Zero(), 0.0, 0.0),
-               std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { replanner.StartMission({}, Eigen::Vector3d::Zero(), 0.0, 0.0); },
+      {"needs a waypoint"}));
 }
 
 TEST(Replanner, InvalidOptionsNameTheKey) {

@@ -5,10 +5,13 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "../config_error_util.hpp"
 #include "quadtune/common/error.hpp"
 
 namespace quadtune::planning {
 namespace {
+
+using quadtune::test::ThrowsWithMessage;
 
 Trajectory TwoPieces() {
   Trajectory::Coefficients c0;
@@ -116,12 +119,19 @@ TEST(Trajectory, StateEqualsPositionVelocityAcceleration) {
 
 TEST(Trajectory, RejectsBadPieces) {
   const Trajectory::Coefficients c = Trajectory::Coefficients::Zero();
-  EXPECT_THROW(Trajectory({}, {}), std::invalid_argument);
-  EXPECT_THROW(Trajectory({1.0}, {c, c}), std::invalid_argument);
-  EXPECT_THROW(Trajectory({0.0}, {c}), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] { Trajectory({}, {}); }, {"durations (0) and coefficient blocks (0)"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>(
+      [&] {
+        Trajectory({1.0}, {c, c});
+      },
+      {"durations (1) and coefficient blocks (2)"}));
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>([&] { Trajectory({0.0}, {c}); },
+                                                       {"duration of piece 0", "finite and > 0"}));
   Trajectory::Coefficients bad = c;
   bad(0, 0) = std::nan("");
-  EXPECT_THROW(Trajectory({1.0}, {bad}), std::invalid_argument);
+  EXPECT_TRUE(ThrowsWithMessage<std::invalid_argument>([&] { Trajectory({1.0}, {bad}); },
+                                                       {"coefficients of piece 0 are not finite"}));
   EXPECT_THROW(static_cast<void>(Trajectory().Position(0.0)), InvariantError);
 }
 

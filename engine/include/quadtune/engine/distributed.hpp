@@ -60,6 +60,12 @@ bool MpiBuilt();
 /// SLURM_PROCID is set); 1 when none did.
 int MpiLaunchSize();
 
+/// A quadtune without MPI started as one of several MPI processes would run the whole experiment
+/// in each of them, into the same store. Throws ConfigError (key "mpirun": the launch, the
+/// process count and how to fix it) when `processes` > 1 and `mpi_built` is false; returns
+/// otherwise. `quadtune run` calls it with MpiLaunchSize() and MpiBuilt().
+void CheckMpiLaunch(int processes, bool mpi_built);
+
 /// Thrown on a rank when another rank failed before the run started (that rank reports why).
 class PeerError : public std::runtime_error {
  public:
