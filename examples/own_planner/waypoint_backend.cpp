@@ -44,26 +44,36 @@ qp::Trajectory::Coefficients Quintic(const Vector3d& p0, const Vector3d& v0, con
   return c;
 }
 
-// `count` + 1 points of equal arc length along the polyline `path` (at least two points).
-std::vector<Vector3d> Resample(const std::vector<Vector3d>& path, int count) {
+// The vertices of the polyline `path` (at least two points) and `count` - 1 more points that
+// split it into `count` parts of equal arc length, in order along the path.
+std::vector<Vector3d> Waypoints(const std::vector<Vector3d>& path, int count) {
   std::vector<double> at{0.0};  // arc length at each vertex
   for (std::size_t i = 1; i < path.size(); ++i) at.push_back(at.back() + (path[i] - path[i - 1]).norm());
-  std::vector<Vector3d> out;
+  const double min_gap = 1e-3 * at.back();
+  std::vector<Vector3d> out{path.front()};
+  double last = 0.0;  // arc length of out.back()
   std::size_t seg = 1;
-  for (int k = 0; k <= count; ++k) {
-    const double s = at.back() * k / count;
-    while (seg + 1 < path.size() && at[seg] < s) ++seg;
-    const double len = at[seg] - at[seg - 1];
-    const double f = len > 0.0 ? std::clamp((s - at[seg - 1]) / len, 0.0, 1.0) : 1.0;
-    out.push_back(path[seg - 1] + f * (path[seg] - path[seg - 1]));
+  for (int k = 1; k <= count; ++k) {
+    const double s = k == count ? at.back() : at.back() * k / count;
+    for (; seg < path.size() && at[seg] <= s; ++seg) {  // vertices up to s
+      if (at[seg] - last > min_gap) {
+        out.push_back(path[seg]);
+        last = at[seg];
+      }
+    }
+    if (seg < path.size() && s - last > min_gap && at[seg] - s > min_gap) {
+      const double f = (s - at[seg - 1]) / (at[seg] - at[seg - 1]);
+      out.push_back(path[seg - 1] + f * (path[seg] - path[seg - 1]));
+      last = s;
+    }
   }
-  out.back() = path.back();
+  out.back() = path.back();  // the goal itself, also when its vertex lay within min_gap
   return out;
 }
 
 // The trajectory through `points` at `speed` (see the file comment).
 qp::Trajectory Through(const std::vector<Vector3d>& points, const qp::PlanningQuery& q,
-                       double speed, double min_piece_time) {
+                       double speed, double a_max, double min_piece_time) {
   const int n = static_cast<int>(points.size()) - 1;
   std::vector<Vector3d> v(points.size(), Vector3d::Zero());
   v.front() = q.v0_W;
@@ -75,7 +85,11 @@ qp::Trajectory Through(const std::vector<Vector3d>& points, const qp::PlanningQu
   std::vector<double> durations;
   std::vector<qp::Trajectory::Coefficients> coefficients;
   for (int k = 0; k < n; ++k) {
-    const double T = std::max((points[k + 1] - points[k]).norm() / speed, min_piece_time);
+    // Long enough to cover the piece at its mean end speed (at least half the cruise speed) and
+    // to change the velocity at about half the acceleration limit.
+    const double mean_speed = std::max(0.5 * (v[k].norm() + v[k + 1].norm()), 0.5 * speed);
+    const double T = std::max({(points[k + 1] - points[k]).norm() / mean_speed,
+                               2.0 * (v[k + 1] - v[k]).norm() / a_max, min_piece_time});
     const Vector3d a_start = k == 0 ? q.a0_W : Vector3d::Zero();
     durations.push_back(T);
     coefficients.push_back(
@@ -142,12 +156,12 @@ qp::PlanOutcome WaypointBackend::Solve(const qp::PlanningQuery& query,
                                                     : "the start is at the local goal";
     return out;
   }
-  const std::vector<Vector3d> points = Resample(path, params.n_pol);
+  const std::vector<Vector3d> points = Waypoints(path, params.n_pol);
   double speed = params.v_des;
   for (int attempt = 0; attempt < params.max_attempts; ++attempt) {
     ++out.attempts;
     out.result = qp::PlanResult{};
-    out.result.trajectory = Through(points, query, speed, options_.min_piece_time);
+    out.result.trajectory = Through(points, query, speed, params.a_max, options_.min_piece_time);
     const int samples = Check(*query.occupancy, params, options_, &out.result);
     // Deterministic work measure: 1 unit (0.1 ms nominal) per attempt and per 100 samples.
     out.result.compute_units = 1.0 + 0.01 * samples;

@@ -3,18 +3,20 @@
 /// A waypoint planner: a trajectory back end written outside quadtune against its installed
 /// headers (find_package(quadtune)), flown in quadtune's closed loop by engine::BackendPlanner.
 ///
-/// Solve() resamples the query's front-end path (the A* path through the local map) at n_pol + 1
-/// points of equal arc length and joins them by quintic pieces: the first starts in the query's
-/// state (p0, v0, a0), the last ends at the local goal with the query's goal velocity, the inner
-/// points are passed at `cruise_speed` along the chord of their neighbours with zero
-/// acceleration, and each piece takes its length / cruise_speed. The curve is accepted when its
-/// samples (every WaypointOptions::check_dt) stay outside the inflated local map (after leaving
-/// it, when the start lies inside) and within v_des and a_max (+ limit_tolerance); otherwise the
-/// next attempt flies the same points at retry_slowdown times the speed, up to max_attempts.
+/// Solve() takes the vertices of the query's front-end path (the A* path through the local map,
+/// pruned) and n_pol - 1 more points that split it into n_pol parts of equal arc length, and
+/// joins them by quintic pieces: the first starts in the query's state (p0, v0, a0), the last
+/// ends at the local goal with the query's goal velocity, the inner points are passed at the
+/// cruise speed along the chord of their neighbours with zero acceleration, and each piece takes
+/// the longest of: its length at the mean speed of its ends (at least half the cruise speed),
+/// twice its velocity change over a_max, and WaypointOptions::min_piece_time. The curve is accepted when its samples (every
+/// WaypointOptions::check_dt) stay outside the inflated local map (after leaving it, when the
+/// start lies inside) and within v_des and a_max (+ limit_tolerance). The first attempt cruises
+/// at v_des, each further one (up to max_attempts) at retry_slowdown times the previous speed.
 ///
-/// Parameters (PlannerParams names): θ_s = n_pol (pieces: more follow the path's corners more
-/// closely, fewer give a smoother, straighter curve); θ_l = v_des (cruise speed) and the loop's
-/// h_pl and t_pl; w_col and w_dyn are not used. No fallback.
+/// Parameters (PlannerParams names): θ_s = n_pol (more points hold the curve closer to the path
+/// and slow it down on short pieces); θ_l = v_des (cruise speed) and the loop's h_pl and t_pl;
+/// w_col and w_dyn are not used. No fallback.
 ///
 /// Thread safety: immutable; Solve() reads only the query (its occupancy snapshot) and the
 /// parameters, so concurrent re-solves are safe and equal to serial ones.
