@@ -33,7 +33,7 @@ ParamValues Planner::Defaults() const {
 }
 
 // ---------------------------------------------------------------------------------------------
-// IpoptPlanner
+// The closed loop's options and parameters (IpoptPlanner, EgoPlanner, BackendPlanner)
 
 std::vector<ParameterInfo> PlannerParamsInfo(const planning::PlannerParams& values,
                                              const std::vector<std::string>& names) {
@@ -195,31 +195,6 @@ ResolveRecord ResolveWithBackend(const planning::TrajectoryBackend& backend,
 
 }  // namespace
 
-IpoptPlanner::IpoptPlanner(IpoptPlannerOptions options)
-    : options_(std::make_shared<const IpoptPlannerOptions>(std::move(options))),
-      optimizer_(std::make_shared<const planning::TrajectoryOptimizer>(
-          options_->flight.planner.optimizer)) {}
-
-std::vector<ParameterInfo> IpoptPlanner::ShortTermParameters() const {
-  return PlannerParamsInfo(options_->base, planning::PlannerParams::ShortTermNames());
-}
-std::vector<ParameterInfo> IpoptPlanner::LongTermParameters() const {
-  return PlannerParamsInfo(options_->base, planning::PlannerParams::LongTermNames());
-}
-
-Opaque IpoptPlanner::PrepareMap(std::uint64_t map_seed) const {
-  return PrepareLayoutMap(*options_, map_seed);
-}
-
-FlightRecord IpoptPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) const {
-  return FlyWithBackend(*options_, planning::IpoptBackend(*optimizer_), request, slot);
-}
-
-ResolveRecord IpoptPlanner::Resolve(const Opaque& query, const ParamValues& theta_s) const {
-  return ResolveWithBackend(planning::IpoptBackend(*optimizer_), options_->flight.planner, query,
-                            theta_s);
-}
-
 // ---------------------------------------------------------------------------------------------
 // BackendPlanner, EgoPlanner
 
@@ -256,6 +231,38 @@ FlightRecord BackendPlanner::Fly(const FlightRequest& request, WorkerSlot& slot)
 ResolveRecord BackendPlanner::Resolve(const Opaque& query, const ParamValues& theta_s) const {
   return ResolveWithBackend(*backend_, options_->flight.planner, query, theta_s);
 }
+
+namespace {
+
+/// planning::IpoptBackend together with the optimiser it refers to.
+class OwningIpoptBackend final : public planning::TrajectoryBackend {
+ public:
+  explicit OwningIpoptBackend(const planning::TrajectoryOptimizerOptions& options)
+      : optimizer_(options), backend_(optimizer_) {}
+
+  std::string Name() const override { return backend_.Name(); }
+  planning::QuerySnapshot Snapshot() const override { return backend_.Snapshot(); }
+  planning::PlanOutcome Solve(const planning::PlanningQuery& query,
+                              const planning::PlannerParams& params,
+                              const planning::LocalPlannerOptions& options) const override {
+    return backend_.Solve(query, params, options);
+  }
+  std::optional<planning::PlanResult> Fallback(const planning::PlanningQuery& query,
+                                               const planning::PlannerParams& params,
+                                               double speed) const override {
+    return backend_.Fallback(query, params, speed);
+  }
+
+ private:
+  planning::TrajectoryOptimizer optimizer_;  // before backend_, which refers to it
+  planning::IpoptBackend backend_;
+};
+
+}  // namespace
+
+IpoptPlanner::IpoptPlanner(IpoptPlannerOptions options)
+    : BackendPlanner("ipopt", options,
+                     std::make_shared<const OwningIpoptBackend>(options.flight.planner.optimizer)) {}
 
 EgoPlanner::EgoPlanner(EgoPlannerOptions options)
     : BackendPlanner("ego", std::move(options.common),

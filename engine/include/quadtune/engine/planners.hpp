@@ -6,7 +6,8 @@
 ///   planning::SolveQuery for re-solves). θ_s = {w_col, w_dyn, n_pol}, θ_l = {v_des, h_pl, t_pl}.
 /// - BackendPlanner: any planning::TrajectoryBackend in IpoptPlanner's closed loop (sensing, local
 ///   map, FSM, physics), with the θ_s and θ_l names of IpoptPlanner; the back end gives them its
-///   meaning. The way to plug in a back end of one's own (docs/own-planner.md).
+///   meaning. IpoptPlanner and EgoPlanner are BackendPlanners; so is a back end of one's own
+///   (docs/own-planner.md).
 /// - EgoPlanner: a BackendPlanner with EGO-Planner's B-spline back end (planning::EgoBackend,
 ///   L-BFGS, ESDF-free collision term); recorded queries carry an occupancy snapshot. θ_s =
 ///   {w_col = λ_c, w_dyn = λ_d, n_pol (B-spline spans over the horizon, in groups of
@@ -61,29 +62,9 @@ struct IpoptPlannerOptions {
 std::vector<ParameterInfo> PlannerParamsInfo(const planning::PlannerParams& values,
                                              const std::vector<std::string>& names);
 
-/// The project's Ipopt planner as a plug-in. Each WorkerSlot holds one physics::World that is
-/// Reset() onto the (shared, immutable) ObstacleGeometry of the requested map.
-class IpoptPlanner {
- public:
-  explicit IpoptPlanner(IpoptPlannerOptions options);
-
-  std::string Name() const { return "ipopt"; }
-  std::vector<ParameterInfo> ShortTermParameters() const;
-  std::vector<ParameterInfo> LongTermParameters() const;
-  /// Generates the layout with `map_seed` and builds its shared obstacle geometry.
-  Opaque PrepareMap(std::uint64_t map_seed) const;
-  FlightRecord Fly(const FlightRequest& request, WorkerSlot& slot) const;
-  ResolveRecord Resolve(const Opaque& query, const ParamValues& theta_s) const;
-
-  [[nodiscard]] const IpoptPlannerOptions& options() const { return *options_; }
-
- private:
-  std::shared_ptr<const IpoptPlannerOptions> options_;
-  std::shared_ptr<const planning::TrajectoryOptimizer> optimizer_;
-};
-
-/// A trajectory back end flown in IpoptPlanner's closed loop, as a plug-in: PrepareMap builds the
-/// layout map and obstacle geometry as IpoptPlanner does, Fly() flies planning::Fly with the back
+/// A trajectory back end flown in the project's closed loop, as a plug-in: PrepareMap generates
+/// the layout with the map seed and builds its shared obstacle geometry; each WorkerSlot holds one
+/// physics::World that is Reset() onto the requested map's geometry; Fly() flies planning::Fly with the back
 /// end in the slot's physics::World, and Resolve() re-solves a recorded planning::PlanningQuery
 /// with TrajectoryBackend::Solve. θ_s = {w_col, w_dyn, n_pol}, θ_l = {v_des, h_pl, t_pl}
 /// (PlannerParams), defaults from `options.base`. The back end must follow the rules of
@@ -104,7 +85,7 @@ class BackendPlanner {
   [[nodiscard]] const IpoptPlannerOptions& options() const { return *options_; }
   [[nodiscard]] const planning::TrajectoryBackend& backend() const { return *backend_; }
 
-  /// The parameter schema of every BackendPlanner (and of IpoptPlanner): θ_s and θ_l with
+  /// The parameter schema of every BackendPlanner: θ_s and θ_l with
   /// PlannerParams' ranges, integer flags and defaults; what a back end's registration gives.
   static PlannerSchema Schema();
 
@@ -112,6 +93,14 @@ class BackendPlanner {
   std::string name_;
   std::shared_ptr<const IpoptPlannerOptions> options_;
   std::shared_ptr<const planning::TrajectoryBackend> backend_;
+};
+
+/// The project's Ipopt planner: a BackendPlanner named "ipopt" over a planning::IpoptBackend (the
+/// minimum-jerk optimiser on the distance field, retries, stop-and-go fallback) that owns its
+/// TrajectoryOptimizer, built from `options.flight.planner.optimizer`.
+class IpoptPlanner : public BackendPlanner {
+ public:
+  explicit IpoptPlanner(IpoptPlannerOptions options);
 };
 
 /// Settings of EgoPlanner: the flight setting of IpoptPlanner (its `flight.planner.optimizer` is
