@@ -102,24 +102,20 @@ qp::Trajectory Through(const std::vector<Vector3d>& points, const qp::PlanningQu
 int Check(const qp::LocalMap& map, const qp::PlannerParams& params, const WaypointOptions& o,
           qp::PlanResult* r) {
   const qp::Trajectory& traj = r->trajectory;
-  const double T = traj.Duration();
-  r->duration = T;
+  const std::vector<qp::TrajectorySample> samples = traj.Sample(o.check_dt);
+  r->duration = traj.Duration();
   r->max_speed = 0.0;
   r->max_acceleration = 0.0;
-  bool inside_start = true;  // still in the inflated region the plan started in
-  bool collision = false;
-  int samples = 0;
-  for (double t = 0.0;; t += o.check_dt) {
-    const double tc = std::min(t, T);
-    Vector3d p, v, a;
-    traj.State(tc, &p, &v, &a);
-    ++samples;
-    r->max_speed = std::max(r->max_speed, v.norm());
-    r->max_acceleration = std::max(r->max_acceleration, a.norm());
-    const bool occupied = map.IsOccupied(p);
-    inside_start = inside_start && occupied;
-    collision = collision || (occupied && !inside_start);
-    if (tc >= T) break;
+  // Samples may lie in the inflated region the plan started in, until the first free one.
+  const auto first_free = std::find_if(samples.begin(), samples.end(), [&](const auto& x) {
+    return !map.IsOccupied(x.p_W);
+  });
+  const bool collision = std::any_of(first_free, samples.end(), [&](const auto& x) {
+    return map.IsOccupied(x.p_W);
+  });
+  for (const qp::TrajectorySample& x : samples) {
+    r->max_speed = std::max(r->max_speed, x.v_W.norm());
+    r->max_acceleration = std::max(r->max_acceleration, x.a_W.norm());
   }
   // Outside the inflated map every sample is at least the inflation away from what was seen.
   r->min_clearance = collision ? 0.0 : map.options().inflation;
@@ -135,7 +131,7 @@ int Check(const qp::LocalMap& map, const qp::PlannerParams& params, const Waypoi
     r->status = qp::PlanStatus::kSuccess;
     r->message.clear();
   }
-  return samples;
+  return static_cast<int>(samples.size());
 }
 
 }  // namespace
