@@ -9,9 +9,7 @@
 
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/text_file.hpp"
-#include "quadtune/layout/options.hpp"
-#include "quadtune/physics/drone.hpp"
-#include "quadtune/planning/parameters.hpp"
+#include "quadtune/engine/planner_registry.hpp"
 
 #ifndef QUADTUNE_SOURCE_DIR
 #define QUADTUNE_SOURCE_DIR "."
@@ -104,91 +102,12 @@ std::vector<std::string> StringList(const YamlMap& map, const std::string& key) 
   return out;
 }
 
-/// planner.type: sleep (SleepPlanner, the scale model of distributed runs).
-Planner BuildSleepPlanner(const YamlMap& p) {
-  p.RejectUnknownKeys({"type", "sleep"});
-  const YamlMap t = p.Map("sleep", true);
-  t.RejectUnknownKeys({"resolve_median_s", "resolve_p95_s", "flight_median_s", "flight_p95_s",
-                       "queries_per_flight"});
-  SleepPlannerOptions o;
-  o.resolve_median_s = t.Number("resolve_median_s", o.resolve_median_s, Range::Closed(1e-6, 10.0));
-  o.resolve_p95_s = t.Number("resolve_p95_s", o.resolve_p95_s, Range::Closed(1e-6, 10.0));
-  o.flight_median_s = t.Number("flight_median_s", o.flight_median_s, Range::Closed(1e-6, 60.0));
-  o.flight_p95_s = t.Number("flight_p95_s", o.flight_p95_s, Range::Closed(1e-6, 60.0));
-  o.queries_per_flight =
-      static_cast<int>(t.Integer("queries_per_flight", o.queries_per_flight, Range::Closed(1, 1e5)));
-  if (o.resolve_p95_s < o.resolve_median_s) t.Fail("resolve_p95_s", "must be >= resolve_median_s");
-  if (o.flight_p95_s < o.flight_median_s) t.Fail("flight_p95_s", "must be >= flight_median_s");
-  return Planner{SleepPlanner{o}};
-}
-
-Planner BuildPlanner(const YamlMap& p, const std::string& base_dir, std::string* type) {
-  *type = p.String("type", std::string("ipopt"), {"ipopt", "ego", "toy", "sleep"});
-  if (*type == "sleep") return BuildSleepPlanner(p);
-  if (*type == "toy") {
-    p.RejectUnknownKeys({"type", "toy"});
-    const YamlMap t = p.Map("toy", true);
-    t.RejectUnknownKeys({"length", "gates", "gate_speed_min", "gate_speed_max", "plan_interval",
-                         "flight_delay_s", "throw_speed_above"});
-    ToyPlannerOptions o;
-    o.length = t.Number("length", o.length, Range::Positive());
-    o.gates = static_cast<int>(t.Integer("gates", o.gates, Range::Closed(0, 1000)));
-    o.gate_speed_min = t.Number("gate_speed_min", o.gate_speed_min, Range::Positive());
-    o.gate_speed_max = t.Number("gate_speed_max", o.gate_speed_max, Range::Positive());
-    if (o.gate_speed_max < o.gate_speed_min) {
-      t.Fail("gate_speed_max", "must be >= gate_speed_min");
-    }
-    o.plan_interval = t.Number("plan_interval", o.plan_interval, Range::Positive());
-    o.flight_delay_s = t.Number("flight_delay_s", o.flight_delay_s, Range::Closed(0.0, 10.0));
-    o.throw_speed_above = t.Number("throw_speed_above", o.throw_speed_above, Range::Any());
-    return Planner{ToyPlanner{o}};
-  }
-  p.RejectUnknownKeys({"type", "drone", "layout", "layout_file", "world", "mission", "max_time",
-                       "fixed", "safety_nets"});
-  IpoptPlannerOptions o;
-  const std::string drone = ResolvePath(p.String("drone", std::string("drones/research_1kg.yaml")), base_dir);
-  if (!std::filesystem::exists(drone)) {
-    p.Fail("drone", "file '" + drone + "' not found (searched next to the experiment and in assets/)");
-  }
-  o.drone = physics::LoadDroneDescription(drone);
-  if (p.Has("layout") && p.Has("layout_file")) p.Fail("layout_file", "give either layout or layout_file");
-  if (p.Has("layout_file")) {
-    const std::string lf = ResolvePath(p.String("layout_file"), base_dir);
-    if (!std::filesystem::exists(lf)) p.Fail("layout_file", "file '" + lf + "' not found");
-    o.layout = layout::LayoutOptions::LoadFile(lf);
-  } else if (p.Has("layout")) {
-    o.layout = layout::LayoutOptions::FromYaml(p.Map("layout"));
-  } else {
-    p.Fail("layout", "missing: give layout (generator options) or layout_file");
-  }
-  if (p.Has("world")) o.world = physics::WorldOptions::FromYaml(p.Map("world"));
-  o.world.collision_response = physics::CollisionResponse::kPassThrough;
-  o.go_and_return = p.String("mission", std::string("go_and_return"), {"go_and_return", "go_to"}) ==
-                    "go_and_return";
-  o.flight.max_time = p.Number("max_time", 60.0, Range::Positive());
-  if (p.Has("fixed")) o.base = planning::PlannerParams::FromYaml(p.Map("fixed"));
-  if (!p.Bool("safety_nets", true)) {
-    // Plan as the paper's planners do: one back-end attempt per re-plan, no collision-weight
-    // escalation, no stop-and-go fallback (a failed re-plan is a failure, n_s = 1).
-    if (p.Has("fixed") && p.Map("fixed").Has("max_attempts")) {
-      p.Fail("safety_nets", "false sets max_attempts to 1; remove fixed.max_attempts");
-    }
-    o.base.max_attempts = 1;
-    o.flight.planner.retry_collision_gain = 1.0;
-    o.flight.replanner.fallback_speed = 0.0;
-  }
-  o.base.Validate(p.file());
-  o.flight.planner.CheckParams(o.base, p.file());
-  if (*type == "ego") return Planner{EgoPlanner{{std::move(o), planning::EgoOptions{}}}};
-  return Planner{IpoptPlanner{std::move(o)}};
-}
-
-/// Every tuning box must lie inside what the planner can fly (its ParameterInfo schema), and an
+/// Every tuning box must lie inside what the planner type can fly (its registered schema), and an
 /// integer parameter of the planner must be tuned as an integer.
-void CheckAgainstSchema(const optimizers::ParameterSpace& space, const Planner& planner,
+void CheckAgainstSchema(const optimizers::ParameterSpace& space, const BuiltPlanner& planner,
                         const std::string& origin) {
-  std::vector<ParameterInfo> schema = planner.ShortTermParameters();
-  for (auto& p : planner.LongTermParameters()) schema.push_back(std::move(p));
+  std::vector<ParameterInfo> schema = planner.schema.short_term;
+  schema.insert(schema.end(), planner.schema.long_term.begin(), planner.schema.long_term.end());
   for (int i = 0; i < space.Dim(); ++i) {
     const auto& prm = space.At(i);
     const std::string key = "parameters." + std::to_string(i);
@@ -203,7 +122,7 @@ void CheckAgainstSchema(const optimizers::ParameterSpace& space, const Planner& 
       const auto check = [&](const char* part, double v) {
         if (!info.range.Contains(v)) {
           std::ostringstream s;
-          s << "got " << v << "; planner '" << planner.Name() << "' can fly " << prm.name
+          s << "got " << v << "; planner '" << planner.type << "' can fly " << prm.name
             << " only as " << allowed;
           throw ConfigError(origin, key + "." + part, s.str());
         }
@@ -213,7 +132,7 @@ void CheckAgainstSchema(const optimizers::ParameterSpace& space, const Planner& 
       if (prm.default_value) check("default", *prm.default_value);
       if (info.integer && prm.type != optimizers::ParameterType::kInteger) {
         throw ConfigError(origin, key + ".type",
-                          prm.name + " is an integer parameter of planner '" + planner.Name() +
+                          prm.name + " is an integer parameter of planner '" + planner.type +
                               "'; give type: integer");
       }
     }
@@ -267,21 +186,23 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
       e.methods.push_back(*m);
     }
   }
-  e.planner = BuildPlanner(map.Map("planner"), base_dir, &e.planner_type);
+  BuiltPlanner built = BuildPlanner(map.Map("planner"), base_dir);
+  e.planner_type = built.type;
+  e.planner = built.planner;
   e.space = optimizers::ParameterSpace::FromYaml(map);
 
   // Which parameters are short- and long-term: each must be the planner's and in the space.
   std::set<std::string> planner_short, planner_long;
-  for (const auto& p : e.planner.ShortTermParameters()) planner_short.insert(p.name);
-  for (const auto& p : e.planner.LongTermParameters()) planner_long.insert(p.name);
+  for (const auto& p : built.schema.short_term) planner_short.insert(p.name);
+  for (const auto& p : built.schema.long_term) planner_long.insert(p.name);
   const auto space_names = e.space.Names();
   for (const auto& n : space_names) {
     if (!planner_short.count(n) && !planner_long.count(n)) {
       map.Fail("parameters", "'" + n + "' is not a tunable parameter of planner '" +
-                                 e.planner.Name() + "'");
+                                 built.type + "'");
     }
   }
-  CheckAgainstSchema(e.space, e.planner, origin);
+  CheckAgainstSchema(e.space, built, origin);
   auto read_side = [&](const char* key, const std::set<std::string>& allowed) {
     std::vector<std::string> names = StringList(map, key);
     std::set<std::string> unique;

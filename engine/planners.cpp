@@ -2,12 +2,14 @@
 #include "quadtune/planning/parameter_schema.hpp"
 
 #include <bit>
+#include <filesystem>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <thread>
 
 #include "quadtune/common/random.hpp"
+#include "quadtune/engine/experiment.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/planning/local_planner.hpp"
 #include "quadtune/planning/trajectory_backend.hpp"
@@ -31,7 +33,60 @@ ParamValues Planner::Defaults() const {
 }
 
 // ---------------------------------------------------------------------------------------------
-// IpoptPlanner
+// The closed loop's options and parameters (IpoptPlanner, EgoPlanner, BackendPlanner)
+
+std::vector<ParameterInfo> PlannerParamsInfo(const planning::PlannerParams& values,
+                                             const std::vector<std::string>& names) {
+  std::vector<ParameterInfo> out;
+  for (const auto& n : names) {
+    out.push_back({n, values.Get(n), planning::ParameterRange(n), planning::ParameterIsInteger(n)});
+  }
+  return out;
+}
+
+IpoptPlannerOptions IpoptPlannerOptions::FromYaml(const YamlMap& p, const std::string& base_dir,
+                                                  const std::vector<std::string>& extra_keys) {
+  std::vector<std::string> allowed{"type",     "drone", "layout", "layout_file", "world",
+                                   "mission",  "max_time", "fixed", "safety_nets"};
+  allowed.insert(allowed.end(), extra_keys.begin(), extra_keys.end());
+  p.RejectUnknownKeys(allowed);
+  IpoptPlannerOptions o;
+  const std::string drone =
+      ResolvePath(p.String("drone", std::string("drones/research_1kg.yaml")), base_dir);
+  if (!std::filesystem::exists(drone)) {
+    p.Fail("drone", "file '" + drone + "' not found (searched next to the experiment and in assets/)");
+  }
+  o.drone = physics::LoadDroneDescription(drone);
+  if (p.Has("layout") && p.Has("layout_file")) p.Fail("layout_file", "give either layout or layout_file");
+  if (p.Has("layout_file")) {
+    const std::string lf = ResolvePath(p.String("layout_file"), base_dir);
+    if (!std::filesystem::exists(lf)) p.Fail("layout_file", "file '" + lf + "' not found");
+    o.layout = layout::LayoutOptions::LoadFile(lf);
+  } else if (p.Has("layout")) {
+    o.layout = layout::LayoutOptions::FromYaml(p.Map("layout"));
+  } else {
+    p.Fail("layout", "missing: give layout (generator options) or layout_file");
+  }
+  if (p.Has("world")) o.world = physics::WorldOptions::FromYaml(p.Map("world"));
+  o.world.collision_response = physics::CollisionResponse::kPassThrough;
+  o.go_and_return = p.String("mission", std::string("go_and_return"), {"go_and_return", "go_to"}) ==
+                    "go_and_return";
+  o.flight.max_time = p.Number("max_time", 60.0, Range::Positive());
+  if (p.Has("fixed")) o.base = planning::PlannerParams::FromYaml(p.Map("fixed"));
+  if (!p.Bool("safety_nets", true)) {
+    // Plan as the paper's planners do: one back-end attempt per re-plan, no collision-weight
+    // escalation, no stop-and-go fallback (a failed re-plan is a failure, n_s = 1).
+    if (p.Has("fixed") && p.Map("fixed").Has("max_attempts")) {
+      p.Fail("safety_nets", "false sets max_attempts to 1; remove fixed.max_attempts");
+    }
+    o.base.max_attempts = 1;
+    o.flight.planner.retry_collision_gain = 1.0;
+    o.flight.replanner.fallback_speed = 0.0;
+  }
+  o.base.Validate(p.file());
+  o.flight.planner.CheckParams(o.base, p.file());
+  return o;
+}
 
 namespace {
 
@@ -39,16 +94,6 @@ struct IpoptMap {
   layout::Layout layout;
   std::shared_ptr<const physics::ObstacleGeometry> geometry;
 };
-
-std::vector<ParameterInfo> InfoOf(const planning::PlannerParams& p,
-                                  const std::vector<std::string>& names) {
-  std::vector<ParameterInfo> out;
-  for (const auto& n : names) {
-    out.push_back({n, p.Get(n), planning::ParameterRange(n),
-                   planning::ParameterIsInteger(n)});
-  }
-  return out;
-}
 
 Opaque PrepareLayoutMap(const IpoptPlannerOptions& o, std::uint64_t map_seed) {
   IpoptMap map;
@@ -150,57 +195,79 @@ ResolveRecord ResolveWithBackend(const planning::TrajectoryBackend& backend,
 
 }  // namespace
 
-IpoptPlanner::IpoptPlanner(IpoptPlannerOptions options)
-    : options_(std::make_shared<const IpoptPlannerOptions>(std::move(options))),
-      optimizer_(std::make_shared<const planning::TrajectoryOptimizer>(
-          options_->flight.planner.optimizer)) {}
+// ---------------------------------------------------------------------------------------------
+// BackendPlanner, EgoPlanner
 
-std::vector<ParameterInfo> IpoptPlanner::ShortTermParameters() const {
-  return InfoOf(options_->base, planning::PlannerParams::ShortTermNames());
-}
-std::vector<ParameterInfo> IpoptPlanner::LongTermParameters() const {
-  return InfoOf(options_->base, planning::PlannerParams::LongTermNames());
+BackendPlanner::BackendPlanner(std::string name, IpoptPlannerOptions options,
+                               std::shared_ptr<const planning::TrajectoryBackend> backend)
+    : name_(std::move(name)),
+      options_(std::make_shared<const IpoptPlannerOptions>(std::move(options))),
+      backend_(std::move(backend)) {
+  QT_DEMAND(backend_ != nullptr, "BackendPlanner: null back end");
 }
 
-Opaque IpoptPlanner::PrepareMap(std::uint64_t map_seed) const {
+PlannerSchema BackendPlanner::Schema() {
+  const planning::PlannerParams defaults;
+  return {PlannerParamsInfo(defaults, planning::PlannerParams::ShortTermNames()),
+          PlannerParamsInfo(defaults, planning::PlannerParams::LongTermNames())};
+}
+
+std::vector<ParameterInfo> BackendPlanner::ShortTermParameters() const {
+  return PlannerParamsInfo(options_->base, planning::PlannerParams::ShortTermNames());
+}
+
+std::vector<ParameterInfo> BackendPlanner::LongTermParameters() const {
+  return PlannerParamsInfo(options_->base, planning::PlannerParams::LongTermNames());
+}
+
+Opaque BackendPlanner::PrepareMap(std::uint64_t map_seed) const {
   return PrepareLayoutMap(*options_, map_seed);
 }
 
-FlightRecord IpoptPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) const {
-  return FlyWithBackend(*options_, planning::IpoptBackend(*optimizer_), request, slot);
+FlightRecord BackendPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) const {
+  return FlyWithBackend(*options_, *backend_, request, slot);
 }
 
-ResolveRecord IpoptPlanner::Resolve(const Opaque& query, const ParamValues& theta_s) const {
-  return ResolveWithBackend(planning::IpoptBackend(*optimizer_), options_->flight.planner, query,
-                            theta_s);
+ResolveRecord BackendPlanner::Resolve(const Opaque& query, const ParamValues& theta_s) const {
+  return ResolveWithBackend(*backend_, options_->flight.planner, query, theta_s);
 }
 
-// ---------------------------------------------------------------------------------------------
-// EgoPlanner
+namespace {
+
+/// planning::IpoptBackend together with the optimiser it refers to.
+class OwningIpoptBackend final : public planning::TrajectoryBackend {
+ public:
+  explicit OwningIpoptBackend(const planning::TrajectoryOptimizerOptions& options)
+      : optimizer_(options), backend_(optimizer_) {}
+
+  std::string Name() const override { return backend_.Name(); }
+  planning::QuerySnapshot Snapshot() const override { return backend_.Snapshot(); }
+  planning::PlanOutcome Solve(const planning::PlanningQuery& query,
+                              const planning::PlannerParams& params,
+                              const planning::LocalPlannerOptions& options) const override {
+    return backend_.Solve(query, params, options);
+  }
+  std::optional<planning::PlanResult> Fallback(const planning::PlanningQuery& query,
+                                               const planning::PlannerParams& params,
+                                               double speed) const override {
+    return backend_.Fallback(query, params, speed);
+  }
+
+ private:
+  planning::TrajectoryOptimizer optimizer_;  // before backend_, which refers to it
+  planning::IpoptBackend backend_;
+};
+
+}  // namespace
+
+IpoptPlanner::IpoptPlanner(IpoptPlannerOptions options)
+    : BackendPlanner("ipopt", options,
+                     std::make_shared<const OwningIpoptBackend>(options.flight.planner.optimizer)) {}
 
 EgoPlanner::EgoPlanner(EgoPlannerOptions options)
-    : options_(std::make_shared<const EgoPlannerOptions>(std::move(options))),
-      backend_(std::make_shared<const planning::EgoBackend>(options_->ego)) {}
-
-std::vector<ParameterInfo> EgoPlanner::ShortTermParameters() const {
-  return InfoOf(options_->common.base, planning::PlannerParams::ShortTermNames());
-}
-
-std::vector<ParameterInfo> EgoPlanner::LongTermParameters() const {
-  return InfoOf(options_->common.base, planning::PlannerParams::LongTermNames());
-}
-
-Opaque EgoPlanner::PrepareMap(std::uint64_t map_seed) const {
-  return PrepareLayoutMap(options_->common, map_seed);
-}
-
-FlightRecord EgoPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) const {
-  return FlyWithBackend(options_->common, *backend_, request, slot);
-}
-
-ResolveRecord EgoPlanner::Resolve(const Opaque& query, const ParamValues& theta_s) const {
-  return ResolveWithBackend(*backend_, options_->common.flight.planner, query, theta_s);
-}
+    : BackendPlanner("ego", std::move(options.common),
+                     std::make_shared<const planning::EgoBackend>(options.ego)),
+      ego_(std::move(options.ego)) {}
 
 // ---------------------------------------------------------------------------------------------
 // ToyPlanner

@@ -161,7 +161,7 @@ struct Experiment {
   TimingMode mode = TimingMode::kReproducible;
   int repeats = 1;         ///< >= 1
   std::vector<Method> methods;
-  std::string planner_type;  ///< "ipopt" | "ego" | "toy"
+  std::string planner_type;  ///< the registered `planner.type` (planner_registry.hpp)
   Planner planner{ToyPlanner{}};  ///< the plug-in
   optimizers::ParameterSpace space;  ///< all tuned parameters
   std::vector<std::string> short_names;  ///< θ_s, in space order

@@ -4,10 +4,14 @@
 ///
 /// - IpoptPlanner: the project's online planner (physics::World + planning::Fly, Ipopt back end,
 ///   planning::SolveQuery for re-solves). θ_s = {w_col, w_dyn, n_pol}, θ_l = {v_des, h_pl, t_pl}.
-/// - EgoPlanner: the same closed loop (sensing, local map, FSM, physics) with EGO-Planner's
-///   B-spline back end (planning::EgoBackend, L-BFGS, ESDF-free collision term); recorded queries
-///   carry an occupancy snapshot. θ_s = {w_col = λ_c, w_dyn = λ_d, n_pol (B-spline spans over the
-///   horizon, in groups of EgoOptions::segments_per_pol)}, θ_l = {v_des, h_pl, t_pl}.
+/// - BackendPlanner: any planning::TrajectoryBackend in IpoptPlanner's closed loop (sensing, local
+///   map, FSM, physics), with the θ_s and θ_l names of IpoptPlanner; the back end gives them its
+///   meaning. IpoptPlanner and EgoPlanner are BackendPlanners; so is a back end of one's own
+///   (docs/own-planner.md).
+/// - EgoPlanner: a BackendPlanner with EGO-Planner's B-spline back end (planning::EgoBackend,
+///   L-BFGS, ESDF-free collision term); recorded queries carry an occupancy snapshot. θ_s =
+///   {w_col = λ_c, w_dyn = λ_d, n_pol (B-spline spans over the horizon, in groups of
+///   EgoOptions::segments_per_pol)}, θ_l = {v_des, h_pl, t_pl}.
 /// - ToyPlanner: a deliberately simple 1-D planner (a point moving along a line through gates)
 ///   with its own parameter names, to show that the engine tunes any plug-in. θ_s = {gain,
 ///   max_iter}, θ_l = {speed, margin}.
@@ -22,13 +26,16 @@
 #include <string>
 #include <vector>
 
+#include "quadtune/common/yaml.hpp"
 #include "quadtune/engine/planner.hpp"
+#include "quadtune/engine/planner_registry.hpp"
 #include "quadtune/layout/options.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/physics/world.hpp"
 #include "quadtune/planning/ego_optimizer.hpp"
 #include "quadtune/planning/flight.hpp"
 #include "quadtune/planning/parameters.hpp"
+#include "quadtune/planning/trajectory_backend.hpp"
 #include "quadtune/planning/trajectory_optimizer.hpp"
 
 namespace quadtune::engine {
@@ -41,27 +48,59 @@ struct IpoptPlannerOptions {
   bool go_and_return = true;             ///< mission: go to the layout's goal and back, or go only
   planning::FlightOptions flight;        ///< flight settings (max_time, …)
   planning::PlannerParams base;          ///< fixed parameters and defaults of the tunables
+
+  /// Reads an experiment's `planner:` map (keys drone, layout | layout_file, world, mission,
+  /// max_time, fixed, safety_nets, and `type`); relative file names resolve as ResolvePath does
+  /// against `base_dir`. `extra_keys` are further keys the caller reads itself (a back end's own
+  /// options); any other key throws ConfigError naming it.
+  static IpoptPlannerOptions FromYaml(const YamlMap& planner, const std::string& base_dir,
+                                      const std::vector<std::string>& extra_keys = {});
 };
 
-/// The project's Ipopt planner as a plug-in. Each WorkerSlot holds one physics::World that is
-/// Reset() onto the (shared, immutable) ObstacleGeometry of the requested map.
-class IpoptPlanner {
- public:
-  explicit IpoptPlanner(IpoptPlannerOptions options);
+/// ParameterInfo of the PlannerParams `names`: default from `values`, range and integer flag
+/// from planning::ParameterRange and planning::ParameterIsInteger.
+std::vector<ParameterInfo> PlannerParamsInfo(const planning::PlannerParams& values,
+                                             const std::vector<std::string>& names);
 
-  std::string Name() const { return "ipopt"; }
+/// A trajectory back end flown in the project's closed loop, as a plug-in: PrepareMap generates
+/// the layout with the map seed and builds its shared obstacle geometry; each WorkerSlot holds one
+/// physics::World that is Reset() onto the requested map's geometry; Fly() flies planning::Fly with the back
+/// end in the slot's physics::World, and Resolve() re-solves a recorded planning::PlanningQuery
+/// with TrajectoryBackend::Solve. θ_s = {w_col, w_dyn, n_pol}, θ_l = {v_des, h_pl, t_pl}
+/// (PlannerParams), defaults from `options.base`. The back end must follow the rules of
+/// trajectory_backend.hpp (deterministic, thread-safe, queries hold all a re-solve reads).
+class BackendPlanner {
+ public:
+  /// `name` is what Name() returns; `backend` must not be null.
+  BackendPlanner(std::string name, IpoptPlannerOptions options,
+                 std::shared_ptr<const planning::TrajectoryBackend> backend);
+
+  std::string Name() const { return name_; }
   std::vector<ParameterInfo> ShortTermParameters() const;
   std::vector<ParameterInfo> LongTermParameters() const;
-  /// Generates the layout with `map_seed` and builds its shared obstacle geometry.
   Opaque PrepareMap(std::uint64_t map_seed) const;
   FlightRecord Fly(const FlightRequest& request, WorkerSlot& slot) const;
   ResolveRecord Resolve(const Opaque& query, const ParamValues& theta_s) const;
 
   [[nodiscard]] const IpoptPlannerOptions& options() const { return *options_; }
+  [[nodiscard]] const planning::TrajectoryBackend& backend() const { return *backend_; }
+
+  /// The parameter schema of every BackendPlanner: θ_s and θ_l with
+  /// PlannerParams' ranges, integer flags and defaults; what a back end's registration gives.
+  static PlannerSchema Schema();
 
  private:
+  std::string name_;
   std::shared_ptr<const IpoptPlannerOptions> options_;
-  std::shared_ptr<const planning::TrajectoryOptimizer> optimizer_;
+  std::shared_ptr<const planning::TrajectoryBackend> backend_;
+};
+
+/// The project's Ipopt planner: a BackendPlanner named "ipopt" over a planning::IpoptBackend (the
+/// minimum-jerk optimiser on the distance field, retries, stop-and-go fallback) that owns its
+/// TrajectoryOptimizer, built from `options.flight.planner.optimizer`.
+class IpoptPlanner : public BackendPlanner {
+ public:
+  explicit IpoptPlanner(IpoptPlannerOptions options);
 };
 
 /// Settings of EgoPlanner: the flight setting of IpoptPlanner (its `flight.planner.optimizer` is
@@ -71,25 +110,16 @@ struct EgoPlannerOptions {
   planning::EgoOptions ego;
 };
 
-/// EGO-Planner's back end in the project's closed loop, as a plug-in. Maps, world slots and the
-/// mission are IpoptPlanner's; Fly() flies planning::Fly with a planning::EgoBackend and Resolve()
-/// re-solves a recorded query with EgoBackend::Solve (bit-reproducible on any thread).
-class EgoPlanner {
+/// EGO-Planner's back end in the project's closed loop: a BackendPlanner named "ego" over a
+/// planning::EgoBackend (re-solves bit-reproducible on any thread).
+class EgoPlanner : public BackendPlanner {
  public:
   explicit EgoPlanner(EgoPlannerOptions options);
 
-  std::string Name() const { return "ego"; }
-  std::vector<ParameterInfo> ShortTermParameters() const;
-  std::vector<ParameterInfo> LongTermParameters() const;
-  Opaque PrepareMap(std::uint64_t map_seed) const;
-  FlightRecord Fly(const FlightRequest& request, WorkerSlot& slot) const;
-  ResolveRecord Resolve(const Opaque& query, const ParamValues& theta_s) const;
-
-  [[nodiscard]] const EgoPlannerOptions& options() const { return *options_; }
+  [[nodiscard]] const planning::EgoOptions& ego_options() const { return ego_; }
 
  private:
-  std::shared_ptr<const EgoPlannerOptions> options_;
-  std::shared_ptr<const planning::EgoBackend> backend_;
+  planning::EgoOptions ego_;
 };
 
 /// Settings of ToyPlanner.

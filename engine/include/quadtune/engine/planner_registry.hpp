@@ -1,0 +1,88 @@
+#pragma once
+/// \file
+/// The planner registry: which `planner.type` names an experiment file may give, how each builds
+/// its plug-in (engine::Planner) from the file's `planner:` map, and which values each tunable
+/// parameter may take.
+///
+/// Built in: `ipopt` (IpoptPlanner), `ego` (EgoPlanner), `toy` (ToyPlanner) and `sleep`
+/// (SleepPlanner), present before any other registration. A program adds its own planner without
+/// editing quadtune's sources, before it loads an experiment:
+///
+///     engine::RegisterPlanner("mine", [](const YamlMap& planner, const std::string& base_dir) {
+///       return engine::Planner{MyPlanner{...}};
+///     }, engine::PlannerSchema::Of(MyPlanner{}));
+///
+/// or with a namespace-scope engine::PlannerRegistration object in one of the program's own
+/// source files (not in a static library: the linker drops objects nothing refers to).
+///
+/// Thread safety: every function may be called from any thread (a mutex guards the table);
+/// register before loading experiments that name the planner.
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "quadtune/common/yaml.hpp"
+#include "quadtune/engine/planner.hpp"
+
+namespace quadtune::engine {
+
+/// The tunable parameters of a planner type: θ_s and θ_l, each with the values the planner can
+/// fly (ParameterInfo::range), whether it is an integer, and its default when the `planner:` map
+/// fixes nothing. An experiment's tuning box must lie inside these ranges (checked on load), and
+/// the plug-in a factory builds must report exactly these names, ranges and integer flags (its
+/// defaults may differ: the `planner:` map may set them).
+struct PlannerSchema {
+  std::vector<ParameterInfo> short_term;  ///< θ_s
+  std::vector<ParameterInfo> long_term;   ///< θ_l
+
+  /// The schema a plug-in reports (its ShortTermParameters and LongTermParameters).
+  static PlannerSchema Of(const Planner& planner);
+};
+
+/// Builds a plug-in from an experiment's `planner:` map (the YamlMap names the file and key path
+/// for errors). `base_dir` is the experiment file's folder (for ResolvePath). A factory reads
+/// its keys with the YamlMap accessors, rejects unknown ones (the map also holds `type`) and
+/// throws ConfigError for bad input.
+using PlannerFactory =
+    std::function<Planner(const YamlMap& planner, const std::string& base_dir)>;
+
+/// One registered planner type.
+struct PlannerType {
+  std::string name;  ///< the `planner.type` value
+  PlannerFactory factory;
+  PlannerSchema schema;
+};
+
+/// Adds a planner type. `name` must be non-empty, of lower-case letters, digits and '_', and not
+/// yet registered; `factory` must not be empty; `schema` must name each parameter once. Throws
+/// std::invalid_argument otherwise.
+void RegisterPlanner(const std::string& name, PlannerFactory factory, PlannerSchema schema);
+
+/// Registers a planner type when constructed (a namespace-scope object in a program's source).
+struct PlannerRegistration {
+  PlannerRegistration(const std::string& name, PlannerFactory factory, PlannerSchema schema) {
+    RegisterPlanner(name, std::move(factory), std::move(schema));
+  }
+};
+
+/// The registered names, sorted.
+[[nodiscard]] std::vector<std::string> RegisteredPlanners();
+
+/// The planner type called `name`, or nullopt.
+[[nodiscard]] std::optional<PlannerType> FindPlanner(const std::string& name);
+
+/// A plug-in built from a `planner:` map.
+struct BuiltPlanner {
+  std::string type;  ///< the `planner.type` it was built as
+  Planner planner;
+  PlannerSchema schema;  ///< the type's registered schema
+};
+
+/// Reads `planner.type` (default `ipopt`) and builds it with its factory. An unknown type throws
+/// ConfigError(file, "planner.type", ...) listing the registered names. Throws InvariantError
+/// when the built plug-in's parameters differ from the registered schema (a registration bug).
+[[nodiscard]] BuiltPlanner BuildPlanner(const YamlMap& planner, const std::string& base_dir);
+
+}  // namespace quadtune::engine

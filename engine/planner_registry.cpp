@@ -1,0 +1,169 @@
+#include "quadtune/engine/planner_registry.hpp"
+
+#include <algorithm>
+#include <map>
+#include <mutex>
+#include <set>
+#include <stdexcept>
+#include <utility>
+
+#include "quadtune/engine/planners.hpp"
+
+namespace quadtune::engine {
+
+namespace {
+
+// ---- the built-in planner types ----
+
+Planner BuildIpopt(const YamlMap& p, const std::string& base_dir) {
+  return Planner{IpoptPlanner{IpoptPlannerOptions::FromYaml(p, base_dir)}};
+}
+
+Planner BuildEgo(const YamlMap& p, const std::string& base_dir) {
+  return Planner{EgoPlanner{{IpoptPlannerOptions::FromYaml(p, base_dir), planning::EgoOptions{}}}};
+}
+
+Planner BuildToy(const YamlMap& p, const std::string& /*base_dir*/) {
+  p.RejectUnknownKeys({"type", "toy"});
+  const YamlMap t = p.Map("toy", true);
+  t.RejectUnknownKeys({"length", "gates", "gate_speed_min", "gate_speed_max", "plan_interval",
+                       "flight_delay_s", "throw_speed_above"});
+  ToyPlannerOptions o;
+  o.length = t.Number("length", o.length, Range::Positive());
+  o.gates = static_cast<int>(t.Integer("gates", o.gates, Range::Closed(0, 1000)));
+  o.gate_speed_min = t.Number("gate_speed_min", o.gate_speed_min, Range::Positive());
+  o.gate_speed_max = t.Number("gate_speed_max", o.gate_speed_max, Range::Positive());
+  if (o.gate_speed_max < o.gate_speed_min) t.Fail("gate_speed_max", "must be >= gate_speed_min");
+  o.plan_interval = t.Number("plan_interval", o.plan_interval, Range::Positive());
+  o.flight_delay_s = t.Number("flight_delay_s", o.flight_delay_s, Range::Closed(0.0, 10.0));
+  o.throw_speed_above = t.Number("throw_speed_above", o.throw_speed_above, Range::Any());
+  return Planner{ToyPlanner{o}};
+}
+
+Planner BuildSleep(const YamlMap& p, const std::string& /*base_dir*/) {
+  p.RejectUnknownKeys({"type", "sleep"});
+  const YamlMap t = p.Map("sleep", true);
+  t.RejectUnknownKeys({"resolve_median_s", "resolve_p95_s", "flight_median_s", "flight_p95_s",
+                       "queries_per_flight"});
+  SleepPlannerOptions o;
+  o.resolve_median_s = t.Number("resolve_median_s", o.resolve_median_s, Range::Closed(1e-6, 10.0));
+  o.resolve_p95_s = t.Number("resolve_p95_s", o.resolve_p95_s, Range::Closed(1e-6, 10.0));
+  o.flight_median_s = t.Number("flight_median_s", o.flight_median_s, Range::Closed(1e-6, 60.0));
+  o.flight_p95_s = t.Number("flight_p95_s", o.flight_p95_s, Range::Closed(1e-6, 60.0));
+  o.queries_per_flight =
+      static_cast<int>(t.Integer("queries_per_flight", o.queries_per_flight, Range::Closed(1, 1e5)));
+  if (o.resolve_p95_s < o.resolve_median_s) t.Fail("resolve_p95_s", "must be >= resolve_median_s");
+  if (o.flight_p95_s < o.flight_median_s) t.Fail("flight_p95_s", "must be >= flight_median_s");
+  return Planner{SleepPlanner{o}};
+}
+
+bool ValidName(const std::string& name) {
+  return !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_';
+  });
+}
+
+class Registry {
+ public:
+  Registry() {
+    Add("ipopt", BuildIpopt, BackendPlanner::Schema());
+    Add("ego", BuildEgo, BackendPlanner::Schema());
+    Add("toy", BuildToy, PlannerSchema::Of(ToyPlanner{}));
+    Add("sleep", BuildSleep, PlannerSchema::Of(SleepPlanner{}));
+  }
+
+  void Add(const std::string& name, PlannerFactory factory, PlannerSchema schema) {
+    if (!ValidName(name)) {
+      throw std::invalid_argument("RegisterPlanner: name '" + name +
+                                  "' must be non-empty lower-case letters, digits and '_'");
+    }
+    if (!factory) throw std::invalid_argument("RegisterPlanner('" + name + "'): empty factory");
+    std::set<std::string> seen;
+    for (const auto* side : {&schema.short_term, &schema.long_term}) {
+      for (const ParameterInfo& p : *side) {
+        if (!seen.insert(p.name).second) {
+          throw std::invalid_argument("RegisterPlanner('" + name + "'): parameter '" + p.name +
+                                      "' named twice in the schema");
+        }
+      }
+    }
+    const std::lock_guard lock(mutex_);
+    if (types_.count(name)) {
+      throw std::invalid_argument("RegisterPlanner: planner type '" + name +
+                                  "' is already registered");
+    }
+    types_.emplace(name, PlannerType{name, std::move(factory), std::move(schema)});
+  }
+
+  std::vector<std::string> Names() const {
+    const std::lock_guard lock(mutex_);
+    std::vector<std::string> names;
+    for (const auto& entry : types_) names.push_back(entry.first);
+    return names;
+  }
+
+  std::optional<PlannerType> Find(const std::string& name) const {
+    const std::lock_guard lock(mutex_);
+    const auto it = types_.find(name);
+    if (it == types_.end()) return std::nullopt;
+    return it->second;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::map<std::string, PlannerType> types_;  // sorted by name
+};
+
+Registry& TheRegistry() {
+  static Registry registry;  // the built-ins are in before the first use
+  return registry;
+}
+
+bool SameRange(const Range& a, const Range& b) {
+  return a.lo == b.lo && a.hi == b.hi && a.lo_open == b.lo_open && a.hi_open == b.hi_open;
+}
+
+/// Demands that `reported` (a built plug-in's parameters) are `registered` (the schema's), up to
+/// the defaults.
+void DemandSameSide(const std::string& type, const char* side,
+                    const std::vector<ParameterInfo>& registered,
+                    const std::vector<ParameterInfo>& reported) {
+  bool same = registered.size() == reported.size();
+  for (std::size_t i = 0; same && i < registered.size(); ++i) {
+    same = registered[i].name == reported[i].name &&
+           registered[i].integer == reported[i].integer &&
+           SameRange(registered[i].range, reported[i].range);
+  }
+  QT_DEMAND(same, "planner type '" + type + "': the plug-in its factory built reports " + side +
+                      " parameters that differ from the registered schema");
+}
+
+}  // namespace
+
+PlannerSchema PlannerSchema::Of(const Planner& planner) {
+  return {planner.ShortTermParameters(), planner.LongTermParameters()};
+}
+
+void RegisterPlanner(const std::string& name, PlannerFactory factory, PlannerSchema schema) {
+  TheRegistry().Add(name, std::move(factory), std::move(schema));
+}
+
+std::vector<std::string> RegisteredPlanners() { return TheRegistry().Names(); }
+
+std::optional<PlannerType> FindPlanner(const std::string& name) { return TheRegistry().Find(name); }
+
+BuiltPlanner BuildPlanner(const YamlMap& planner, const std::string& base_dir) {
+  const std::string type = planner.String("type", std::string("ipopt"));
+  std::optional<PlannerType> entry = FindPlanner(type);
+  if (!entry) {
+    std::string names;
+    for (const auto& n : RegisteredPlanners()) names += (names.empty() ? "" : ", ") + n;
+    planner.Fail("type", "unknown planner type '" + type + "'; registered: " + names);
+  }
+  Planner built = entry->factory(planner, base_dir);
+  DemandSameSide(type, "short-term", entry->schema.short_term, built.ShortTermParameters());
+  DemandSameSide(type, "long-term", entry->schema.long_term, built.LongTermParameters());
+  return {type, std::move(built), std::move(entry->schema)};
+}
+
+}  // namespace quadtune::engine

@@ -1,0 +1,121 @@
+#include "quadtune/engine/planner_registry.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "../config_error_util.hpp"
+#include "quadtune/common/error.hpp"
+#include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/planners.hpp"
+#include "quadtune/engine/tuner.hpp"
+#include "test_util.hpp"
+
+namespace quadtune::engine {
+namespace {
+
+std::string WithType(const std::string& type) {
+  std::string text = test::ToyYaml("[random, pso]");
+  const std::string from = "type: toy";
+  text.replace(text.find(from), from.size(), "type: " + type);
+  return text;
+}
+
+std::vector<std::string> Names(const std::vector<ParameterInfo>& side) {
+  std::vector<std::string> names;
+  for (const auto& p : side) names.push_back(p.name);
+  return names;
+}
+
+// The built-in toy type's factory under another name: the same plug-in, reached by a
+// registration made outside the library.
+Planner BuildToyAgain(const YamlMap& planner, const std::string& base_dir) {
+  return FindPlanner("toy")->factory(planner, base_dir);
+}
+
+const PlannerRegistration kStatic("registry_test_static", BuildToyAgain,
+                                  PlannerSchema::Of(ToyPlanner{}));
+
+TEST(PlannerRegistry, BuiltInTypesAreRegistered) {
+  const std::vector<std::string> names = RegisteredPlanners();
+  for (const char* n : {"ego", "ipopt", "sleep", "toy"}) {
+    EXPECT_NE(std::find(names.begin(), names.end(), n), names.end()) << n;
+  }
+  EXPECT_TRUE(std::is_sorted(names.begin(), names.end()));
+  const auto toy = FindPlanner("toy");
+  ASSERT_TRUE(toy.has_value());
+  EXPECT_EQ(Names(toy->schema.short_term), (std::vector<std::string>{"gain", "max_iter"}));
+  EXPECT_EQ(Names(toy->schema.long_term), (std::vector<std::string>{"speed", "margin"}));
+  const auto ego = FindPlanner("ego");
+  ASSERT_TRUE(ego.has_value());
+  EXPECT_EQ(Names(ego->schema.short_term), (std::vector<std::string>{"w_col", "w_dyn", "n_pol"}));
+  EXPECT_TRUE(ego->schema.short_term[2].integer);
+  EXPECT_FALSE(FindPlanner("rrt").has_value());
+}
+
+TEST(PlannerRegistry, UnknownTypeListsTheRegisteredNames) {
+  EXPECT_TRUE(quadtune::test::ThrowsConfigError(
+      [] { (void)Experiment::FromString(WithType("rrt"), "exp.yaml"); }, "planner.type",
+      {"'rrt'", "registered:", "ego", "ipopt", "registry_test_static", "sleep", "toy"}));
+}
+
+TEST(PlannerRegistry, StaticRegistrationIsFound) {
+  const Experiment e = Experiment::FromString(WithType("registry_test_static"), "exp.yaml");
+  EXPECT_EQ(e.planner_type, "registry_test_static");
+  EXPECT_NE(e.planner.Extract<ToyPlanner>(), nullptr);
+}
+
+TEST(PlannerRegistry, RegisteredTypeTunesLikeTheBuiltIn) {
+  if (!FindPlanner("registry_test_toy")) {
+    RegisterPlanner("registry_test_toy", BuildToyAgain, PlannerSchema::Of(ToyPlanner{}));
+  }
+  const RunSummary mine =
+      RunExperiment(Experiment::FromString(WithType("registry_test_toy"), "exp.yaml"));
+  const RunSummary builtin = RunExperiment(Experiment::FromString(WithType("toy"), "exp.yaml"));
+  ASSERT_EQ(mine.trials.size(), 2u);
+  ASSERT_EQ(builtin.trials.size(), 2u);
+  EXPECT_EQ(mine.flights, builtin.flights);
+  EXPECT_EQ(mine.resolves, builtin.resolves);
+  for (std::size_t i = 0; i < mine.trials.size(); ++i) {
+    EXPECT_EQ(mine.trials[i].best_value, builtin.trials[i].best_value) << i;
+    EXPECT_EQ(mine.trials[i].best, builtin.trials[i].best) << i;
+  }
+}
+
+TEST(PlannerRegistry, SchemaBoundsTheTuningBox) {
+  // The toy schema allows gain in (0, 2].
+  std::string text = WithType("registry_test_static");
+  const std::string from = "upper: 1.5, default: 0.3";
+  text.replace(text.find(from), from.size(), "upper: 2.5, default: 0.3");
+  EXPECT_TRUE(quadtune::test::ThrowsConfigError([&] { (void)Experiment::FromString(text, "exp.yaml"); },
+                                      "parameters.0.upper",
+                                      {"registry_test_static", "gain", "(0, 2]"}));
+}
+
+TEST(PlannerRegistry, BadRegistrationsThrow) {
+  const PlannerSchema schema = PlannerSchema::Of(ToyPlanner{});
+  EXPECT_THROW(RegisterPlanner("toy", BuildToyAgain, schema), std::invalid_argument);
+  EXPECT_THROW(RegisterPlanner("", BuildToyAgain, schema), std::invalid_argument);
+  EXPECT_THROW(RegisterPlanner("Registry-Test", BuildToyAgain, schema), std::invalid_argument);
+  EXPECT_THROW(RegisterPlanner("registry_test_empty", PlannerFactory{}, schema),
+               std::invalid_argument);
+  PlannerSchema twice = schema;
+  twice.long_term.push_back(schema.short_term.front());
+  EXPECT_THROW(RegisterPlanner("registry_test_twice", BuildToyAgain, twice),
+               std::invalid_argument);
+  EXPECT_FALSE(FindPlanner("registry_test_twice").has_value());
+}
+
+TEST(PlannerRegistry, PlugInThatDiffersFromItsSchemaIsABug) {
+  if (!FindPlanner("registry_test_mismatch")) {
+    RegisterPlanner("registry_test_mismatch", BuildToyAgain, PlannerSchema::Of(SleepPlanner{}));
+  }
+  EXPECT_THROW((void)Experiment::FromString(WithType("registry_test_mismatch"), "exp.yaml"),
+               InvariantError);
+}
+
+}  // namespace
+}  // namespace quadtune::engine
