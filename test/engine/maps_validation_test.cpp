@@ -229,14 +229,24 @@ double ClearanceBound(const std::vector<EvaluationRow>& rows, double z) {
   return mean - z * (c.size() > 1 ? std::sqrt(ss / static_cast<double>(c.size() - 1)) : 0.0);
 }
 
+/// A toy run in a fresh folder `name` with the given `recommend:` map; its options (store path)
+/// in *o.
+RunSummary RunToyRecommending(const std::string& name, const Experiment& e, RunOptions* o) {
+  o->store_path = test::TempDir(name) + "/r.sqlite";
+  return RunExperiment(e, *o);
+}
+
+Experiment ToyRecommending(const std::string& methods, int flights, int maps,
+                           const std::string& recommend) {
+  return Experiment::FromString(
+      test::ToyYaml(methods, "", flights, maps) + "recommend: " + recommend + "\n", "t.yaml");
+}
+
 TEST(Recommendation, ReFlightsPickTheFirstCandidateThatPassesOnSharedFreshMaps) {
-  const std::string dir = test::TempDir("recheck");
   RunOptions o;
-  o.store_path = dir + "/r.sqlite";
-  const std::string yaml = test::ToyYaml("[default, random, pso, bo, bo_pso]", "", 8, 2) +
-                           "recommend: {candidates: 4, flights: 3, clearance: 0.05, z: 1.0}\n";
-  const Experiment e = Experiment::FromString(yaml, "t.yaml");
-  const RunSummary s = RunExperiment(e, o);
+  const Experiment e = ToyRecommending("[default, random, pso, bo, bo_pso]", 8, 2,
+                                       "{candidates: 4, flights: 3, clearance: 0.05, z: 1.0}");
+  const RunSummary s = RunToyRecommending("recheck", e, &o);
   ASSERT_EQ(s.status, RunStatus::kCompleted);
   ResultStore store(o.store_path);
   std::set<std::uint64_t> other_maps;  // tuning and held-out maps
@@ -310,15 +320,12 @@ TEST(Recommendation, ReFlightsPickTheFirstCandidateThatPassesOnSharedFreshMaps) 
 }
 
 TEST(Recommendation, NoCandidatePassingGivesTheDefaultsAfterTheBackOffs) {
-  const std::string dir = test::TempDir("recheck_none");
-  RunOptions o;
-  o.store_path = dir + "/r.sqlite";
   // No flight keeps 50 m from every gate: each candidate flies its 4 re-flights (fewer if one
   // fails) and fails the margin. After the 3 ranked candidates, 2 back-offs towards the defaults.
-  const std::string yaml = test::ToyYaml("[random, bo]", "", 6, 0) +
-                           "recommend: {candidates: 3, flights: 4, clearance: 50, z: 0, backoff: 2}\n";
-  const Experiment e = Experiment::FromString(yaml, "t.yaml");
-  const RunSummary s = RunExperiment(e, o);
+  RunOptions o;
+  const Experiment e = ToyRecommending("[random, bo]", 6, 0,
+                                       "{candidates: 3, flights: 4, clearance: 50, z: 0, backoff: 2}");
+  const RunSummary s = RunToyRecommending("recheck_none", e, &o);
   ASSERT_EQ(s.status, RunStatus::kCompleted);
   ResultStore store(o.store_path);
   const auto rechecks = RecheckRows(store);
