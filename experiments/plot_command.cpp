@@ -68,7 +68,11 @@ void RegisterPlot(CLI::App& app, int& exit_code) {
   static std::string study_dir;
   study->add_option("DIR", study_dir, "directory holding study.json")->required()->check(
       CLI::ExistingDirectory);
-  study->callback([&exit_code] { exit_code = RunPlotScript("study '" + study_dir + "'"); });
+  static std::string study_out;
+  study->add_option("--out", study_out, "output folder (default: DIR)");
+  study->callback([&exit_code] {
+    exit_code = RunPlotScript("study '" + study_dir + "'" + OutArgument(study_out));
+  });
   auto* bench = cmd->add_subcommand("bench", "thread-scaling figure of `quadtune bench --csv` output");
   static std::string bench_csv;
   static std::string bench_out;
@@ -94,7 +98,11 @@ void RegisterPlot(CLI::App& app, int& exit_code) {
   static std::string adapt_dir;
   adapt->add_option("DIR", adapt_dir, "directory written by `quadtune adapt`")->required()->check(
       CLI::ExistingDirectory);
-  adapt->callback([&exit_code] { exit_code = RunPlotScript("adapt '" + adapt_dir + "'"); });
+  static std::string adapt_out;
+  adapt->add_option("--out", adapt_out, "figure (PNG; default: DIR/adapt.png)");
+  adapt->callback([&exit_code] {
+    exit_code = RunPlotScript("adapt '" + adapt_dir + "'" + OutArgument(adapt_out));
+  });
   cmd->require_subcommand(1);
 }
 

@@ -632,14 +632,15 @@ SWEEP_AXIS_LABELS = {
 }
 
 
-def study_validation_tables(directory, study, validation):
+def study_validation_tables(out_dir, study, validation):
     """Per point, the held-out validation of the last stage's recommended points against the
-    defaults (quadtune_validation.markdown), appended to study.md; study_validation.csv."""
+    defaults (quadtune_validation.markdown), appended to out_dir/study.md;
+    out_dir/study_validation.csv."""
     import quadtune_validation as qv
     if not validation:
         return []
-    csv_path = os.path.join(directory, "study_validation.csv")
-    with open(os.path.join(directory, "study.md"), "a") as f, open(csv_path, "w", newline="") as fc:
+    csv_path = os.path.join(out_dir, "study_validation.csv")
+    with open(os.path.join(out_dir, "study.md"), "a") as f, open(csv_path, "w", newline="") as fc:
         w = csv.writer(fc)
         w.writerow(["point"] + qv.CSV_FIELDS)
         for p, point in enumerate(study["points"]):
@@ -660,11 +661,14 @@ def study_validation_tables(directory, study, validation):
     return [csv_path]
 
 
-def plot_study(directory):
+def plot_study(directory, out=None):
     """Tables and figures of a study (`quadtune study`): per point the validation flights of the
     tuned parameters against the defaults and the flights needed to reach 90% of the optimum
     (the paper's density table); with stages, the refinement figure (normalised parameters and
-    f_l over the flights of every stage, and the validation of each stage's result)."""
+    f_l over the flights of every stage, and the validation of each stage's result). Written to
+    `out` (default: the study directory)."""
+    out_dir = out or directory
+    os.makedirs(out_dir, exist_ok=True)
     with open(os.path.join(directory, "study.json")) as f:
         study = json.load(f)
     validation = []
@@ -696,8 +700,8 @@ def plot_study(directory):
                    k90=mean_std(k90), s90=mean_std(s90), flights=len(tuned_v))
         rows.append(row)
 
-    table = os.path.join(directory, "study.md")
-    csv_path = os.path.join(directory, "study.csv")
+    table = os.path.join(out_dir, "study.md")
+    csv_path = os.path.join(out_dir, "study.csv")
     key = study.get("sweep_key") or "point"
     with open(table, "w") as f, open(csv_path, "w", newline="") as fc:
         w = csv.writer(fc)
@@ -727,7 +731,7 @@ def plot_study(directory):
                         r["default"][0], r["default"][1], r["default_fl"][0], r["s90"][0],
                         r["s90"][1], r["k90"][0], r["k90"][1]])
     outputs += [table, csv_path]
-    outputs += study_validation_tables(directory, study, validation)
+    outputs += study_validation_tables(out_dir, study, validation)
 
     if len(rows) > 1:
         labels = [r["label"] for r in rows]
@@ -754,7 +758,7 @@ def plot_study(directory):
             ax.grid(alpha=0.3)
         ax_a.legend(fontsize=8)
         fig.tight_layout()
-        figure = os.path.join(directory, "study_sweep.png")
+        figure = os.path.join(out_dir, "study_sweep.png")
         fig.savefig(figure, dpi=120)
         plt.close(fig)
         outputs.append(figure)
@@ -762,7 +766,7 @@ def plot_study(directory):
     for p, point in enumerate(study["points"]):
         if len(point["stages"]) < 2:
             continue
-        figure = plot_refinement(directory, study, p, validation)
+        figure = plot_refinement(directory, study, p, validation, out_dir)
         outputs.append(figure)
     return outputs
 
@@ -837,7 +841,7 @@ def moving_bounds(trial, space, config, start):
              [_bo_unit_to_plot(prm, x) for prm, x in zip(space, b[1])]) for b in bounds]
 
 
-def plot_refinement(directory, study, p, validation):
+def plot_refinement(directory, study, p, validation, out_dir=None):
     """The refinement figure of study point `p`: (A) each tuned parameter per flight over the
     stages, with the moving bounds of a stage that uses them; (B) f_l per flight and the best so
     far; (C) the validation flights of the defaults and of each stage's result."""
@@ -935,7 +939,7 @@ def plot_refinement(directory, study, p, validation):
         point["stages"][-1]["name"]), loc="left", fontsize=11, weight="bold")
     ax_c.grid(alpha=0.3, axis="y", which="both")
     fig.suptitle("{} — {}".format(study["name"], point["label"]), x=0.01, ha="left")
-    figure = os.path.join(directory, "refinement_{}.png".format(
+    figure = os.path.join(out_dir or directory, "refinement_{}.png".format(
         "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in point["label"])))
     fig.savefig(figure, dpi=120, bbox_inches="tight")
     plt.close(fig)
@@ -1039,32 +1043,35 @@ def main(argv):
     p.add_argument("--out", default=None, help="output folder (default: the run directory)")
     p = sub.add_parser("study", help="figures and tables of a study directory")
     p.add_argument("directory")
+    p.add_argument("--out", default=None, help="output folder (default: the study directory)")
     p = sub.add_parser("bench", help="thread-scaling figure of a `quadtune bench --csv` file")
     p.add_argument("csv")
     p.add_argument("--out", default=None)
-    sub.add_parser("adapt", help="velocity along the path and top-down view of `quadtune adapt`"
-                   ).add_argument("directory")
+    p = sub.add_parser("adapt", help="velocity along the path and top-down view of `quadtune adapt`")
+    p.add_argument("directory")
+    p.add_argument("--out", default=None, help="figure (PNG; default: DIR/adapt.png)")
     p = sub.add_parser("scale-model", help="stored evaluations/s against MPI ranks "
                        "(scripts/scale_model.sh CSV)")
     p.add_argument("csv")
     p.add_argument("--out", default=None)
-    sub.add_parser("sweep", help="Sobol' index figure of a `quadtune sweep` directory"
-                   ).add_argument("directory")
+    p = sub.add_parser("sweep", help="Sobol' index figure of a `quadtune sweep` directory")
+    p.add_argument("directory")
+    p.add_argument("--out", default=None, help="figure (PNG; default: DIR/sweep.png)")
     args = parser.parse_args(argv)
     if args.what == "scale-model":
         print(plot_scale_model(args.csv, args.out))
         return 0
     if args.what == "sweep":
-        print(plot_sweep(args.directory))
+        print(plot_sweep(args.directory, args.out))
         return 0
     if args.what == "adapt":
-        print(plot_adapt(args.directory))
+        print(plot_adapt(args.directory, args.out))
         return 0
     if args.what == "run":
         for path in plot_run(args.directory, args.out):
             print(path)
     elif args.what == "study":
-        for path in plot_study(args.directory):
+        for path in plot_study(args.directory, args.out):
             print(path)
     elif args.what == "bench":
         for path in plot_bench(args.csv, args.out):
@@ -1089,7 +1096,7 @@ def _adapt_zone_shading(ax, zones, label=True):
                     color="0.25")
 
 
-def plot_adapt(directory):
+def plot_adapt(directory, out=None):
     """DIR/adapt.png: (A) v_des in force and actual speed along the corridor for the adapted flight
     and the fixed-v_des baselines, with every BO trial (v_des proposed at P_s) and the chosen ones;
     (B) top-down view of the layout with the adapted flight coloured by speed."""
@@ -1167,7 +1174,7 @@ def plot_adapt(directory):
     ax_top.set_title("Adapted flight, top-down: t_f = {:.2f} s, collisions {}, emergency stops {}".format(
         adapted["flight_time"], adapted["collisions"], adapted["emergency_stops"]))
     fig.tight_layout()
-    out = os.path.join(directory, "adapt.png")
+    out = out or os.path.join(directory, "adapt.png")
     fig.savefig(out, dpi=120)
     plt.close(fig)
     return out
@@ -1184,7 +1191,7 @@ _SWEEP_OUTPUT_TITLES = {
 }
 
 
-def plot_sweep(directory):
+def plot_sweep(directory, out_path=None):
     """DIR/sweep.png: one panel per output (f_l, its terms, f_s), horizontal bars of the first-order
     S1 and total-effect ST Sobol' index of every parameter with 95% bootstrap whiskers, one colour
     per layout (obstacle density)."""
@@ -1267,7 +1274,7 @@ def plot_sweep(directory):
                  fontsize=10)
     fig.legend(loc="lower center", ncol=min(4, 2 * len(layouts)), fontsize=8)
     fig.tight_layout(rect=(0, 0.06, 1, 0.95))
-    out_png = os.path.join(directory, "sweep.png")
+    out_png = out_path or os.path.join(directory, "sweep.png")
     fig.savefig(out_png, dpi=120)
     plt.close(fig)
     return out_png

@@ -276,6 +276,16 @@ TEST(PaperExperiments, DensityStudyScaledDown) {
   for (const char* label : {"3.0", "0.9"}) {
     EXPECT_TRUE(fs::exists(fs::path(out) / label / "tuning" / "results.sqlite")) << label;
   }
+  // `plot study --out` redraws into another folder: the same tables, the study left as it was.
+  const fs::path replot = dir / "replot";
+  const std::string md_before = ReadText(fs::path(out) / "study.md");
+  ASSERT_EQ(RunQuadtune("plot study " + out + " --out " + replot.string(), dir / "replot.log"), 0)
+      << ReadText(dir / "replot.log");
+  for (const char* file : {"study.md", "study.csv", "study_validation.csv"}) {
+    EXPECT_EQ(ReadText(replot / file), ReadText(fs::path(out) / file)) << file;
+  }
+  ExpectFigure(replot / "study_sweep.png");
+  EXPECT_EQ(ReadText(fs::path(out) / "study.md"), md_before);
 }
 
 // Paper Sec. III-E/IV-C: tune in a low-fidelity world, refine in a high-fidelity one inside
