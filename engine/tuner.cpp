@@ -664,7 +664,8 @@ class Trial {
 
   // ---- recommendation by re-flights ---------------------------------------------------------
 
-  /// Point `p` in the unit cube of the tuned space.
+  /// Point `p` in the unit cube of the tuned space (`p` may hold untuned planner parameters too,
+  /// which ParameterSpace::FromNamed refuses).
   Eigen::VectorXd Unit(const ParamValues& p) const {
     const auto names = e_.space.Names();
     Eigen::VectorXd x(static_cast<Eigen::Index>(names.size()));
@@ -707,7 +708,7 @@ class Trial {
     // Back-off: the best candidate moved towards the defaults, u = u_d + α (u_best − u_d) in the
     // unit cube, α = 1 − i / (backoff + 1), i = 1 … backoff.
     if (!out.empty() && e_.recommend.backoff > 0) {
-      ParamValues defaults = method_ == Method::kBoPso ? bo_pso_defaults_ : DefaultsOf(e_);
+      const ParamValues defaults = TrialDefaults();
       const Eigen::VectorXd u_d = Unit(defaults);
       const Eigen::VectorXd u_best = Unit(out.front());
       const int n = e_.recommend.backoff;
@@ -715,22 +716,28 @@ class Trial {
       for (int i = 1; i <= n; ++i) {
         const double alpha = 1.0 - static_cast<double>(i) / static_cast<double>(n + 1);
         const Eigen::VectorXd u = u_d + alpha * (u_best - u_d);
-        ParamValues p = Merge(defaults, e_.space.ToNamed(e_.space.FromUnit(u)));
-        add(std::move(p));
+        add(Merge(defaults, e_.space.ToNamed(e_.space.FromUnit(u))));
       }
     }
     return out;
   }
 
+  /// The defaults this trial falls back to (bo_pso: with the experiment's `start:`).
+  ParamValues TrialDefaults() const {
+    return method_ == Method::kBoPso ? bo_pso_defaults_ : DefaultsOf(e_);
+  }
+
+  /// Objective term `name` of `o`; NaN when absent (so every comparison with it fails).
+  static double Term(const Outcome& o, const char* name) {
+    const auto it = o.objective.terms.find(name);
+    return it == o.objective.terms.end() ? std::numeric_limits<double>::quiet_NaN() : it->second;
+  }
+
   /// A re-flight passes: it completed, collided with nothing and, unless
   /// recommend.emergency_stops allows them, made no emergency stop.
   bool Passes(const Outcome& o) const {
-    const auto term = [&o](const char* name) {
-      const auto it = o.objective.terms.find(name);
-      return it == o.objective.terms.end() ? std::numeric_limits<double>::quiet_NaN() : it->second;
-    };
-    return o.status == EvalStatus::kOk && term("completed") == 1.0 && term("n_c") == 0.0 &&
-           (e_.recommend.emergency_stops || term("n_e") == 0.0);
+    return o.status == EvalStatus::kOk && Term(o, "completed") == 1.0 && Term(o, "n_c") == 0.0 &&
+           (e_.recommend.emergency_stops || Term(o, "n_e") == 0.0);
   }
 
   /// The re-flights' smallest clearances c_i keep the margin: mean(c) − z·sd(c) >= clearance
@@ -745,7 +752,7 @@ class Trial {
   }
 
   /// Tries the ranked candidates in turn on the repeat's re-flight maps (flight_batch at a time,
-  /// a candidate dropped at its first batch with an unfinished or colliding flight) and
+  /// a candidate dropped at its first batch with a flight that does not pass, Passes) and
   /// recommends the first whose every re-flight passes and whose clearances keep the margin
   /// (KeepsMargin); the defaults when none does. Stored as kind "recheck" (iteration = rank,
   /// index = re-flight). Returns false when cancelled.
@@ -785,9 +792,7 @@ class Trial {
           if (o.replayed) ++summary_.replayed;
           pass = pass && Passes(o);
           sum += o.objective.value;
-          const auto c = o.objective.terms.find("min_clearance");
-          clearances.push_back(c == o.objective.terms.end() ? std::numeric_limits<double>::quiet_NaN()
-                                                            : c->second);
+          clearances.push_back(Term(o, "min_clearance"));
         }
         j += k;
       }
@@ -798,7 +803,7 @@ class Trial {
         return true;
       }
     }
-    summary_.recommended = method_ == Method::kBoPso ? bo_pso_defaults_ : DefaultsOf(e_);
+    summary_.recommended = TrialDefaults();
     summary_.recommended_value = std::numeric_limits<double>::infinity();
     summary_.recommended_rank = -1;
     return true;
