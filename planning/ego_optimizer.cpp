@@ -354,31 +354,6 @@ void PolygonLimits(const ControlPoints& q, double dt, double* v_max, double* a_m
   }
 }
 
-// Smallest distance (m) from p to a raw-occupied cell, searched up to `radius` (returns radius
-// when none is nearer).
-double ClearanceAt(const LocalMap& map, const Eigen::Vector3d& p, double radius) {
-  const double res = map.resolution();
-  const int r = static_cast<int>(std::ceil(radius / res));
-  const CellIndex c = map.CellOf(p);
-  double best2 = radius * radius;
-  for (int dz = -r; dz <= r; ++dz) {
-    for (int dy = -r; dy <= r; ++dy) {
-      for (int dx = -r; dx <= r; ++dx) {
-        const CellIndex g = c + CellIndex(dx, dy, dz);
-        // Distance from p to the cube of cell g.
-        Eigen::Vector3d d;
-        for (int k = 0; k < 3; ++k) {
-          const double lo = g[k] * res, hi = lo + res;
-          d[k] = p[k] < lo ? lo - p[k] : (p[k] > hi ? p[k] - hi : 0.0);
-        }
-        const double d2 = d.squaredNorm();
-        if (d2 < best2 && map.IsOccupiedRawCell(g)) best2 = d2;
-      }
-    }
-  }
-  return std::sqrt(best2);
-}
-
 // Acceptance check: samples, limits, clearance. Returns the number of samples taken.
 int CheckCurve(const LocalMap& map, const PlannerParams& params, const EgoOptions& o,
                PlanResult* result) {
@@ -411,7 +386,7 @@ int CheckCurve(const LocalMap& map, const PlannerParams& params, const EgoOption
   for (double t = 0.0;; t += o.clearance_dt) {
     const double tc = std::min(t, T);
     result->min_clearance =
-        std::min(result->min_clearance, ClearanceAt(map, traj.Position(tc), result->min_clearance));
+        std::min(result->min_clearance, map.RawClearance(traj.Position(tc), result->min_clearance));
     ++samples;
     if (tc >= T) break;
   }

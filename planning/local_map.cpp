@@ -240,6 +240,63 @@ bool LocalMap::IsOccupiedRawCell(const CellIndex& g) const {
   return evidence_[Slot(g)] > 0;
 }
 
+double LocalMap::RawClearance(const Eigen::Vector3d& p_W, double radius) const {
+  const int r = static_cast<int>(std::ceil(radius * inv_res_));
+  const CellIndex c = CellOf(p_W);
+  const int span = 2 * r + 1;
+  // Squared distance from p_W to the slab of cell c[k] + d along axis k, d = -r..r.
+  std::vector<double> axis2(3 * static_cast<std::size_t>(span));
+  for (int k = 0; k < 3; ++k) {
+    for (int d = -r; d <= r; ++d) {
+      const double lo = (c[k] + d) * res_, hi = lo + res_;
+      const double gap = p_W[k] < lo ? lo - p_W[k] : (p_W[k] > hi ? p_W[k] - hi : 0.0);
+      axis2[static_cast<std::size_t>(k * span + d + r)] = gap * gap;
+    }
+  }
+  const double* x2 = axis2.data();
+  const double* y2 = x2 + span;
+  const double* z2 = y2 + span;
+  double best2 = radius * radius;
+  for (int dz = -r; dz <= r; ++dz) {
+    const int gz = c.z() + dz;
+    const double zz = z2[dz + r];
+    if (zz >= best2) continue;
+    const bool ground = BelowGround(gz, false);
+    const bool z_in = gz >= origin_.z() && gz < origin_.z() + dims_.z();
+    if (!ground && !z_in) continue;
+    for (int dy = -r; dy <= r; ++dy) {
+      const int gy = c.y() + dy;
+      const double yy = y2[dy + r];
+      if (yy + zz >= best2) continue;
+      const bool y_in = gy >= origin_.y() && gy < origin_.y() + dims_.y();
+      if (!ground && !y_in) continue;
+      if (ground) {
+        for (int dx = -r; dx <= r; ++dx) best2 = std::min(best2, x2[dx + r] + yy + zz);
+        continue;
+      }
+      // Ring-buffer slots of the row (y, z fixed), as Slot() computes them.
+      int sy = gy - origin_.y() + ring_offset_.y();
+      if (sy >= dims_.y()) sy -= dims_.y();
+      int sz = gz - origin_.z() + ring_offset_.z();
+      if (sz >= dims_.z()) sz -= dims_.z();
+      const std::uint8_t* row =
+          evidence_.data() + static_cast<std::size_t>(dims_.x()) *
+                                 (static_cast<std::size_t>(sy) +
+                                  static_cast<std::size_t>(dims_.y()) * static_cast<std::size_t>(sz));
+      for (int dx = -r; dx <= r; ++dx) {
+        const double d2 = x2[dx + r] + yy + zz;
+        if (d2 >= best2) continue;
+        const int rel = c.x() + dx - origin_.x();
+        if (rel < 0 || rel >= dims_.x()) continue;
+        int sx = rel + ring_offset_.x();
+        if (sx >= dims_.x()) sx -= dims_.x();
+        if (row[sx] > 0) best2 = d2;
+      }
+    }
+  }
+  return std::sqrt(best2);
+}
+
 void LocalMap::AddInflation(const CellIndex& g, int delta, const CellIndex& lo,
                             const CellIndex& hi) {
   // Per-axis slots of the ball's extent (-1 outside [lo, hi)), then combine.

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <set>
 #include <tuple>
 
@@ -120,6 +122,60 @@ TEST(LocalMap, RemembersEarlierObstaclesInsideWindow) {
   EXPECT_TRUE(map.IsOccupiedRaw(Vector3d(1.0, 1.0, 1.0)));
   EXPECT_TRUE(map.IsOccupied(Vector3d(1.1, 1.0, 1.0)));
   EXPECT_TRUE(map.IsOccupiedRaw(Vector3d(-1.0, -1.0, 1.0)));
+}
+
+// Brute force: the nearest raw-occupied cell cube within radius, over every cell of the cube of
+// cells around p.
+double BruteClearance(const LocalMap& map, const Vector3d& p, double radius) {
+  const double res = map.resolution();
+  const int r = static_cast<int>(std::ceil(radius / res)) + 1;
+  const CellIndex c = map.CellOf(p);
+  double best = radius;
+  for (int dz = -r; dz <= r; ++dz) {
+    for (int dy = -r; dy <= r; ++dy) {
+      for (int dx = -r; dx <= r; ++dx) {
+        const CellIndex g = c + CellIndex(dx, dy, dz);
+        if (!map.IsOccupiedRawCell(g)) continue;
+        Vector3d gap;
+        for (int k = 0; k < 3; ++k) {
+          const double lo = g[k] * res;
+          gap[k] = std::max({lo - p[k], p[k] - (lo + res), 0.0});
+        }
+        best = std::min(best, gap.norm());
+      }
+    }
+  }
+  return best;
+}
+
+TEST(LocalMap, RawClearanceIsTheDistanceToTheNearestRawOccupiedCell) {
+  LocalMapOptions o = SmallOptions(0.15);
+  o.ground_is_obstacle = true;
+  o.ground_height = 0.3;
+  LocalMap map(o, Vector3d(0, 0, 1));
+  map.MoveTo(Vector3d(0.73, -0.41, 1.1));  // a window that wraps in the ring buffer
+  Rng rng(17);
+  std::vector<Vector3d> hits;
+  for (int i = 0; i < 60; ++i) {
+    hits.emplace_back(Uniform(rng, -1.2, 2.6), Uniform(rng, -1.9, 1.0), Uniform(rng, 0.2, 2.0));
+  }
+  map.Insert(Vector3d(0.73, -0.41, 1.1), hits);
+  ASSERT_GT(map.CountRawOccupied(), 40u);
+  int nearer = 0;
+  for (int i = 0; i < 400; ++i) {
+    // Points inside and just outside the window, some near the ground.
+    const Vector3d p(Uniform(rng, -1.6, 3.1), Uniform(rng, -2.2, 1.4), Uniform(rng, 0.0, 2.3));
+    const double radius = Uniform(rng, 0.05, 0.8);
+    const double expected = BruteClearance(map, p, radius);
+    EXPECT_NEAR(map.RawClearance(p, radius), expected, 1e-12) << p.transpose() << " r " << radius;
+    nearer += expected < radius ? 1 : 0;
+  }
+  EXPECT_GT(nearer, 100);  // the check compares real distances, not only the cap
+  // Outside the window only the ground counts.
+  const Vector3d outside(3.5, -0.4, 0.45);
+  ASSERT_FALSE(map.InWindow(outside));
+  EXPECT_LT(map.RawClearance(outside, 1.0), 0.3);
+  EXPECT_DOUBLE_EQ(map.RawClearance(outside, 1.0), BruteClearance(map, outside, 1.0));
 }
 
 TEST(LocalMap, ForgetsCellsThatLeaveTheWindow) {

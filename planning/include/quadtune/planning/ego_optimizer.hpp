@@ -62,7 +62,7 @@ struct EgoOptions {
   int segments_per_pol = 4;        ///< B-spline spans per n_pol unit over the horizon, [1, 16]
   int max_rebounds = 4;            ///< rebound rounds after the first solve, [0, 20]
   int max_reallocations = 3;       ///< time-reallocation rounds, [0, 10]
-  int lbfgs_memory = 8;            ///< L-BFGS history, [1, 64]
+  int lbfgs_memory = 4;            ///< L-BFGS history, [1, 64]
   int lbfgs_max_iterations = 200;  ///< per solve, [1, 10000]
   double lbfgs_epsilon = 1e-3;     ///< libLBFGS relative gradient tolerance, (0, 1)
   double lbfgs_delta = 1e-3;       ///< relative decrease over 3 iterations to stop, [0, 1)

@@ -141,6 +141,12 @@ class LocalMap {
     return IsOccupiedRawCell(CellOf(p_W));
   }
 
+  /// Distance (m) from p_W to the nearest raw-occupied cell (the cell's cube, ground included),
+  /// searched within `radius` (m, ≥ 0); returns `radius` when no raw-occupied cell is nearer.
+  /// Exact over the cells within radius; cost ∝ the cells of the ball, rows beyond the current
+  /// nearest hit skipped.
+  [[nodiscard]] double RawClearance(const Eigen::Vector3d& p_W, double radius) const;
+
   /// Walks the cells the segment a_W→b_W passes through (every cell it touches, corners
   /// included) and returns the fraction t ∈ [0, 1] of the way from a to b at which it enters the
   /// first inflated-occupied cell (0 when a's cell is occupied), or nullopt when it is free.
