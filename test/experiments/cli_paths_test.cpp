@@ -32,6 +32,7 @@ using test::QuadtuneBinary;
 using test::ReadCsv;
 using test::ReadText;
 using test::RunQuadtune;
+using test::ToyExperimentFile;
 
 const std::string kExperiments = std::string(QUADTUNE_SOURCE_DIR) + "/experiments/";
 

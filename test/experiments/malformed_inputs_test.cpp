@@ -632,8 +632,9 @@ TEST(MalformedInputs, ProductionProgramHasNoTestPlanners) {
     EXPECT_EQ(WEXITSTATUS(status), 2) << cmd << "\n" << ReadText(log);
     const std::string err = ReadText(log);
     EXPECT_EQ(err.find('\n'), err.size() - 1) << err;
-    for (const std::string expect : {file, "planner.type", "unknown planner type '" + type + "'",
-                                     "registered: ", "ego", "ipopt"}) {
+    for (const std::string& expect : std::vector<std::string>{
+             file, "planner.type", "unknown planner type '" + type + "'", "registered: ", "ego",
+             "ipopt"}) {
       EXPECT_NE(err.find(expect), std::string::npos) << "'" << expect << "' not in: " << err;
     }
     const std::string registered = err.substr(err.find("registered: "));

@@ -21,6 +21,7 @@ namespace fs = std::filesystem;
 using test::ReadCsv;
 using test::ReadText;
 using test::RunQuadtune;
+using test::ToyExperimentFile;
 
 const std::string kExperiments = std::string(QUADTUNE_SOURCE_DIR) + "/experiments/";
 
