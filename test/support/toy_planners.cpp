@@ -80,7 +80,8 @@ Opaque ToyPlanner::PrepareMap(std::uint64_t map_seed) const {
   Rng rng(DeriveSeed(map_seed, {0x70f}));
   ToyMap map;
   for (int i = 0; i < options_.gates; ++i) {
-    map.gate_x.push_back(options_.length * (i + 0.5 + 0.3 * (Uniform01(rng) - 0.5)) / options_.gates);
+    map.gate_x.push_back(options_.length * (i + 0.5 + 0.3 * (Uniform01(rng) - 0.5)) /
+                         options_.gates);
     map.gate_limit.push_back(Uniform(rng, options_.gate_speed_min, options_.gate_speed_max));
   }
   return Opaque::Make(std::move(map));
@@ -121,7 +122,8 @@ FlightRecord ToyPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) con
     q.a = 0.5 + 0.5 * (1.0 + std::sin(0.7 * x + 0.3 * static_cast<double>(next_gate)));
     q.x0 = Uniform(rng, -1.0, 1.0);
     if (request.short_params_provider) request.short_params_provider(t, theta_s);
-    const ToySolve s = ToySolveQuery(q, theta_s["gain"], static_cast<int>(std::lround(theta_s["max_iter"])));
+    const ToySolve s =
+        ToySolveQuery(q, theta_s["gain"], static_cast<int>(std::lround(theta_s["max_iter"])));
     ++r.plans;
     r.failed_attempts += s.failed;
     r.compute_units += s.iterations;
@@ -313,8 +315,8 @@ SleepPlannerOptions SleepPlannerOptions::FromYaml(const YamlMap& p) {
   o.resolve_p95_s = t.Number("resolve_p95_s", o.resolve_p95_s, Range::Closed(1e-6, 10.0));
   o.flight_median_s = t.Number("flight_median_s", o.flight_median_s, Range::Closed(1e-6, 60.0));
   o.flight_p95_s = t.Number("flight_p95_s", o.flight_p95_s, Range::Closed(1e-6, 60.0));
-  o.queries_per_flight =
-      static_cast<int>(t.Integer("queries_per_flight", o.queries_per_flight, Range::Closed(1, 1e5)));
+  o.queries_per_flight = static_cast<int>(
+      t.Integer("queries_per_flight", o.queries_per_flight, Range::Closed(1, 1e5)));
   if (o.resolve_p95_s < o.resolve_median_s) t.Fail("resolve_p95_s", "must be >= resolve_median_s");
   if (o.flight_p95_s < o.flight_median_s) t.Fail("flight_p95_s", "must be >= flight_median_s");
   return o;

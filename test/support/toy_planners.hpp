@@ -29,12 +29,12 @@ namespace quadtune::engine::test {
 
 /// Settings of ToyPlanner (the experiment file's `planner.toy` map).
 struct ToyPlannerOptions {
-  double length = 20.0;        ///< track length (m), > 0
-  int gates = 6;               ///< gates along the track, >= 0; each has a random speed limit
-  double gate_speed_min = 2.0; ///< gate speed limits are uniform in [min, max] (m/s)
+  double length = 20.0;         ///< track length (m), > 0
+  int gates = 6;                ///< gates along the track, >= 0; each has a random speed limit
+  double gate_speed_min = 2.0;  ///< gate speed limits are uniform in [min, max] (m/s)
   double gate_speed_max = 4.0;
-  double plan_interval = 1.0;  ///< a planning query every this many metres (m), > 0
-  double flight_delay_s = 0.0; ///< wall-clock sleep per flight (s), to simulate cost in tests
+  double plan_interval = 1.0;   ///< a planning query every this many metres (m), > 0
+  double flight_delay_s = 0.0;  ///< wall-clock sleep per flight (s), to simulate cost in tests
   /// Fly() throws std::runtime_error when θ_l's speed exceeds this (m/s); <= 0: never.
   double throw_speed_above = 0.0;
 
