@@ -23,40 +23,6 @@ Planner BuildEgo(const YamlMap& p, const std::string& base_dir) {
   return Planner{EgoPlanner{{IpoptPlannerOptions::FromYaml(p, base_dir), planning::EgoOptions{}}}};
 }
 
-Planner BuildToy(const YamlMap& p, const std::string& /*base_dir*/) {
-  p.RejectUnknownKeys({"type", "toy"});
-  const YamlMap t = p.Map("toy", true);
-  t.RejectUnknownKeys({"length", "gates", "gate_speed_min", "gate_speed_max", "plan_interval",
-                       "flight_delay_s", "throw_speed_above"});
-  ToyPlannerOptions o;
-  o.length = t.Number("length", o.length, Range::Positive());
-  o.gates = static_cast<int>(t.Integer("gates", o.gates, Range::Closed(0, 1000)));
-  o.gate_speed_min = t.Number("gate_speed_min", o.gate_speed_min, Range::Positive());
-  o.gate_speed_max = t.Number("gate_speed_max", o.gate_speed_max, Range::Positive());
-  if (o.gate_speed_max < o.gate_speed_min) t.Fail("gate_speed_max", "must be >= gate_speed_min");
-  o.plan_interval = t.Number("plan_interval", o.plan_interval, Range::Positive());
-  o.flight_delay_s = t.Number("flight_delay_s", o.flight_delay_s, Range::Closed(0.0, 10.0));
-  o.throw_speed_above = t.Number("throw_speed_above", o.throw_speed_above, Range::Any());
-  return Planner{ToyPlanner{o}};
-}
-
-Planner BuildSleep(const YamlMap& p, const std::string& /*base_dir*/) {
-  p.RejectUnknownKeys({"type", "sleep"});
-  const YamlMap t = p.Map("sleep", true);
-  t.RejectUnknownKeys({"resolve_median_s", "resolve_p95_s", "flight_median_s", "flight_p95_s",
-                       "queries_per_flight"});
-  SleepPlannerOptions o;
-  o.resolve_median_s = t.Number("resolve_median_s", o.resolve_median_s, Range::Closed(1e-6, 10.0));
-  o.resolve_p95_s = t.Number("resolve_p95_s", o.resolve_p95_s, Range::Closed(1e-6, 10.0));
-  o.flight_median_s = t.Number("flight_median_s", o.flight_median_s, Range::Closed(1e-6, 60.0));
-  o.flight_p95_s = t.Number("flight_p95_s", o.flight_p95_s, Range::Closed(1e-6, 60.0));
-  o.queries_per_flight =
-      static_cast<int>(t.Integer("queries_per_flight", o.queries_per_flight, Range::Closed(1, 1e5)));
-  if (o.resolve_p95_s < o.resolve_median_s) t.Fail("resolve_p95_s", "must be >= resolve_median_s");
-  if (o.flight_p95_s < o.flight_median_s) t.Fail("flight_p95_s", "must be >= flight_median_s");
-  return Planner{SleepPlanner{o}};
-}
-
 bool ValidName(const std::string& name) {
   return !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
     return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_';
@@ -68,8 +34,6 @@ class Registry {
   Registry() {
     Add("ipopt", BuildIpopt, BackendPlanner::Schema());
     Add("ego", BuildEgo, BackendPlanner::Schema());
-    Add("toy", BuildToy, PlannerSchema::Of(ToyPlanner{}));
-    Add("sleep", BuildSleep, PlannerSchema::Of(SleepPlanner{}));
   }
 
   void Add(const std::string& name, PlannerFactory factory, PlannerSchema schema) {

@@ -4,7 +4,8 @@
 # trials per rank; stored evaluations per second (the run's evaluations over rank 0's wall_s),
 # against the ideal line (ranks × the single process's rate), and the peak resident memory of
 # every rank and the CPU seconds of rank 0 and of all ranks together (/usr/bin/time). Writes
-# OUT/scale_model.csv and OUT/scale_model.png.
+# OUT/scale_model.csv and OUT/scale_model.png. The sleep planner is a test planner: the program is
+# build/test/support/quadtune_test_cli (`quadtune` with the test planners; $QUADTUNE overrides).
 #
 #   bash scripts/scale_model.sh [OUT [RANKS...]]      default: docs/results/cluster 1 2 4 … 256
 #
@@ -15,7 +16,7 @@ out=${1:-$root/docs/results/cluster}
 shift || true
 ranks_list=("$@")
 (( ${#ranks_list[@]} )) || ranks_list=(1 2 4 8 16 32 64 128 256)
-quadtune=${QUADTUNE:-$root/build/experiments/quadtune}
+quadtune=${QUADTUNE:-$root/build/test/support/quadtune_test_cli}
 work=$(mktemp -d /tmp/quadtune_scale.XXXXXX)
 trap 'rm -rf "$work"' EXIT
 mkdir -p "$out"

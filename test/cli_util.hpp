@@ -14,12 +14,21 @@
 
 namespace quadtune::test {
 
-/// The `quadtune` program of this build.
-inline std::string QuadtuneBinary() {
-  return std::string(QUADTUNE_BINARY_DIR) + "/experiments/quadtune";
+/// The program the test runs (its target's quadtune_runs_cli() in test/CMakeLists.txt): the
+/// `quadtune` program of this build, or for toy experiments `quadtune_test_cli`, the same program
+/// with the test planners `toy` and `sleep` (test/support/toy_planners.hpp).
+inline std::string QuadtuneBinary() { return QUADTUNE_CLI_PROGRAM; }
+
+/// The `quadtune` program of this build (without the test planners).
+inline std::string ProductionQuadtuneBinary() { return QUADTUNE_PROGRAM; }
+
+/// The toy experiment file (test/support/toy.yaml; runs on QuadtuneBinary() as
+/// `quadtune_test_cli`).
+inline std::string ToyExperimentFile() {
+  return std::string(QUADTUNE_SOURCE_DIR) + "/test/support/toy.yaml";
 }
 
-/// Runs `quadtune ARGS` through the shell with its output in `log`; returns the exit status.
+/// Runs QuadtuneBinary() with ARGS through the shell with its output in `log`; returns the exit status.
 inline int RunQuadtune(const std::string& args, const std::filesystem::path& log) {
   const std::string cmd = QuadtuneBinary() + " " + args + " > '" + log.string() + "' 2>&1";
   const int status = std::system(cmd.c_str());

@@ -18,6 +18,7 @@
 #include "quadtune/engine/row_codec.hpp"
 #include "quadtune/engine/tuner.hpp"
 #include "test_util.hpp"
+#include "toy_planners.hpp"
 
 namespace quadtune::engine {
 namespace {
@@ -168,13 +169,13 @@ TEST(ResultStoreBatch, AFailingRowRollsBackTheWholeBatch) {
 }
 
 TEST(SleepPlanner, DrawsAreSeededAndFollowTheMedian) {
-  SleepPlannerOptions o;
+  test::SleepPlannerOptions o;
   o.resolve_median_s = 1e-5;  // keep the test's sleeps short
   o.resolve_p95_s = 2e-5;
   o.flight_median_s = 1e-3;
   o.flight_p95_s = 2e-3;
   o.queries_per_flight = 20;
-  const Planner planner{SleepPlanner{o}};
+  const Planner planner{test::SleepPlanner{o}};
   EXPECT_EQ(planner.Name(), "sleep");
   std::vector<Opaque> queries;
   WorkerSlot slot;

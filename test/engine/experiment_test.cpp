@@ -44,7 +44,7 @@ TEST(Experiment, ToyFileLoads) {
 TEST(Experiment, ShippedFilesLoad) {
   // changing_environment*.yaml are `quadtune adapt` files (AdaptExperiment, test/adapt);
   // *_study.yaml are `quadtune study` files (Study).
-  for (const char* f : {"experiments/default.yaml", "experiments/tiny.yaml", "experiments/toy.yaml",
+  for (const char* f : {"experiments/default.yaml", "experiments/tiny.yaml", "test/support/toy.yaml",
                         "experiments/benchmark.yaml", "experiments/mpi_scaling.yaml"}) {
     EXPECT_NO_THROW((void)Experiment::LoadFile(std::string(QUADTUNE_SOURCE_DIR) + "/" + f)) << f;
   }

@@ -13,6 +13,7 @@
 #include "quadtune/engine/planners.hpp"
 #include "quadtune/engine/tuner.hpp"
 #include "test_util.hpp"
+#include "toy_planners.hpp"
 
 namespace quadtune::engine {
 namespace {
@@ -30,30 +31,60 @@ std::vector<std::string> Names(const std::vector<ParameterInfo>& side) {
   return names;
 }
 
-// The built-in toy type's factory under another name: the same plug-in, reached by a
-// registration made outside the library.
+// The toy type's factory (test/support) under another name: the same plug-in, reached by a
+// second registration made outside the library.
 Planner BuildToyAgain(const YamlMap& planner, const std::string& base_dir) {
   return FindPlanner("toy")->factory(planner, base_dir);
 }
 
 const PlannerRegistration kStatic("registry_test_static", BuildToyAgain,
-                                  PlannerSchema::Of(ToyPlanner{}));
+                                  PlannerSchema::Of(test::ToyPlanner{}));
 
 TEST(PlannerRegistry, BuiltInTypesAreRegistered) {
   const std::vector<std::string> names = RegisteredPlanners();
-  for (const char* n : {"ego", "ipopt", "sleep", "toy"}) {
+  for (const char* n : {"ego", "ipopt"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), n), names.end()) << n;
   }
   EXPECT_TRUE(std::is_sorted(names.begin(), names.end()));
-  const auto toy = FindPlanner("toy");
-  ASSERT_TRUE(toy.has_value());
-  EXPECT_EQ(Names(toy->schema.short_term), (std::vector<std::string>{"gain", "max_iter"}));
-  EXPECT_EQ(Names(toy->schema.long_term), (std::vector<std::string>{"speed", "margin"}));
   const auto ego = FindPlanner("ego");
   ASSERT_TRUE(ego.has_value());
   EXPECT_EQ(Names(ego->schema.short_term), (std::vector<std::string>{"w_col", "w_dyn", "n_pol"}));
   EXPECT_TRUE(ego->schema.short_term[2].integer);
   EXPECT_FALSE(FindPlanner("rrt").has_value());
+}
+
+// The test planners live outside the engine library (test/support) and register through the
+// public registry when a program links quadtune::test_planners, as engine_tests does.
+TEST(PlannerRegistry, TestPlannersRegisterThroughThePublicRegistry) {
+  const std::vector<std::string> names = RegisteredPlanners();
+  for (const char* n : {"sleep", "toy"}) {
+    EXPECT_NE(std::find(names.begin(), names.end(), n), names.end()) << n;
+  }
+  const auto toy = FindPlanner("toy");
+  ASSERT_TRUE(toy.has_value());
+  EXPECT_EQ(Names(toy->schema.short_term), (std::vector<std::string>{"gain", "max_iter"}));
+  EXPECT_EQ(Names(toy->schema.long_term), (std::vector<std::string>{"speed", "margin"}));
+  const auto sleep = FindPlanner("sleep");
+  ASSERT_TRUE(sleep.has_value());
+  EXPECT_EQ(Names(sleep->schema.short_term), (std::vector<std::string>{"effort"}));
+  EXPECT_EQ(Names(sleep->schema.long_term), (std::vector<std::string>{"pace"}));
+}
+
+// A default-constructed experiment holds NoPlanner until its `planner:` map is read: no
+// parameters, and a flight or re-solve through it is a failed evaluation, never a crash.
+TEST(PlannerRegistry, DefaultExperimentHoldsNoPlanner) {
+  const Experiment e;
+  EXPECT_EQ(e.planner.Name(), "none");
+  EXPECT_TRUE(e.planner.Defaults().empty());
+  WorkerSlot slot;
+  FlightRequest request;
+  request.map = e.planner.PrepareMap(1);
+  const FlightRecord flight = e.planner.Fly(request, slot);
+  EXPECT_EQ(flight.status, EvalStatus::kFailed);
+  EXPECT_EQ(flight.message, "no planner");
+  const ResolveRecord resolve = e.planner.Resolve(Opaque{}, {});
+  EXPECT_EQ(resolve.status, EvalStatus::kFailed);
+  EXPECT_EQ(resolve.message, "no planner");
 }
 
 TEST(PlannerRegistry, UnknownTypeListsTheRegisteredNames) {
@@ -65,23 +96,23 @@ TEST(PlannerRegistry, UnknownTypeListsTheRegisteredNames) {
 TEST(PlannerRegistry, StaticRegistrationIsFound) {
   const Experiment e = Experiment::FromString(WithType("registry_test_static"), "exp.yaml");
   EXPECT_EQ(e.planner_type, "registry_test_static");
-  EXPECT_NE(e.planner.Extract<ToyPlanner>(), nullptr);
+  EXPECT_NE(e.planner.Extract<test::ToyPlanner>(), nullptr);
 }
 
-TEST(PlannerRegistry, RegisteredTypeTunesLikeTheBuiltIn) {
+TEST(PlannerRegistry, SecondRegistrationTunesLikeTheFirst) {
   if (!FindPlanner("registry_test_toy")) {
-    RegisterPlanner("registry_test_toy", BuildToyAgain, PlannerSchema::Of(ToyPlanner{}));
+    RegisterPlanner("registry_test_toy", BuildToyAgain, PlannerSchema::Of(test::ToyPlanner{}));
   }
   const RunSummary mine =
       RunExperiment(Experiment::FromString(WithType("registry_test_toy"), "exp.yaml"));
-  const RunSummary builtin = RunExperiment(Experiment::FromString(WithType("toy"), "exp.yaml"));
+  const RunSummary toy = RunExperiment(Experiment::FromString(WithType("toy"), "exp.yaml"));
   ASSERT_EQ(mine.trials.size(), 2u);
-  ASSERT_EQ(builtin.trials.size(), 2u);
-  EXPECT_EQ(mine.flights, builtin.flights);
-  EXPECT_EQ(mine.resolves, builtin.resolves);
+  ASSERT_EQ(toy.trials.size(), 2u);
+  EXPECT_EQ(mine.flights, toy.flights);
+  EXPECT_EQ(mine.resolves, toy.resolves);
   for (std::size_t i = 0; i < mine.trials.size(); ++i) {
-    EXPECT_EQ(mine.trials[i].best_value, builtin.trials[i].best_value) << i;
-    EXPECT_EQ(mine.trials[i].best, builtin.trials[i].best) << i;
+    EXPECT_EQ(mine.trials[i].best_value, toy.trials[i].best_value) << i;
+    EXPECT_EQ(mine.trials[i].best, toy.trials[i].best) << i;
   }
 }
 
@@ -96,7 +127,7 @@ TEST(PlannerRegistry, SchemaBoundsTheTuningBox) {
 }
 
 TEST(PlannerRegistry, BadRegistrationsThrow) {
-  const PlannerSchema schema = PlannerSchema::Of(ToyPlanner{});
+  const PlannerSchema schema = PlannerSchema::Of(test::ToyPlanner{});
   EXPECT_THROW(RegisterPlanner("toy", BuildToyAgain, schema), std::invalid_argument);
   EXPECT_THROW(RegisterPlanner("", BuildToyAgain, schema), std::invalid_argument);
   EXPECT_THROW(RegisterPlanner("Registry-Test", BuildToyAgain, schema), std::invalid_argument);
@@ -111,7 +142,8 @@ TEST(PlannerRegistry, BadRegistrationsThrow) {
 
 TEST(PlannerRegistry, PlugInThatDiffersFromItsSchemaIsABug) {
   if (!FindPlanner("registry_test_mismatch")) {
-    RegisterPlanner("registry_test_mismatch", BuildToyAgain, PlannerSchema::Of(SleepPlanner{}));
+    RegisterPlanner("registry_test_mismatch", BuildToyAgain,
+                    PlannerSchema::Of(test::SleepPlanner{}));
   }
   EXPECT_THROW((void)Experiment::FromString(WithType("registry_test_mismatch"), "exp.yaml"),
                InvariantError);

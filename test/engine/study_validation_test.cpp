@@ -126,7 +126,7 @@ TEST(ResultStoreErrors, OpeningAMissingStoreForExport) {
 
 int RunCli(const std::string& args, const std::string& log) {
   const std::string cmd =
-      std::string(QUADTUNE_BINARY_DIR) + "/experiments/quadtune " + args + " > '" + log + "' 2>&1";
+      std::string(QUADTUNE_CLI_PROGRAM) + " " + args + " > '" + log + "' 2>&1";
   const int status = std::system(cmd.c_str());
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }

@@ -16,6 +16,7 @@
 #include "quadtune/engine/result_store.hpp"
 #include "quadtune/engine/tuner.hpp"
 #include "test_util.hpp"
+#include "toy_planners.hpp"
 
 namespace quadtune::engine {
 namespace {
@@ -31,7 +32,7 @@ std::map<std::string, std::pair<int, int>> CountByMethod(const std::string& stor
 }
 
 TEST(PlannerPlugin, ToyPlannerFliesAndResolvesItsQueries) {
-  const Planner planner{ToyPlanner{}};
+  const Planner planner{test::ToyPlanner{}};
   EXPECT_EQ(planner.Name(), "toy");
   EXPECT_EQ(planner.Defaults().size(), 4u);
   WorkerSlot slot;
@@ -55,7 +56,7 @@ TEST(PlannerPlugin, ToyPlannerFliesAndResolvesItsQueries) {
   const Planner copy = planner;  // NOLINT(performance-unnecessary-copy-initialization)
   EXPECT_EQ(copy.Resolve(queries[0], {{"gain", 0.6}, {"max_iter", 40}}).compute_units,
             good.compute_units);
-  EXPECT_NE(copy.Extract<ToyPlanner>(), nullptr);
+  EXPECT_NE(copy.Extract<test::ToyPlanner>(), nullptr);
   EXPECT_EQ(copy.Extract<IpoptPlanner>(), nullptr);
 }
 
@@ -317,7 +318,7 @@ using ::quadtune::test::WaitExit;
 int CountRows(const std::string& path) { return CountEvaluations(path); }
 
 TEST(Resume, KillMinus9MidRunThenResumeEqualsUninterruptedRun) {
-  const std::string bin = std::string(QUADTUNE_BINARY_DIR) + "/experiments/quadtune";
+  const std::string bin = QUADTUNE_CLI_PROGRAM;  // quadtune_test_cli
   ASSERT_TRUE(std::filesystem::exists(bin)) << bin;
   const std::string dir = test::TempDir("kill9");
   const std::string file = dir + "/toy.yaml";
@@ -354,7 +355,7 @@ TEST(Resume, KillMinus9MidRunThenResumeEqualsUninterruptedRun) {
 }
 
 TEST(Cli, ExportWritesCsvAndBenchRuns) {
-  const std::string bin = std::string(QUADTUNE_BINARY_DIR) + "/experiments/quadtune";
+  const std::string bin = QUADTUNE_CLI_PROGRAM;  // quadtune_test_cli
   ASSERT_TRUE(std::filesystem::exists(bin)) << bin;
   const std::string dir = test::TempDir("cli");
   const std::string file = dir + "/toy.yaml";

@@ -32,6 +32,7 @@ using test::QuadtuneBinary;
 using test::ReadCsv;
 using test::ReadText;
 using test::RunQuadtune;
+using test::ToyExperimentFile;
 
 const std::string kExperiments = std::string(QUADTUNE_SOURCE_DIR) + "/experiments/";
 
@@ -328,7 +329,7 @@ TEST(CliExitCodes, UnexpectedErrorIsOneMissingInputIsTwo) {
       << ReadText(dir / "none.log");
   EXPECT_NE(ReadText(dir / "none.log").find("no such results file"), std::string::npos);
   // run --resume without a store: bad input, nothing created.
-  EXPECT_EQ(RunQuadtune("run " + kExperiments + "toy.yaml --out " + (dir / "fresh").string() +
+  EXPECT_EQ(RunQuadtune("run " + ToyExperimentFile() + " --out " + (dir / "fresh").string() +
                             " --resume --quiet",
                         dir / "resume.log"),
             2)
@@ -341,7 +342,7 @@ int CountRows(const fs::path& store) { return test::CountEvaluations(store.strin
 
 // The toy experiment with a delay per flight, so a run can be interrupted part-way.
 std::string SlowToy() {
-  std::string text = ReadText(kExperiments + "toy.yaml");
+  std::string text = ReadText(ToyExperimentFile());
   const std::string from = "plan_interval: 1.0}";
   const auto pos = text.find(from);
   EXPECT_NE(pos, std::string::npos);
@@ -426,7 +427,7 @@ nlohmann::json PointsWithoutWallTime(const fs::path& study_json) {
 // the other point's store is left alone.
 TEST(CliStudy, ResumeReplaysStoredStagesAndRerunsALostOne) {
   const fs::path dir = Fresh("study_resume");
-  std::ofstream(dir / "toy.yaml") << ReadText(kExperiments + "toy.yaml");
+  std::ofstream(dir / "toy.yaml") << ReadText(ToyExperimentFile());
   std::ofstream(dir / "study.yaml")
       << "name: toy-study\nseed: 3\nexperiment: toy.yaml\n"
          "override: {repeats: 1, methods: [random, bo], budget: {flights: 4}}\n"
@@ -469,8 +470,8 @@ TEST(CliStudy, ResumeReplaysStoredStagesAndRerunsALostOne) {
 TEST(CliMpi, BuildWithoutMpiRefusesAMultiProcessLaunch) {
   if (QUADTUNE_TEST_HAVE_MPI) GTEST_SKIP() << "this quadtune is built with MPI";
   const fs::path dir = Fresh("no_mpi");
-  const std::string cmd = "OMPI_COMM_WORLD_SIZE=2 " + QuadtuneBinary() + " run " + kExperiments +
-                          "toy.yaml --out " + (dir / "out").string() + " > '" +
+  const std::string cmd = "OMPI_COMM_WORLD_SIZE=2 " + QuadtuneBinary() + " run " + ToyExperimentFile() +
+                          " --out " + (dir / "out").string() + " > '" +
                           (dir / "log").string() + "' 2>&1";
   const int status = std::system(cmd.c_str());
   ASSERT_TRUE(WIFEXITED(status));

@@ -610,5 +610,45 @@ INSTANTIATE_TEST_SUITE_P(AllFileKinds, MalformedInputs, ::testing::ValuesIn(Case
 
 TEST(MalformedInputs, TableCoversAtLeastSixtyCases) { EXPECT_GE(Cases().size(), 60U); }
 
+// The test planners live in the test program only: the production `quadtune` refuses `toy` and
+// `sleep` as unregistered planner types, naming the file and the key and listing the types it
+// has, while quadtune_test_cli (QuadtuneBinary()) runs the same file.
+TEST(MalformedInputs, ProductionProgramHasNoTestPlanners) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("qt_malformed_" + std::to_string(::getpid()) + "_production");
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  Write(dir / "toy.yaml", kToy);
+  Write(dir / "sleep.yaml",
+        Edit(Edit(kToy, "type: toy", "type: sleep"), "  toy: {length: 20, gates: 6}\n", ""));
+  for (const std::string type : {"toy", "sleep"}) {
+    const fs::path log = dir / (type + ".err");
+    const std::string file = (dir / (type + ".yaml")).string();
+    const std::string cmd = ProductionQuadtuneBinary() + " run " + file + " --out " +
+                            (dir / (type + "_out")).string() + " --quiet 2> '" + log.string() +
+                            "'";
+    const int status = std::system(cmd.c_str());
+    ASSERT_TRUE(WIFEXITED(status)) << cmd;
+    EXPECT_EQ(WEXITSTATUS(status), 2) << cmd << "\n" << ReadText(log);
+    const std::string err = ReadText(log);
+    EXPECT_EQ(err.find('\n'), err.size() - 1) << err;
+    for (const std::string& expect : std::vector<std::string>{
+             file, "planner.type", "unknown planner type '" + type + "'", "registered: ", "ego",
+             "ipopt"}) {
+      EXPECT_NE(err.find(expect), std::string::npos) << "'" << expect << "' not in: " << err;
+    }
+    const std::string registered = err.substr(err.find("registered: "));
+    EXPECT_EQ(registered.find("toy"), std::string::npos) << err;
+    EXPECT_EQ(registered.find("sleep"), std::string::npos) << err;
+    EXPECT_FALSE(fs::exists(dir / (type + "_out") / "results.sqlite"));
+  }
+  EXPECT_EQ(RunQuadtune("run " + (dir / "toy.yaml").string() + " --out " +
+                            (dir / "test_cli_out").string() + " --quiet",
+                        dir / "test_cli.log"),
+            0)
+      << ReadText(dir / "test_cli.log");
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace quadtune::test

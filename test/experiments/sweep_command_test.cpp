@@ -21,6 +21,7 @@ namespace fs = std::filesystem;
 using test::ReadCsv;
 using test::ReadText;
 using test::RunQuadtune;
+using test::ToyExperimentFile;
 
 const std::string kExperiments = std::string(QUADTUNE_SOURCE_DIR) + "/experiments/";
 
@@ -66,7 +67,7 @@ void ExpectPlausibleIndices(const std::vector<std::map<std::string, std::string>
 TEST(SweepCommand, ToySweepAtTwoSettingsWritesCheckedOutputs) {
   const fs::path dir = Fresh("toy");
   const std::string out = (dir / "out").string();
-  ASSERT_EQ(RunQuadtune("sweep " + kExperiments + "toy.yaml --out " + out +
+  ASSERT_EQ(RunQuadtune("sweep " + ToyExperimentFile() + " --out " + out +
                             " --points 256 --maps 2 --queries 5 --seed 9 --threads 2 "
                             "--bootstrap 200 --layout-key planner.toy.gates --layouts 4 8",
                         dir / "sweep.log"),
@@ -120,7 +121,7 @@ TEST(SweepCommand, ToySweepAtTwoSettingsWritesCheckedOutputs) {
   EXPECT_GT(test::PngBytes(fs::path(out) / "sweep.png"), 15000u);
 
   // A non-empty --out is refused without --overwrite, and the message says so.
-  EXPECT_EQ(RunQuadtune("sweep " + kExperiments + "toy.yaml --out " + out + " --points 2",
+  EXPECT_EQ(RunQuadtune("sweep " + ToyExperimentFile() + " --out " + out + " --points 2",
                         dir / "again.log"),
             2);
   EXPECT_NE(ReadText(dir / "again.log").find("--overwrite"), std::string::npos)
@@ -132,7 +133,7 @@ TEST(SweepCommand, SameSeedSameFilesAtOneAndTwoThreads) {
   const fs::path dir = Fresh("threads");
   for (int threads : {1, 2}) {
     const std::string out = (dir / ("t" + std::to_string(threads))).string();
-    ASSERT_EQ(RunQuadtune("--log-level warn sweep " + kExperiments + "toy.yaml --out " + out +
+    ASSERT_EQ(RunQuadtune("--log-level warn sweep " + ToyExperimentFile() + " --out " + out +
                               " --points 8 --maps 2 --queries 4 --bootstrap 50 --no-plot "
                               "--threads " +
                               std::to_string(threads),

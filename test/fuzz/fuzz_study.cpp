@@ -6,8 +6,8 @@
 #include "quadtune/engine/study.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  // The corpus names shipped experiments (experiments/toy.yaml) by their file name.
-  setenv("QUADTUNE_ASSETS", QUADTUNE_SOURCE_DIR "/experiments", 0);
+  // The corpus names the toy experiment (test/support/toy.yaml) by its file name.
+  setenv("QUADTUNE_ASSETS", QUADTUNE_SOURCE_DIR "/test/support", 0);
   const std::string path = quadtune::fuzz::WriteInput(data, size, "study.yaml");
   try {
     (void)quadtune::engine::Study::LoadFile(path);

@@ -17,6 +17,8 @@
 #       as `equal`, with the real planner: experiments/tiny.yaml (Bullet flights, Ipopt solves),
 #       three methods × two repeats.
 #
+# QUADTUNE is the program: quadtune_test_cli (test/support: with the test planner toy) for the
+# toy modes, quadtune for ipopt.
 # Runs as root too (--allow-run-as-root), and on fewer cores than ranks (--oversubscribe).
 set -euo pipefail
 mode=$1 quadtune=$2 mpiexec=$3 work=$4

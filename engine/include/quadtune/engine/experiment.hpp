@@ -30,7 +30,7 @@
 ///       backoff: 0             # then this many points between the best candidate and the defaults
 ///     methods: [default, random, pso, bo, bo_pso]
 ///     planner:
-///       type: ipopt            # ipopt | ego | toy
+///       type: ipopt            # a registered planner (planner_registry.hpp): ipopt | ego | …
 ///       drone: drones/research_1kg.yaml        # ipopt: relative to the file, then assets/
 ///       layout: {spacing: 3.0, ...}            # ipopt: LayoutOptions, or layout_file: PATH
 ///       world: {...}                           # ipopt: WorldOptions (seed set per flight)
@@ -40,7 +40,6 @@
 ///       safety_nets: true                      # ipopt: false plans as the paper's planners do:
 ///                              # one attempt per re-plan, no 10× collision-weight retries, no
 ///                              # stop-and-go fallback
-///       toy: {length: 20, gates: 6, ...}       # toy: ToyPlannerOptions
 ///     parameters:              # ParameterSpace (bounds, log, integer, default)
 ///       - {name: w_col, lower: 0.05, upper: 5.0, log: true, default: 0.5}
 ///     short_term: [w_col, w_dyn, n_pol]        # θ_s (PSO in bo_pso)
@@ -162,7 +161,7 @@ struct Experiment {
   int repeats = 1;         ///< >= 1
   std::vector<Method> methods;
   std::string planner_type;  ///< the registered `planner.type` (planner_registry.hpp)
-  Planner planner{ToyPlanner{}};  ///< the plug-in
+  Planner planner{NoPlanner{}};  ///< the plug-in (NoPlanner until the `planner:` map is read)
   optimizers::ParameterSpace space;  ///< all tuned parameters
   std::vector<std::string> short_names;  ///< θ_s, in space order
   std::vector<std::string> long_names;   ///< θ_l, in space order

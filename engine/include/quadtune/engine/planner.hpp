@@ -204,4 +204,26 @@ class Planner {
   std::unique_ptr<Concept> impl_;
 };
 
+/// The plug-in of a Planner that holds none yet (a default-constructed engine::Experiment before
+/// its `planner:` map is read): no parameters and an empty map; Fly() and Resolve() report
+/// EvalStatus::kFailed with the message "no planner". Thread safety: stateless.
+struct NoPlanner {
+  std::string Name() const { return "none"; }
+  std::vector<ParameterInfo> ShortTermParameters() const { return {}; }
+  std::vector<ParameterInfo> LongTermParameters() const { return {}; }
+  Opaque PrepareMap(std::uint64_t /*map_seed*/) const { return {}; }
+  FlightRecord Fly(const FlightRequest& /*request*/, WorkerSlot& /*slot*/) const {
+    FlightRecord r;
+    r.status = EvalStatus::kFailed;
+    r.message = "no planner";
+    return r;
+  }
+  ResolveRecord Resolve(const Opaque& /*query*/, const ParamValues& /*theta_s*/) const {
+    ResolveRecord r;
+    r.status = EvalStatus::kFailed;
+    r.message = "no planner";
+    return r;
+  }
+};
+
 }  // namespace quadtune::engine

@@ -4,9 +4,9 @@
 /// its plug-in (engine::Planner) from the file's `planner:` map, and which values each tunable
 /// parameter may take.
 ///
-/// Built in: `ipopt` (IpoptPlanner), `ego` (EgoPlanner), `toy` (ToyPlanner) and `sleep`
-/// (SleepPlanner), present before any other registration. A program adds its own planner without
-/// editing quadtune's sources, before it loads an experiment:
+/// Built in: `ipopt` (IpoptPlanner) and `ego` (EgoPlanner), present before any other
+/// registration. A program adds its own planner without editing quadtune's sources, before it
+/// loads an experiment:
 ///
 ///     engine::RegisterPlanner("mine", [](const YamlMap& planner, const std::string& base_dir) {
 ///       return engine::Planner{MyPlanner{...}};
