@@ -5,7 +5,8 @@
 # README gives each run's wall time). Reuses the build in build/ (scripts/setup.sh makes it).
 #
 #   bash scripts/full_results.sh                 # everything
-#   bash scripts/full_results.sh benchmark adapt # only these (benchmark benchmark_jc density
+#   bash scripts/full_results.sh benchmark adapt # only these (benchmark benchmark_ego
+#                                                # benchmark_jc density density_ego planners
 #                                                # definition speed sweep adapt refinement
 #                                                # scaling mpi)
 set -euo pipefail
@@ -49,6 +50,28 @@ run_benchmark_jc() {  # BO+PSO with the clearance term in f_s, against the same 
   mkdir -p "$docs/benchmark_jc"
   cp "$raw/benchmark_jc/"{tuning.png,tuning.md,tuning.csv,validation.png,validation.csv,summary.json} \
     "$docs/benchmark_jc/"
+}
+
+run_benchmark_ego() {  # the same comparison with the EGO-Planner-style back end
+  rm -rf "$raw/benchmark_ego"
+  timed benchmark_ego "$q" run experiments/benchmark_ego.yaml --out "$raw/benchmark_ego"
+  "$q" plot run "$raw/benchmark_ego"
+  mkdir -p "$docs/benchmark_ego"
+  cp "$raw/benchmark_ego/"{tuning.png,tuning.md,tuning.csv,validation.png,validation.csv,summary.json} \
+    "$docs/benchmark_ego/"
+}
+
+run_density_ego() {
+  rm -rf "$raw/density_ego"
+  timed density_ego "$q" study experiments/density_study_ego.yaml --out "$raw/density_ego"
+  mkdir -p "$docs/density_ego"
+  cp "$raw/density_ego/"{study.md,study.csv,study_sweep.png,validation.csv,study_validation.csv} \
+    "$raw/density_ego/summary.json" "$docs/density_ego/"
+}
+
+run_planners() {  # both planners at their defaults on map seeds 1-200 at 1.3 m
+  timed planners python3 scripts/speed_table.py --planners ipopt ego --speeds 2 --spacings 1.3 \
+    --seeds 1 200 --out "$docs/planners"
 }
 
 run_density() {
@@ -120,7 +143,8 @@ run_mpi() {  # 2 ranks × 1 thread against 1 rank × 2 threads, same experiment,
 }
 
 steps=("$@")
-((${#steps[@]} > 0)) || steps=(benchmark density definition speed sweep adapt refinement scaling mpi)
+((${#steps[@]} > 0)) || steps=(benchmark benchmark_ego density density_ego planners definition speed sweep
+                                adapt refinement scaling mpi)
 for step in "${steps[@]}"; do
   echo "== $step"
   "run_$step"
