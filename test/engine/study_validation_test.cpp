@@ -143,12 +143,12 @@ TEST(ResultStoreErrors, ResumedRunThatIsNotAPrefixOfTheStoredOne) {
   const std::string file = dir + "/toy.yaml";
   std::ofstream(file) << test::ToyYaml("[random]");
   ASSERT_EQ(
-      RunCli("--log-level warn run " + file + " --out " + dir + "/run --quiet", dir + "/run.log"),
+      RunCli("--log-level warn run --no-plot " + file + " --out " + dir + "/run --quiet", dir + "/run.log"),
       0)
       << ReadAll(dir + "/run.log");
   const std::string store = dir + "/run/results.sqlite";
   // The unedited store resumes (every row replayed).
-  ASSERT_EQ(RunCli("--log-level warn run " + file + " --out " + dir + "/run --quiet --resume",
+  ASSERT_EQ(RunCli("--log-level warn run --no-plot " + file + " --out " + dir + "/run --quiet --resume",
                    dir + "/resume_ok.log"),
             0)
       << ReadAll(dir + "/resume_ok.log");
@@ -164,7 +164,7 @@ TEST(ResultStoreErrors, ResumedRunThatIsNotAPrefixOfTheStoredOne) {
   ASSERT_EQ(sqlite3_changes(db), 1);
   sqlite3_close(db);
   const auto before = test::Deterministic(store);
-  EXPECT_EQ(RunCli("--log-level warn run " + file + " --out " + dir + "/run --quiet --resume",
+  EXPECT_EQ(RunCli("--log-level warn run --no-plot " + file + " --out " + dir + "/run --quiet --resume",
                    dir + "/resume.log"),
             2);
   const std::string log = ReadAll(dir + "/resume.log");

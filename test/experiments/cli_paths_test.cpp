@@ -269,7 +269,7 @@ TEST(CliFly, TimeoutIsExitCodeThreeAndRecorded) {
 TEST(CliRun, RealPlannerTimeoutsAreStoredRows) {
   const fs::path dir = Fresh("run_timeout");
   const fs::path out = dir / "run";
-  ASSERT_EQ(RunQuadtune("--log-level warn run " + kExperiments + "tiny.yaml --out " + out.string() +
+  ASSERT_EQ(RunQuadtune("--log-level warn run --no-plot " + kExperiments + "tiny.yaml --out " + out.string() +
                             " --quiet --set planner.max_time=2 --set 'methods=[random]' "
                             "--set budget.flights=2",
                         dir / "run.log"),
@@ -356,7 +356,7 @@ TEST(CliExitCodes, InterruptedRunIs130AndResumes) {
   std::ofstream(dir / "toy.yaml") << SlowToy();
   const std::string file = (dir / "toy.yaml").string();
   ASSERT_EQ(
-      RunQuadtune("--log-level warn run " + file + " --out " + (dir / "full").string() + " --quiet",
+      RunQuadtune("--log-level warn run --no-plot " + file + " --out " + (dir / "full").string() + " --quiet",
                   dir / "full.log"),
       0);
   const int total = CountRows(dir / "full" / "results.sqlite");
@@ -364,7 +364,7 @@ TEST(CliExitCodes, InterruptedRunIs130AndResumes) {
 
   const fs::path cut = dir / "cut";
   const pid_t pid = test::Spawn(
-      {QuadtuneBinary(), "--log-level", "warn", "run", file, "--out", cut.string(), "--quiet"},
+      {QuadtuneBinary(), "--log-level", "warn", "run", "--no-plot", file, "--out", cut.string(), "--quiet"},
       (dir / "cut.log").string());
   int seen = 0;
   for (int i = 0; i < 6000 && seen < 8; ++i) {
@@ -379,7 +379,7 @@ TEST(CliExitCodes, InterruptedRunIs130AndResumes) {
   EXPECT_GT(stored, 0);
   EXPECT_LT(stored, total);
   ASSERT_EQ(
-      RunQuadtune("--log-level warn run " + file + " --out " + cut.string() + " --resume --quiet",
+      RunQuadtune("--log-level warn run --no-plot " + file + " --out " + cut.string() + " --resume --quiet",
                   dir / "resume.log"),
       0)
       << ReadText(dir / "resume.log");
@@ -469,7 +469,7 @@ TEST(CliStudy, ResumeReplaysStoredStagesAndRerunsALostOne) {
 TEST(CliMpi, BuildWithoutMpiRefusesAMultiProcessLaunch) {
   if (QUADTUNE_TEST_HAVE_MPI) GTEST_SKIP() << "this quadtune is built with MPI";
   const fs::path dir = Fresh("no_mpi");
-  const std::string cmd = "OMPI_COMM_WORLD_SIZE=2 " + QuadtuneBinary() + " run " + kExperiments +
+  const std::string cmd = "OMPI_COMM_WORLD_SIZE=2 " + QuadtuneBinary() + " run --no-plot " + kExperiments +
                           "toy.yaml --out " + (dir / "out").string() + " > '" +
                           (dir / "log").string() + "' 2>&1";
   const int status = std::system(cmd.c_str());

@@ -148,15 +148,15 @@ TEST_F(Interruption, SecondRunIntoTheSameDirectoryIsRefusedAndTheFirstCompletes)
   std::ofstream(dir_ / "a.yaml") << SlowToy(0.15);
   std::ofstream(dir_ / "b.yaml") << SlowToy(0.0);
   const fs::path out = dir_ / "out";
-  const Child first = Start({"run", (dir_ / "a.yaml").string(), "--out", out.string(), "--quiet"},
+  const Child first = Start({"run", "--no-plot", (dir_ / "a.yaml").string(), "--out", out.string(), "--quiet"},
                             dir_ / "first.err");
   // The first holds the lock once its pid is in the lock file.
   WaitUntil(first, [&] { return !ReadText(out / ".quadtune.lock").empty(); });
   const int second =
-      RunToEnd({"run", (dir_ / "b.yaml").string(), "--out", out.string(), "--overwrite", "--quiet"},
+      RunToEnd({"run", "--no-plot", (dir_ / "b.yaml").string(), "--out", out.string(), "--overwrite", "--quiet"},
                dir_ / "second.err");
   const int resume =
-      RunToEnd({"run", (dir_ / "a.yaml").string(), "--out", out.string(), "--resume", "--quiet"},
+      RunToEnd({"run", "--no-plot", (dir_ / "a.yaml").string(), "--out", out.string(), "--resume", "--quiet"},
                dir_ / "resume.err");
   EXPECT_EQ(Wait(first), 0) << ReadText(dir_ / "first.err");
   EXPECT_EQ(second, 2);
@@ -179,12 +179,12 @@ TEST_F(Interruption, SecondRunIntoTheSameDirectoryIsRefusedAndTheFirstCompletes)
 TEST_F(Interruption, RunIntoAUsedDirectoryNeedsResumeOrOverwrite) {
   std::ofstream(dir_ / "a.yaml") << SlowToy(0.0);
   const fs::path out = dir_ / "out";
-  ASSERT_EQ(RunToEnd({"run", (dir_ / "a.yaml").string(), "--out", out.string(), "--quiet"},
+  ASSERT_EQ(RunToEnd({"run", "--no-plot", (dir_ / "a.yaml").string(), "--out", out.string(), "--quiet"},
                      dir_ / "1.err"),
             0);
   const std::string store = ReadText(out / "results.sqlite");
   ASSERT_FALSE(store.empty());
-  EXPECT_EQ(RunToEnd({"run", (dir_ / "a.yaml").string(), "--out", out.string(), "--quiet"},
+  EXPECT_EQ(RunToEnd({"run", "--no-plot", (dir_ / "a.yaml").string(), "--out", out.string(), "--quiet"},
                      dir_ / "2.err"),
             2);
   const std::string message = ReadText(dir_ / "2.err");
@@ -194,7 +194,7 @@ TEST_F(Interruption, RunIntoAUsedDirectoryNeedsResumeOrOverwrite) {
   // --overwrite replaces the run (and removes what the old one wrote).
   std::ofstream(out / "tuning.png") << "old figure";
   EXPECT_EQ(
-      RunToEnd({"run", (dir_ / "a.yaml").string(), "--out", out.string(), "--overwrite", "--quiet"},
+      RunToEnd({"run", "--no-plot", (dir_ / "a.yaml").string(), "--out", out.string(), "--overwrite", "--quiet"},
                dir_ / "3.err"),
       0)
       << ReadText(dir_ / "3.err");
@@ -207,7 +207,7 @@ TEST_F(Interruption, SigtermDuringARunLeavesAConsistentStoreThatResumesToTheSame
   std::ofstream(dir_ / "slow.yaml") << SlowToy(0.1);
   std::ofstream(dir_ / "fast.yaml") << SlowToy(0.1);
   const fs::path out = dir_ / "out";
-  const Child run = Start({"run", (dir_ / "slow.yaml").string(), "--out", out.string(), "--quiet"},
+  const Child run = Start({"run", "--no-plot", (dir_ / "slow.yaml").string(), "--out", out.string(), "--quiet"},
                           dir_ / "run.err");
   WaitUntil(run, [&] { return EvaluationCount(out / "results.sqlite") >= 3; });
   kill(run.pid, SIGTERM);
@@ -219,12 +219,12 @@ TEST_F(Interruption, SigtermDuringARunLeavesAConsistentStoreThatResumesToTheSame
   EXPECT_GE(stored, 3);
   EXPECT_LT(stored, 2 * 8 + 8 * 4) << "the run was not interrupted";
   ASSERT_EQ(
-      RunToEnd({"run", (dir_ / "slow.yaml").string(), "--out", out.string(), "--resume", "--quiet"},
+      RunToEnd({"run", "--no-plot", (dir_ / "slow.yaml").string(), "--out", out.string(), "--resume", "--quiet"},
                dir_ / "resume.err"),
       0)
       << ReadText(dir_ / "resume.err");
   const fs::path ref = dir_ / "ref";
-  ASSERT_EQ(RunToEnd({"run", (dir_ / "fast.yaml").string(), "--out", ref.string(), "--quiet"},
+  ASSERT_EQ(RunToEnd({"run", "--no-plot", (dir_ / "fast.yaml").string(), "--out", ref.string(), "--quiet"},
                      dir_ / "ref.err"),
             0);
   const auto resumed = Rows(out / "results.sqlite", kEvaluations);
@@ -247,7 +247,7 @@ TEST_F(Interruption, SigtermDuringLayoutGenerationExitsWithTheResumeCommand) {
          "short_term: [w_col]\nlong_term: [v_des]\n"
          "budget: {flights: 1}\n";
   const fs::path out = dir_ / "out";
-  const Child run = Start({"run", (dir_ / "big.yaml").string(), "--out", out.string(), "--quiet"},
+  const Child run = Start({"run", "--no-plot", (dir_ / "big.yaml").string(), "--out", out.string(), "--quiet"},
                           dir_ / "run.err");
   // The store is written before the maps are generated.
   WaitUntil(run,

@@ -119,7 +119,7 @@ double Mean(const std::vector<double>& v) {
 TEST(PaperExperiments, BenchmarkComparisonScaledDown) {
   const fs::path dir = Fresh("benchmark");
   const std::string out = (dir / "run").string();
-  ASSERT_EQ(RunQuadtune("--log-level warn run " + kExperiments + "benchmark.yaml --out " + out +
+  ASSERT_EQ(RunQuadtune("--log-level warn run --no-plot " + kExperiments + "benchmark.yaml --out " + out +
                             " --quiet --set repeats=2 --set budget.flights=3 "
                             "--set budget.default_flights=2 --set budget.short_evals_per_flight=4 "
                             "--set budget.queries_per_eval=2 --set pso.num_particles=4 "
