@@ -167,17 +167,20 @@ void EtaEstimator::ObserveValidation(const engine::Progress& p, double now_s, in
   std::size_t v = 0;
   while (v < plan_.validations.size() && plan_.validations[v].run != run) ++v;
   if (v == plan_.validations.size()) return;
-  const double before = FlightsDone();
-  current_ = -1;  // every trial of the run has finished, with its re-check flights
-  const double rechecks = FlightsDone() - before;
-  double seconds = now_s - last_t_;
-  const double plain = pooled_.FlightCost();
-  if (rechecks > 0.0 && plain >= 0.0) seconds = std::max(0.0, seconds - rechecks * plain);
   const double flights = p.flights_done - validated_[v];
-  if (flights <= 0.0 && rechecks <= 0.0) return;  // no work finished: the time counts on
-  validation_fit_.Add(seconds, flights, 0.0);
-  validated_[v] = p.flights_done;
+  if (flights <= 0.0) return;  // no work finished: the time counts on
+  const double seconds = now_s - last_t_;
   last_t_ = now_s;
+  if (validated_[v] > 0.0) {
+    validation_fit_.Add(seconds, flights, 0.0);
+  } else {
+    // The first validation flights, after the last trial's tail.
+    const std::string previous =
+        current_ >= 0 ? plan_.trials[static_cast<std::size_t>(current_)].method : std::string();
+    handovers_.push_back({previous, seconds, "validation", flights, 0.0, v});
+  }
+  current_ = -1;  // every trial of the run has finished, with its re-check flights
+  validated_[v] = p.flights_done;
 }
 
 void EtaEstimator::Observe(const engine::Progress& p, double now_s, int run) {
@@ -190,11 +193,14 @@ void EtaEstimator::Observe(const engine::Progress& p, double now_s, int run) {
   const std::size_t u = static_cast<std::size_t>(i);
   const double flights_before = FlightsDone();
   const double resolves_before = ResolvesDone();
-  const bool same_trial = i == current_;
-  double rechecks_before = 0.0;  // re-check flights that finished in this increment
-  if (!same_trial && current_ >= 0) {
+  // A new trial after a finished one (or the job's first report): the increment holds the
+  // previous trial's tail (re-check flights) or the job's start, then this trial's first round.
+  std::string previous;
+  bool handover = i != current_;
+  if (handover && current_ >= 0) {
     const std::size_t c = static_cast<std::size_t>(current_);
-    if (flights_[c] >= plan_.trials[c].flights) rechecks_before = plan_.trials[c].recheck_flights;
+    previous = plan_.trials[c].method;
+    handover = flights_[c] >= plan_.trials[c].flights;
   }
   const int trial_flights_before = flights_[u];
   const double trial_resolves_before = resolves_[u];
@@ -207,8 +213,8 @@ void EtaEstimator::Observe(const engine::Progress& p, double now_s, int run) {
     // This rank's counter belongs to the trial running here.
     const long counter = p.short_evals;
     const auto it = run_resolves_.find(run);
-    const long previous = it == run_resolves_.end() ? 0 : it->second;
-    resolves_[u] += static_cast<double>(std::max(0L, counter - previous));
+    const long previous_count = it == run_resolves_.end() ? 0 : it->second;
+    resolves_[u] += static_cast<double>(std::max(0L, counter - previous_count));
     run_resolves_[run] = counter;
     current_ = i;
   }
@@ -219,11 +225,34 @@ void EtaEstimator::Observe(const engine::Progress& p, double now_s, int run) {
   last_t_ = now_s;
   pooled_.Add(seconds, flights_done, resolves_done);
   if (distributed_) return;
-  double own = seconds;
-  const double plain = pooled_.FlightCost();
-  if (rechecks_before > 0.0 && plain >= 0.0) own = std::max(0.0, own - rechecks_before * plain);
-  method_fits_[p.method].Add(own, flights_[u] - trial_flights_before,
-                             resolves_[u] - trial_resolves_before);
+  const double own_flights = flights_[u] - trial_flights_before;
+  const double own_resolves = resolves_[u] - trial_resolves_before;
+  if (handover) {
+    handovers_.push_back({previous, seconds, p.method, own_flights, own_resolves, 0});
+  } else {
+    method_fits_[p.method].Add(seconds, own_flights, own_resolves);
+  }
+}
+
+Eta EtaEstimator::ValidationCost(std::size_t v, double flights) const {
+  Eta eta = validation_fit_.Cost(flights, 0.0);
+  if (eta.lower_bound) {  // no validation increment yet: a trial flight's cost, on every thread
+    eta = pooled_.Cost(flights / plan_.validations[v].speedup, 0.0);
+  }
+  return eta;
+}
+
+double EtaEstimator::Tail(const std::string& method) const {
+  double sum = 0.0;
+  int n = 0;
+  for (const Handover& h : handovers_) {
+    if (h.method != method || method.empty()) continue;
+    const Eta next = h.next == "validation" ? ValidationCost(h.validation, h.flights)
+                                            : TrialCost(h.next, h.flights, h.resolves);
+    sum += std::max(0.0, h.seconds - next.seconds);
+    ++n;
+  }
+  return n > 0 ? sum / n : -1.0;
 }
 
 Eta EtaEstimator::TrialCost(const std::string& method, double flights, double resolves) const {
@@ -242,7 +271,6 @@ Eta EtaEstimator::Remaining() const {
     eta.seconds += part.seconds;
     eta.lower_bound = eta.lower_bound || part.lower_bound;
   };
-  double rechecks_left = 0.0;
   for (std::size_t i = 0; i < plan_.trials.size(); ++i) {
     const PlannedTrial& t = plan_.trials[i];
     const double flights_left = std::max(0, t.flights - flights_[i]);
@@ -250,16 +278,18 @@ Eta EtaEstimator::Remaining() const {
     if (flights_left > 0.0 || resolves_left > 0.0) {
       add(TrialCost(t.method, flights_left, resolves_left));
     }
-    if (!RechecksDone(i)) rechecks_left += t.recheck_flights;
+    if (RechecksDone(i)) continue;
+    // Its tail: as long as the method's measured tails, else its fewest re-check flights.
+    const double tail = distributed_ ? -1.0 : Tail(t.method);
+    if (tail >= 0.0) {
+      eta.seconds += tail;
+    } else if (t.recheck_flights > 0) {
+      add(pooled_.Cost(t.recheck_flights, 0.0));
+    }
   }
-  if (rechecks_left > 0.0) add(pooled_.Cost(rechecks_left, 0.0));
   for (std::size_t v = 0; v < plan_.validations.size(); ++v) {
-    const PlannedValidation& pv = plan_.validations[v];
-    const double left = std::max(0.0, pv.flights - validated_[v]);
-    if (left <= 0.0) continue;
-    Eta part = validation_fit_.Cost(left, 0.0);
-    if (part.lower_bound) part = pooled_.Cost(left / pv.speedup, 0.0);
-    add(part);
+    const double left = std::max(0.0, plan_.validations[v].flights - validated_[v]);
+    if (left > 0.0) add(ValidationCost(v, left));
   }
   return eta;
 }

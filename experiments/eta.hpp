@@ -12,17 +12,22 @@
 ///
 /// EtaEstimator reads the progress reports with the job's wall clock. Between two reports it
 /// sees the wall time spent (ΔT) and the work finished (ΔF flights, ΔR re-solves) and keeps
-/// three least-squares fits ΔT ≈ a·ΔF + b·ΔR (CostFit, a, b >= 0):
+/// least-squares fits ΔT ≈ a·ΔF + b·ΔR (CostFit, a, b >= 0):
 /// - one per method, from the increments inside that method's trials (its optimizer's overhead,
 ///   the parameters it flies and, for bo_pso, its re-solves running beside its flights are in
-///   its own rates); the first increment of a trial also holds the previous trial's re-check
-///   flights, charged at the pooled flight cost and taken off;
-/// - a pooled one over every increment: the cost of a method not measured yet, and the plain
-///   flight cost a of re-check flights;
-/// - one for validation flights, which fly on every thread at once; before the first of them,
+///   its own rates);
+/// - a pooled one over every increment: the cost of a method not measured yet, and of re-check
+///   flights before any tail has been measured;
+/// - one for validation flights, which fly on every thread at once; before it has an increment,
 ///   the pooled flight cost divided by the validation's speed-up.
-/// The ETA sums, trial by trial, the flights and re-solves left at the trial method's rates, the
-/// re-check flights left and the validation flights left.
+/// The increment from a trial's last report to the next report (a handover) holds the trial's
+/// tail (its re-check flights, as many as its candidates needed, often more than the fewest)
+/// and the next work's first round; the tail is the handover's time less that round's cost at
+/// the fitted rates, and a method's trials left are charged the mean tail measured for it
+/// (before one is measured: the fewest re-check flights at the pooled flight cost).
+/// The ETA sums, trial by trial, the flights and re-solves left at the trial method's rates and
+/// the tails left, then the validation flights left. Time before the first report (the job's
+/// start: store, first maps) is not projected.
 ///
 /// - Work of a kind no fit has measured (re-solves before any bo_pso report) is not charged and
 ///   the estimate is a lower bound (Eta::lower_bound).
@@ -134,7 +139,22 @@ class EtaEstimator {
   [[nodiscard]] double ResolvesDone() const;
   /// Cost of `flights` and `resolves` of `method`'s trials.
   [[nodiscard]] Eta TrialCost(const std::string& method, double flights, double resolves) const;
+  /// Cost of `flights` flights of validation `v`.
+  [[nodiscard]] Eta ValidationCost(std::size_t v, double flights) const;
+  /// Mean measured tail of `method`'s trials (seconds from a trial's last report to the end of
+  /// its re-check flights); < 0 while none has been measured.
+  [[nodiscard]] double Tail(const std::string& method) const;
   void ObserveValidation(const engine::Progress& p, double now_s, int run);
+
+  /// The increment from a finished trial's last report to the next report of other work: the
+  /// trial's tail, then `flights` and `resolves` of `next` (a method, or "validation" v).
+  struct Handover {
+    std::string method;  // the finished trial's ("" at the job's start)
+    double seconds = 0.0;
+    std::string next;
+    double flights = 0.0, resolves = 0.0;
+    std::size_t validation = 0;
+  };
 
   WorkPlan plan_;
   std::vector<int> flights_;       // per planned trial: flights reported
@@ -147,6 +167,7 @@ class EtaEstimator {
   std::map<std::string, CostFit> method_fits_;
   CostFit pooled_;
   CostFit validation_fit_;
+  std::vector<Handover> handovers_;
 };
 
 }  // namespace quadtune::cli
