@@ -152,6 +152,13 @@ double EtaEstimator::FlightsDone() const {
   return done;
 }
 
+double EtaEstimator::FlightsPlanned() const {
+  double planned = 0.0;
+  for (const PlannedTrial& t : plan_.trials) planned += t.flights + t.recheck_flights;
+  for (const PlannedValidation& v : plan_.validations) planned += v.flights;
+  return planned;
+}
+
 double EtaEstimator::ResolvesDone() const {
   double done = 0.0;
   for (const double r : resolves_) done += r;

@@ -131,6 +131,8 @@ class EtaEstimator {
   [[nodiscard]] const CostFit* MethodFit(const std::string& method) const;
   /// Flights finished so far (trials with their re-check flights, then validation).
   [[nodiscard]] double FlightsDone() const;
+  /// Flights the plan holds (trials with their fewest re-check flights, validation).
+  [[nodiscard]] double FlightsPlanned() const;
 
  private:
   [[nodiscard]] int TrialIndex(int run, const std::string& method, int repeat) const;

@@ -78,8 +78,9 @@ std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quie
           p.rank > 0 ? fmt::format(" (rank {})", p.rank) : std::string(), p.flights_done,
           p.flights_total, p.best_long, p.short_evals, rate, job_s, left.Text());
     }
-    spdlog::debug("eta: at {:.2f} s, {:.1f} s left{}, predicted total {:.1f} s", job_s,
-                  left.seconds, left.lower_bound ? " (lower bound)" : "", job_s + left.seconds);
+    spdlog::debug("eta: at {:.2f} s, {:.1f} s left{}, predicted total {:.1f} s; flights {:.0f} of "
+                  "{:.0f} planned", job_s, left.seconds, left.lower_bound ? " (lower bound)" : "",
+                  job_s + left.seconds, eta->FlightsDone(), eta->FlightsPlanned());
     if (tty) {
       std::fprintf(stderr, "\r\033[K%s", line.c_str());
       std::fflush(stderr);

@@ -82,8 +82,9 @@ int RunStudyCommand(const StudyArgs& a) {
                          p.run.trials_total, p.run.method, p.run.repeat, p.run.flights_done,
                          p.run.flights_total, p.run.best_long, job_s, left.Text());
     }
-    spdlog::debug("eta: at {:.2f} s, {:.1f} s left{}, predicted total {:.1f} s", job_s,
-                  left.seconds, left.lower_bound ? " (lower bound)" : "", job_s + left.seconds);
+    spdlog::debug("eta: at {:.2f} s, {:.1f} s left{}, predicted total {:.1f} s; flights {:.0f} of "
+                  "{:.0f} planned", job_s, left.seconds, left.lower_bound ? " (lower bound)" : "",
+                  job_s + left.seconds, eta.FlightsDone(), eta.FlightsPlanned());
     if (tty) {
       std::fprintf(stderr, "\r\033[K%s", line.c_str());
       std::fflush(stderr);

@@ -213,6 +213,7 @@ TEST(EtaEstimator, StudyRunsKeepTheirOwnResolveCountersAndValidations) {
   eta.Observe(Report("validation", -1, 2, 4, 0, 0.0), 26.0, 1);  // 3 s per validation flight
   EXPECT_NEAR(eta.Remaining().seconds, 2 * 3.0, 1e-9);
   EXPECT_NEAR(eta.FlightsDone(), 6.0, 1e-12);
+  EXPECT_NEAR(eta.FlightsPlanned(), 2 + 2 + 4, 1e-12);
 }
 
 TEST(WorkPlan, CountsAnExperimentFilesWork) {

@@ -55,7 +55,7 @@ TEST(RunFigures, RunDrawsItsFiguresTableAndReport) {
   EXPECT_GT(PngBytes(out / "tuning.png"), 10000u);
   EXPECT_GT(PngBytes(out / "validation.png"), 10000u);
   const std::string table = ReadText(out / "tuning.md");
-  EXPECT_NE(table.find("bo_pso"), std::string::npos) << table;
+  EXPECT_NE(table.find("| BO+PSO | 1 | 4 |"), std::string::npos) << table;  // 1 repeat, 4 flights
   // The report holds the run's data (both methods) and the inlined libraries, nothing fetched.
   const std::string page = ReadText(out / "report.html");
   ASSERT_GT(page.size(), 100000u);
@@ -63,7 +63,9 @@ TEST(RunFigures, RunDrawsItsFiguresTableAndReport) {
   EXPECT_NE(page.find("\"default\""), std::string::npos);
   EXPECT_EQ(page.find("src=\"http"), std::string::npos);
   // Where they are: the log names the report.
-  EXPECT_EQ(LinesWith(ReadText(dir / "run.log"), (out / "report.html").string()).size(), 1u)
+  EXPECT_EQ(LinesWith(ReadText(dir / "run.log"), "[info] report: " + (out / "report.html").string())
+                .size(),
+            1u)
       << ReadText(dir / "run.log");
 }
 
@@ -125,8 +127,8 @@ TEST(RunFigures, StudyProgressCarriesAnEtaAndNoPlotDrawsNothing) {
          "validation: {flights: 2}\n";
   const fs::path out = dir / "out";
   // Not a terminal: one info line per stage and finished trial, each with the ETA.
-  ASSERT_EQ(RunQuadtune("study " + (dir / "study.yaml").string() + " --out " + out.string() +
-                            " --no-plot --threads 2",
+  ASSERT_EQ(RunQuadtune("--log-level debug study " + (dir / "study.yaml").string() + " --out " +
+                            out.string() + " --no-plot --threads 2",
                         dir / "study.log"),
             0)
       << ReadText(dir / "study.log");
@@ -136,7 +138,12 @@ TEST(RunFigures, StudyProgressCarriesAnEtaAndNoPlotDrawsNothing) {
   for (const auto& line : progress) EXPECT_NE(line.find(", ETA "), std::string::npos) << line;
   EXPECT_FALSE(LinesWith(log, "stage fine").empty()) << log;
   EXPECT_FALSE(LinesWith(log, "validation flights 6/6").empty()) << log;  // 2 × (2 tuned + 1)
-  // The last line of the study's progress: nothing left.
+  // The estimator placed every report in the study's plan: per stage 4 + 4 flights, then the
+  // 6 validation flights, all counted done at the end.
+  const auto estimates = LinesWith(log, "eta: at ");
+  ASSERT_FALSE(estimates.empty()) << log;
+  EXPECT_NE(estimates.back().find("flights 22 of 22 planned"), std::string::npos)
+      << estimates.back();
   EXPECT_NE(progress.back().find("ETA 0 s"), std::string::npos) << progress.back();
   EXPECT_TRUE(fs::exists(out / "study.json"));
   EXPECT_FALSE(fs::exists(out / "report.html"));
