@@ -159,10 +159,10 @@ class EtaEstimator {
   };
 
   WorkPlan plan_;
-  std::vector<int> flights_;       // per planned trial: flights reported
-  std::vector<double> resolves_;   // per planned trial: re-solves attributed to it
-  std::vector<double> validated_;  // per planned validation: flights reported
-  int current_ = -1;               // the trial of the last report (-1: none, or validating)
+  std::vector<int> flights_;          // per planned trial: flights reported
+  std::vector<double> resolves_;      // per planned trial: re-solves attributed to it
+  std::vector<double> validated_;     // per planned validation: flights reported
+  int current_ = -1;                  // the trial of the last report (-1: none, or validating)
   std::map<int, long> run_resolves_;  // per run: its re-solve counter at the last report
   bool distributed_ = false;          // a report from another MPI rank has been seen
   double last_t_ = 0.0;

@@ -78,9 +78,11 @@ std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quie
           p.rank > 0 ? fmt::format(" (rank {})", p.rank) : std::string(), p.flights_done,
           p.flights_total, p.best_long, p.short_evals, rate, job_s, left.Text());
     }
-    spdlog::debug("eta: at {:.2f} s, {:.1f} s left{}, predicted total {:.1f} s; flights {:.0f} of "
-                  "{:.0f} planned", job_s, left.seconds, left.lower_bound ? " (lower bound)" : "",
-                  job_s + left.seconds, eta->FlightsDone(), eta->FlightsPlanned());
+    spdlog::debug(
+        "eta: at {:.2f} s, {:.1f} s left{}, predicted total {:.1f} s; flights {:.0f} of "
+        "{:.0f} planned",
+        job_s, left.seconds, left.lower_bound ? " (lower bound)" : "", job_s + left.seconds,
+        eta->FlightsDone(), eta->FlightsPlanned());
     if (tty) {
       std::fprintf(stderr, "\r\033[K%s", line.c_str());
       std::fflush(stderr);
@@ -487,9 +489,10 @@ int Bench(const BenchArgs& a) {
 
 void RegisterRun(CLI::App& app, int& exit_code) {
   static RunArgs args;
-  auto* cmd = app.add_subcommand("run", "run a tuning experiment (YAML), store every evaluation "
-                                        "in OUT/results.sqlite, then draw its figures, table and "
-                                        "OUT/report.html");
+  auto* cmd = app.add_subcommand("run",
+                                 "run a tuning experiment (YAML), store every evaluation "
+                                 "in OUT/results.sqlite, then draw its figures, table and "
+                                 "OUT/report.html");
   cmd->add_option("experiment", args.experiment, "experiment file (YAML)")->required();
   cmd->add_option("--threads", args.threads, "worker threads (default: the experiment's)")
       ->check(CLI::Range(1, 1024));

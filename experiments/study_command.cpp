@@ -16,8 +16,8 @@
 #include "commands.hpp"
 #include "eta.hpp"
 #include "quadtune/common/cancel.hpp"
-#include "result_dir.hpp"
 #include "quadtune/engine/study.hpp"
+#include "result_dir.hpp"
 
 namespace quadtune::cli {
 namespace {
@@ -76,15 +76,18 @@ int RunStudyCommand(const StudyArgs& a) {
                          p.point + 1, p.points, p.label, p.validation_done, p.validation_total,
                          job_s, left.Text());
     } else {
-      line = fmt::format("point {}/{} ({}), stage {}: trial {}/{} {} r{}: flights {}/{}, best f_l "
-                         "{:.3f}, elapsed {:.0f} s, {}",
-                         p.point + 1, p.points, p.label, p.stage, p.run.trials_done + 1,
-                         p.run.trials_total, p.run.method, p.run.repeat, p.run.flights_done,
-                         p.run.flights_total, p.run.best_long, job_s, left.Text());
+      line = fmt::format(
+          "point {}/{} ({}), stage {}: trial {}/{} {} r{}: flights {}/{}, best f_l "
+          "{:.3f}, elapsed {:.0f} s, {}",
+          p.point + 1, p.points, p.label, p.stage, p.run.trials_done + 1, p.run.trials_total,
+          p.run.method, p.run.repeat, p.run.flights_done, p.run.flights_total, p.run.best_long,
+          job_s, left.Text());
     }
-    spdlog::debug("eta: at {:.2f} s, {:.1f} s left{}, predicted total {:.1f} s; flights {:.0f} of "
-                  "{:.0f} planned", job_s, left.seconds, left.lower_bound ? " (lower bound)" : "",
-                  job_s + left.seconds, eta.FlightsDone(), eta.FlightsPlanned());
+    spdlog::debug(
+        "eta: at {:.2f} s, {:.1f} s left{}, predicted total {:.1f} s; flights {:.0f} of "
+        "{:.0f} planned",
+        job_s, left.seconds, left.lower_bound ? " (lower bound)" : "", job_s + left.seconds,
+        eta.FlightsDone(), eta.FlightsPlanned());
     if (tty) {
       std::fprintf(stderr, "\r\033[K%s", line.c_str());
       std::fflush(stderr);
@@ -130,8 +133,9 @@ int RunStudyCommand(const StudyArgs& a) {
 void RegisterStudy(CLI::App& app, int& exit_code) {
   static StudyArgs args;
   auto* cmd = app.add_subcommand(
-      "study", "an experiment swept over a setting and/or run in stages, then validation flights "
-               "of the tuned parameters; figures, tables and OUT/report.html");
+      "study",
+      "an experiment swept over a setting and/or run in stages, then validation flights "
+      "of the tuned parameters; figures, tables and OUT/report.html");
   cmd->add_option("study", args.file, "study file (YAML)")->required()->check(CLI::ExistingFile);
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();
   cmd->add_option("--threads", args.threads, "worker threads (default: the experiment's)")

@@ -124,8 +124,8 @@ TEST(EtaEstimator, ChargesEachMethodItsOwnMeasuredRate) {
   // random flies 1 s flights, bo 5 s flights (its acquisition and slower parameters); the
   // pooled rate would charge the next repeat 3 s per flight for both.
   WorkPlan plan;
-  plan.trials = {{"random", 0, 4, 0, 0}, {"bo", 0, 4, 0, 0}, {"random", 1, 4, 0, 0},
-                 {"bo", 1, 4, 0, 0}};
+  plan.trials = {
+      {"random", 0, 4, 0, 0}, {"bo", 0, 4, 0, 0}, {"random", 1, 4, 0, 0}, {"bo", 1, 4, 0, 0}};
   EtaEstimator eta(plan);
   eta.Observe(Report("random", 0, 2, 4, 0, 2.0), 2.0);
   eta.Observe(Report("random", 0, 4, 4, 0, 4.0), 4.0);
@@ -149,15 +149,19 @@ TEST(EtaEstimator, ChargesEachTrialItsMethodsMeasuredTail) {
   WorkPlan plan;
   plan.trials = {{"bo", 0, 4, 2, 0}, {"bo", 1, 4, 2, 0}};
   EtaEstimator eta(plan);
-  eta.Observe(Report("bo", 0, 2, 4, 0, 2.0), 2.0);
-  eta.Observe(Report("bo", 0, 4, 4, 0, 4.0), 4.0);
+  // Repeat `repeat` of bo has flown `flights` of its 4 flights at `t` s.
+  const auto bo = [&eta](int repeat, int flights, double t) {
+    eta.Observe(Report("bo", repeat, flights, 4, 0, t), t);
+  };
+  bo(0, 2, 2.0);
+  bo(0, 4, 4.0);
   // No tail measured: the fewest re-check flights at the pooled 1 s, for both trials.
   EXPECT_NEAR(eta.Remaining().seconds, 2.0 + 4.0 + 2.0, 1e-9);
   // Repeat 1's first 2 flights (2 s at bo's rate) came 8 s after repeat 0's last report: a 6 s
   // tail, charged to repeat 1 too.
-  eta.Observe(Report("bo", 1, 2, 4, 0, 12.0), 12.0);
+  bo(1, 2, 12.0);
   EXPECT_NEAR(eta.Remaining().seconds, 2.0 + 6.0, 1e-9);
-  eta.Observe(Report("bo", 1, 4, 4, 0, 14.0), 14.0);
+  bo(1, 4, 14.0);
   EXPECT_NEAR(eta.Remaining().seconds, 6.0, 1e-9);
   EXPECT_NEAR(eta.MethodFit("bo")->FlightCost(), 1.0, 1e-12);
 }
@@ -166,10 +170,10 @@ TEST(EtaEstimator, ReportsWithoutNewWorkLeaveTheTimeToTheNextIncrement) {
   WorkPlan plan;
   plan.trials = {{"pso", 0, 8, 0, 0}};
   EtaEstimator eta(plan);
-  eta.Observe(Report("pso", 0, 2, 8, 0, 2.0), 2.0);  // the job's start: not projected
-  eta.Observe(Report("pso", 0, 4, 8, 0, 6.0), 6.0);  // 2 flights in 4 s
-  eta.Observe(Report("pso", 0, 4, 8, 0, 7.0), 7.0);  // no new work: no increment
-  eta.Observe(Report("bo", 0, 1, 8, 0, 8.0), 8.0);   // not in the plan
+  eta.Observe(Report("pso", 0, 2, 8, 0, 2.0), 2.0);     // the job's start: not projected
+  eta.Observe(Report("pso", 0, 4, 8, 0, 6.0), 6.0);     // 2 flights in 4 s
+  eta.Observe(Report("pso", 0, 4, 8, 0, 7.0), 7.0);     // no new work: no increment
+  eta.Observe(Report("bo", 0, 1, 8, 0, 8.0), 8.0);      // not in the plan
   eta.Observe(Report("pso", 0, 2, 8, 0, 1.0), 8.5, 3);  // a run the plan does not hold
   eta.Observe(Report("pso", 0, 6, 8, 0, 10.0), 10.0);   // 2 flights in 4 s, from 6 s
   EXPECT_NEAR(eta.FlightsDone(), 6.0, 1e-12);
@@ -235,7 +239,7 @@ TEST(WorkPlan, CountsAnExperimentFilesWork) {
   EXPECT_EQ(plan.trials[5].run, 0);
   EXPECT_EQ(plan.trials[5].resolves, 4 * 3 * 2);  // short_evals_per_flight × flights × queries
   ASSERT_EQ(plan.validations.size(), 1U);
-  EXPECT_EQ(plan.validations[0].flights, 2 * (1 + 4));  // maps × (defaults + tuned trials)
+  EXPECT_EQ(plan.validations[0].flights, 2 * (1 + 4));   // maps × (defaults + tuned trials)
   EXPECT_NEAR(plan.validations[0].speedup, 4.0, 1e-12);  // 4 threads against 1 flight at once
 }
 

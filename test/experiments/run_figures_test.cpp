@@ -44,14 +44,19 @@ std::string Status(const fs::path& run) {
   return nlohmann::json::parse(ReadText(run / "summary.json")).at("status").get<std::string>();
 }
 
+/// Runs the small toy experiment with `options` into DIR/run (DIR/run.log); true when it exits 0
+/// with a completed run.
+bool RunSmallToy(const fs::path& dir, const std::string& options) {
+  const int code = RunQuadtune(
+      "run " + kToy + " --out " + (dir / "run").string() + " --quiet" + options + kSmall,
+      dir / "run.log");
+  return code == 0 && Status(dir / "run") == "completed";
+}
+
 TEST(RunFigures, RunDrawsItsFiguresTableAndReport) {
   const fs::path dir = FreshTempDir("quadtune_run_figures_draw");
   const fs::path out = dir / "run";
-  ASSERT_EQ(RunQuadtune("run " + kToy + " --out " + out.string() + " --quiet" + kSmall,
-                        dir / "run.log"),
-            0)
-      << ReadText(dir / "run.log");
-  EXPECT_EQ(Status(out), "completed");
+  ASSERT_TRUE(RunSmallToy(dir, "")) << ReadText(dir / "run.log");
   EXPECT_GT(PngBytes(out / "tuning.png"), 10000u);
   EXPECT_GT(PngBytes(out / "validation.png"), 10000u);
   const std::string table = ReadText(out / "tuning.md");
@@ -72,11 +77,7 @@ TEST(RunFigures, RunDrawsItsFiguresTableAndReport) {
 TEST(RunFigures, NoPlotLeavesOnlyTheResults) {
   const fs::path dir = FreshTempDir("quadtune_run_figures_no_plot");
   const fs::path out = dir / "run";
-  ASSERT_EQ(RunQuadtune("run " + kToy + " --out " + out.string() + " --quiet --no-plot" + kSmall,
-                        dir / "run.log"),
-            0)
-      << ReadText(dir / "run.log");
-  EXPECT_EQ(Status(out), "completed");
+  ASSERT_TRUE(RunSmallToy(dir, " --no-plot")) << ReadText(dir / "run.log");
   EXPECT_TRUE(fs::exists(out / "results.sqlite"));
   EXPECT_FALSE(fs::exists(out / "tuning.png"));
   EXPECT_FALSE(fs::exists(out / "tuning.md"));
@@ -96,10 +97,10 @@ TEST(RunFigures, FailingFigureScriptIsOneLineAndExitOneWithResultsKept) {
                            "print('partial output on stdout')\n"
                            "draw()\n";
   const fs::path out = dir / "run";
-  const std::string command = "QUADTUNE_PLOT_SCRIPT='" + script.string() + "' " +
-                              QuadtuneBinary() + " run " + kToy + " --out " + out.string() +
-                              " --quiet" + kSmall + " > '" + (dir / "out.log").string() +
-                              "' 2> '" + (dir / "err.log").string() + "'";
+  const std::string command = "QUADTUNE_PLOT_SCRIPT='" + script.string() + "' " + QuadtuneBinary() +
+                              " run " + kToy + " --out " + out.string() + " --quiet" + kSmall +
+                              " > '" + (dir / "out.log").string() + "' 2> '" +
+                              (dir / "err.log").string() + "'";
   const int status = std::system(command.c_str());
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 1);
@@ -107,8 +108,7 @@ TEST(RunFigures, FailingFigureScriptIsOneLineAndExitOneWithResultsKept) {
   // One line says which script failed and why; no traceback.
   const auto errors = LinesWith(err, "[error]");
   ASSERT_EQ(errors.size(), 1u) << err;
-  EXPECT_NE(errors[0].find("broken_plot.py failed: ValueError: no figure today"),
-            std::string::npos)
+  EXPECT_NE(errors[0].find("broken_plot.py failed: ValueError: no figure today"), std::string::npos)
       << errors[0];
   EXPECT_EQ(err.find("Traceback"), std::string::npos) << err;
   // The results stay: the store, the summary, and the report (drawn by its own script).
