@@ -122,15 +122,15 @@ TEST(EtaEstimator, ChargesFlightsResolvesRechecksAndValidationLeft) {
 
 TEST(EtaEstimator, ChargesEachMethodItsOwnMeasuredRate) {
   // random flies 1 s flights, bo 5 s flights (its acquisition and slower parameters); the
-  // pooled rate would charge the next repeat 3 s per flight for both.
+  // pooled rate (3 s per flight) would charge the 12 flights of repeat 1 36 s instead of 28 s.
   WorkPlan plan;
-  plan.trials = {
-      {"random", 0, 4, 0, 0}, {"bo", 0, 4, 0, 0}, {"random", 1, 4, 0, 0}, {"bo", 1, 4, 0, 0}};
+  plan.trials = {{"random", 0, 4, 0, 0}, {"bo", 0, 4, 0, 0}, {"random", 1, 8, 0, 0},
+                 {"bo", 1, 4, 0, 0}};
   EtaEstimator eta(plan);
   eta.Observe(Report("random", 0, 2, 4, 0, 2.0), 2.0);
   eta.Observe(Report("random", 0, 4, 4, 0, 4.0), 4.0);
   // bo not measured yet: the pooled 1 s per flight, a known cost (flights only).
-  EXPECT_NEAR(eta.Remaining().seconds, 4 + 4 + 4, 1e-9);
+  EXPECT_NEAR(eta.Remaining().seconds, 4 + 8 + 4, 1e-9);
   EXPECT_FALSE(eta.Remaining().lower_bound);
   eta.Observe(Report("bo", 0, 2, 4, 0, 14.0), 14.0);
   eta.Observe(Report("bo", 0, 4, 4, 0, 24.0), 24.0);
@@ -138,9 +138,9 @@ TEST(EtaEstimator, ChargesEachMethodItsOwnMeasuredRate) {
   EXPECT_NEAR(eta.MethodFit("random")->FlightCost(), 1.0, 1e-12);
   EXPECT_NEAR(eta.MethodFit("bo")->FlightCost(), 5.0, 1e-12);
   EXPECT_NEAR(eta.Pooled().FlightCost(), 3.0, 1e-12);
-  // Repeat 1: 4 random flights at 1 s and 4 bo flights at 5 s.
-  EXPECT_NEAR(eta.Remaining().seconds, 4.0 + 20.0, 1e-9);
-  eta.Observe(Report("random", 1, 4, 4, 0, 28.0), 28.0);
+  // Repeat 1: 8 random flights at 1 s and 4 bo flights at 5 s.
+  EXPECT_NEAR(eta.Remaining().seconds, 8.0 + 20.0, 1e-9);
+  eta.Observe(Report("random", 1, 8, 8, 0, 32.0), 32.0);
   EXPECT_NEAR(eta.Remaining().seconds, 20.0, 1e-9);
 }
 
