@@ -63,6 +63,14 @@ int RunPythonScript(const std::string& script_in_source, const char* override_en
                     const std::string& args);
 /// Runs the figure script with `args`; returns its exit status (0 on success).
 int RunPlotScript(const std::string& args);
+/// Writes DIR/report.html (`quadtune report DIR --flights N`): a run, study or flight directory;
+/// returns 0, or 1 when the page could not be written (logged in one line). Throws ConfigError
+/// for a directory that holds no store and no flight.
+int WriteReport(const std::string& dir, int flights = 3);
+/// What `run` and `study` draw when they end: the figure script with `plot_args` (e.g. "run
+/// 'DIR'"), then DIR/report.html. Returns 0, or 1 when either failed (each failure one log line;
+/// the results stay).
+int DrawFiguresAndReport(const std::string& plot_args, const std::string& dir);
 /// Path of an asset shipped with the sources (assets/…), found from the source tree or
 /// $QUADTUNE_ASSETS.
 std::string AssetPath(const std::string& relative);

@@ -1,7 +1,11 @@
 #include <spdlog/spdlog.h>
+#include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <string>
 
 #include "commands.hpp"
 
@@ -24,11 +28,37 @@ int RunPythonScript(const std::string& script_in_source, const char* override_en
   if (const char* env = std::getenv(override_env)) script = env;
   // Debian's interpreter, which has python3-matplotlib; a python3 earlier on PATH may not.
   const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
-  const std::string command = python + " '" + script + "' " + args;
+  // The script's stderr goes to a file: on failure its last line (a traceback's "Error: why")
+  // is the one line shown; the whole text is in the debug log.
+  char errors[] = "/tmp/quadtune_script_XXXXXX";
+  const int fd = mkstemp(errors);
+  if (fd >= 0) close(fd);
+  const std::string command = python + " '" + script + "' " + args +
+                              (fd >= 0 ? std::string(" 2>'") + errors + "'" : std::string());
   spdlog::debug("running {}", command);
   const int status = std::system(command.c_str());
-  if (status != 0) spdlog::error("script failed ({}): {}", status, command);
-  return status == 0 ? 0 : 1;
+  std::string text;  // the script's stderr
+  std::string why;   // its last line that is not blank
+  if (fd >= 0) {
+    {
+      std::ifstream in(errors);
+      for (std::string line; std::getline(in, line);) {
+        text += line + '\n';
+        if (line.find_first_not_of(" \t\r") != std::string::npos) why = line;
+      }
+    }
+    fs::remove(errors);
+  }
+  if (status == 0) {
+    if (!text.empty()) std::fputs(text.c_str(), stderr);  // warnings of a script that worked
+    return 0;
+  }
+  if (!text.empty()) spdlog::debug("{} stderr:\n{}", script_in_source, text);
+  const std::size_t lead = why.find_first_not_of(' ');
+  why = lead == std::string::npos ? fmt::format("exit status {}", status) : why.substr(lead);
+  spdlog::error("{} failed: {} (the script's whole output: --log-level debug)",
+                fs::path(script).filename().string(), why);
+  return 1;
 }
 
 int RunPlotScript(const std::string& args) {

@@ -93,6 +93,19 @@ int Report(const ReportArgs& a) {
 
 }  // namespace
 
+int WriteReport(const std::string& dir, int flights) { return Report(ReportArgs{dir, flights}); }
+
+int DrawFiguresAndReport(const std::string& plot_args, const std::string& dir) {
+  const int figures = RunPlotScript(plot_args);
+  int report = 1;
+  try {
+    report = WriteReport(dir);
+  } catch (const std::exception& ex) {
+    spdlog::error("report: {}", ex.what());
+  }
+  return figures == 0 && report == 0 ? 0 : 1;
+}
+
 void RegisterReport(CLI::App& app, int& exit_code) {
   static ReportArgs args;
   auto* cmd = app.add_subcommand(

@@ -44,39 +44,50 @@ struct RunArgs {
   bool resume = false;
   bool overwrite = false;  ///< replace a run already in OUT
   bool quiet = false;
+  bool plot = true;  ///< draw the figures and the report when the run has completed
 };
 
 /// The progress line: on a terminal rewritten in place at every update; otherwise (a log file,
 /// a cluster job) an info log line at most every 30 s and whenever a trial ends, so long runs
 /// show progress without flooding the log. Every other update, and all of them with `quiet`,
-/// goes to the debug log. The ETA is the measured cost of the work `plan` has left (eta.hpp).
+/// goes to the debug log. The ETA is the measured cost of the work `plan` has left (eta.hpp),
+/// on a wall clock started here.
 std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quiet,
                                                              WorkPlan plan) {
-  auto last = std::make_shared<std::chrono::steady_clock::time_point>();
+  using Clock = std::chrono::steady_clock;
+  auto last = std::make_shared<Clock::time_point>();
   auto eta = std::make_shared<EtaEstimator>(std::move(plan));
-  return [tty, quiet, last, eta](const engine::Progress& p) {
-    eta->Observe(p);
+  const Clock::time_point start = Clock::now();
+  return [tty, quiet, last, eta, start](const engine::Progress& p) {
+    const auto now = Clock::now();
+    const double job_s = std::chrono::duration<double>(now - start).count();
+    eta->Observe(p, job_s);
+    const Eta left = eta->Remaining();
     const bool validation = p.method == "validation";  // the held-out validation after the trials
     std::string line;
     if (validation) {
       line = fmt::format("validation on held-out maps: flights {}/{}, elapsed {:.0f} s, {}",
-                         p.flights_done, p.flights_total, p.elapsed_s, eta->Remaining().Text());
+                         p.flights_done, p.flights_total, job_s, left.Text());
     } else {
       const double rate =
           p.elapsed_s > 0 ? static_cast<double>(p.short_evals) / p.elapsed_s : 0.0;
       line = fmt::format(
-          "trial {}/{} {} r{}{}: flights {}/{}, best f_l {:.3f}, re-solves {:.0f}/s, "
+          "trial {}/{} {} r{}{}: flights {}/{}, best f_l {:.3f}, re-solves {} ({:.0f}/s), "
           "elapsed {:.0f} s, {}",
           p.trials_done + 1, p.trials_total, p.method, p.repeat,
           p.rank > 0 ? fmt::format(" (rank {})", p.rank) : std::string(), p.flights_done,
-          p.flights_total, p.best_long, rate, p.elapsed_s, eta->Remaining().Text());
+          p.flights_total, p.best_long, p.short_evals, rate, job_s, left.Text());
     }
+    spdlog::debug(
+        "eta: at {:.2f} s, {:.1f} s left{}, predicted total {:.1f} s; flights {:.0f} of "
+        "{:.0f} planned",
+        job_s, left.seconds, left.lower_bound ? " (lower bound)" : "", job_s + left.seconds,
+        eta->FlightsDone(), eta->FlightsPlanned());
     if (tty) {
       std::fprintf(stderr, "\r\033[K%s", line.c_str());
       std::fflush(stderr);
       return;
     }
-    const auto now = std::chrono::steady_clock::now();
     if (!quiet && (p.flights_done == p.flights_total || now - *last >= std::chrono::seconds(30))) {
       *last = now;
       spdlog::info("{}", line);
@@ -85,6 +96,10 @@ std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quie
     }
   };
 }
+
+/// The run's figures and table (`quadtune plot run OUT`) and its browser report (`quadtune
+/// report OUT`).
+int DrawRun(const std::string& out) { return DrawFiguresAndReport("run '" + out + "'", out); }
 
 /// Logs the run's outcome and writes OUT/summary.json; returns the exit code.
 int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& store, bool tty,
@@ -203,7 +218,9 @@ int RunMpi(const RunArgs& a) {
                    a.resume ? ", resuming" : "");
     }
     const engine::RunSummary s = engine::RunDistributed(mpi, e, options);
-    return rank == 0 ? Finish(s, a, store, tty, e.budget.queries_per_eval) : 0;
+    if (rank != 0) return 0;
+    const int code = Finish(s, a, store, tty, e.budget.queries_per_eval);
+    return code == 0 && a.plot ? DrawRun(a.out) : code;
   } catch (const engine::PeerError& ex) {
     // Another rank failed before the run started and reported why; rank 0 says which.
     if (rank == 0) spdlog::error("{}", ex.what());
@@ -252,7 +269,8 @@ int Run(const RunArgs& a) {
     s.status = engine::RunStatus::kCancelled;
     s.threads = threads;
   }
-  return Finish(s, a, store, tty, e.budget.queries_per_eval);
+  const int code = Finish(s, a, store, tty, e.budget.queries_per_eval);
+  return code == 0 && a.plot ? DrawRun(a.out) : code;
 }
 
 /// Resident set size of this process (MiB), from /proc/self/statm: the pool's memory as the
@@ -471,8 +489,10 @@ int Bench(const BenchArgs& a) {
 
 void RegisterRun(CLI::App& app, int& exit_code) {
   static RunArgs args;
-  auto* cmd = app.add_subcommand("run", "run a tuning experiment (YAML) and store every evaluation "
-                                        "in OUT/results.sqlite");
+  auto* cmd = app.add_subcommand("run",
+                                 "run a tuning experiment (YAML), store every evaluation "
+                                 "in OUT/results.sqlite, then draw its figures, table and "
+                                 "OUT/report.html");
   cmd->add_option("experiment", args.experiment, "experiment file (YAML)")->required();
   cmd->add_option("--threads", args.threads, "worker threads (default: the experiment's)")
       ->check(CLI::Range(1, 1024));
@@ -482,6 +502,9 @@ void RegisterRun(CLI::App& app, int& exit_code) {
                 "replace the run already stored in OUT (its store, figures and tables)")
       ->excludes("--resume");
   cmd->add_flag("--quiet", args.quiet, "no progress line");
+  AddNoPlotFlag(*cmd, args.plot,
+                "skip the figures, table and report.html (`quadtune plot run OUT`, `quadtune "
+                "report OUT` draw them later)");
   cmd->add_option("--set", args.set,
                   "KEY=VALUE: change the experiment file's dotted KEY, e.g. --set "
                   "budget.flights=10 --set repeats=2 (repeat as needed; --resume needs the same)");

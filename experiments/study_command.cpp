@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -13,9 +14,10 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "eta.hpp"
 #include "quadtune/common/cancel.hpp"
-#include "result_dir.hpp"
 #include "quadtune/engine/study.hpp"
+#include "result_dir.hpp"
 
 namespace quadtune::cli {
 namespace {
@@ -47,27 +49,59 @@ int RunStudyCommand(const StudyArgs& a) {
   InstallCancelSignalHandlers();
   const bool tty = isatty(fileno(stderr)) != 0 && !a.quiet;
   std::string last_stage;
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point start = Clock::now();
+  EtaEstimator eta(WorkPlan::Of(study, a.threads));
+  const int stages = static_cast<int>(study.stages.size());
   options.on_progress = [&](const engine::StudyProgress& p) {
+    const double job_s = std::chrono::duration<double>(Clock::now() - start).count();
+    // The plan numbers the runs point by point, stage by stage (WorkPlan::Of(Study)).
+    int stage = stages - 1;
+    for (int k = 0; k < stages; ++k) {
+      if (study.stages[static_cast<std::size_t>(k)].name == p.stage) stage = k;
+    }
+    const int run = static_cast<int>(p.point) * stages + stage;
+    engine::Progress report = p.run;
+    if (p.validating) {
+      report = engine::Progress{};
+      report.method = "validation";
+      report.flights_done = p.validation_done;
+      report.flights_total = p.validation_total;
+    }
+    eta.Observe(report, job_s, run);
+    const Eta left = eta.Remaining();
     std::string line;
     if (p.validating) {
-      line = fmt::format("point {}/{} ({}): validation flights {}/{}", p.point + 1, p.points,
-                         p.label, p.validation_done, p.validation_total);
+      line = fmt::format("point {}/{} ({}): validation flights {}/{}, elapsed {:.0f} s, {}",
+                         p.point + 1, p.points, p.label, p.validation_done, p.validation_total,
+                         job_s, left.Text());
     } else {
-      line = fmt::format("point {}/{} ({}), stage {}: trial {}/{} {} r{}: flights {}/{}, best f_l "
-                         "{:.3f}, elapsed {:.0f} s",
-                         p.point + 1, p.points, p.label, p.stage, p.run.trials_done + 1,
-                         p.run.trials_total, p.run.method, p.run.repeat, p.run.flights_done,
-                         p.run.flights_total, p.run.best_long, p.run.elapsed_s);
+      line = fmt::format(
+          "point {}/{} ({}), stage {}: trial {}/{} {} r{}: flights {}/{}, best f_l "
+          "{:.3f}, elapsed {:.0f} s, {}",
+          p.point + 1, p.points, p.label, p.stage, p.run.trials_done + 1, p.run.trials_total,
+          p.run.method, p.run.repeat, p.run.flights_done, p.run.flights_total, p.run.best_long,
+          job_s, left.Text());
     }
+    spdlog::debug(
+        "eta: at {:.2f} s, {:.1f} s left{}, predicted total {:.1f} s; flights {:.0f} of "
+        "{:.0f} planned",
+        job_s, left.seconds, left.lower_bound ? " (lower bound)" : "", job_s + left.seconds,
+        eta.FlightsDone(), eta.FlightsPlanned());
     if (tty) {
       std::fprintf(stderr, "\r\033[K%s", line.c_str());
       std::fflush(stderr);
     } else {
-      // A line per stage and per finished trial keeps logs short.
+      // A line per stage, per finished trial and at the end of validation keeps logs short.
       const std::string key = p.label + "/" + p.stage + "/" + p.run.method +
                               std::to_string(p.run.repeat);
-      const bool trial_done = !p.validating && p.run.flights_done == p.run.flights_total;
-      if (key != last_stage || trial_done) spdlog::info("{}", line);
+      const bool trial_done = p.validating ? p.validation_done == p.validation_total
+                                           : p.run.flights_done == p.run.flights_total;
+      if (key != last_stage || trial_done) {
+        spdlog::info("{}", line);
+      } else {
+        spdlog::debug("{}", line);
+      }
       last_stage = key;
     }
   };
@@ -90,8 +124,8 @@ int RunStudyCommand(const StudyArgs& a) {
     spdlog::warn("interrupted: continue with `quadtune study {} --out {} --resume`", a.file, a.out);
     return 130;
   }
-  if (a.plot) return RunPlotScript("study '" + a.out + "'");
-  return 0;
+  if (!a.plot) return 0;
+  return DrawFiguresAndReport("study '" + a.out + "'", a.out);
 }
 
 }  // namespace
@@ -99,8 +133,9 @@ int RunStudyCommand(const StudyArgs& a) {
 void RegisterStudy(CLI::App& app, int& exit_code) {
   static StudyArgs args;
   auto* cmd = app.add_subcommand(
-      "study", "an experiment swept over a setting and/or run in stages, then validation flights "
-               "of the tuned parameters; figures and tables in OUT");
+      "study",
+      "an experiment swept over a setting and/or run in stages, then validation flights "
+      "of the tuned parameters; figures, tables and OUT/report.html");
   cmd->add_option("study", args.file, "study file (YAML)")->required()->check(CLI::ExistingFile);
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();
   cmd->add_option("--threads", args.threads, "worker threads (default: the experiment's)")
@@ -109,7 +144,7 @@ void RegisterStudy(CLI::App& app, int& exit_code) {
   cmd->add_flag("--overwrite", args.overwrite, "replace the study already in OUT")
       ->excludes("--resume");
   cmd->add_flag("--quiet", args.quiet, "no progress line");
-  AddNoPlotFlag(*cmd, args.plot, "skip the figures");
+  AddNoPlotFlag(*cmd, args.plot, "skip the figures, tables and report.html");
   cmd->add_option("--set", args.set,
                   "KEY=VALUE: change the study file's dotted KEY, e.g. --set "
                   "override.budget.flights=10 --set validation.flights=2 (repeatable)");

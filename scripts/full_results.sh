@@ -35,7 +35,7 @@ timed() {
 
 run_benchmark() {
   rm -rf "$raw/benchmark"
-  timed benchmark "$q" run experiments/benchmark.yaml --out "$raw/benchmark"
+  timed benchmark "$q" run --no-plot experiments/benchmark.yaml --out "$raw/benchmark"
   "$q" plot run "$raw/benchmark"
   mkdir -p "$docs/benchmark"
   cp "$raw/benchmark/"{tuning.png,tuning.md,tuning.csv,validation.png,validation.csv,summary.json} \
@@ -44,7 +44,7 @@ run_benchmark() {
 
 run_benchmark_jc() {  # BO+PSO with the clearance term in f_s, against the same defaults
   rm -rf "$raw/benchmark_jc"
-  timed benchmark_jc "$q" run experiments/benchmark.yaml --out "$raw/benchmark_jc" \
+  timed benchmark_jc "$q" run --no-plot experiments/benchmark.yaml --out "$raw/benchmark_jc" \
     --set objective.short_term.w_c=0.1 --set 'methods=[default, bo_pso]'
   "$q" plot run "$raw/benchmark_jc"
   mkdir -p "$docs/benchmark_jc"
@@ -133,9 +133,9 @@ run_mpi() {  # 2 ranks × 1 thread against 1 rank × 2 threads, same experiment,
   local mpi=(mpirun -np 2 --oversubscribe)
   [[ $(id -u) == 0 ]] && mpi+=(--allow-run-as-root)
   rm -rf "$raw/mpi_threads" "$raw/mpi_ranks"
-  timed mpi_1rank_2threads "$q" run experiments/mpi_scaling.yaml --out "$raw/mpi_threads" \
+  timed mpi_1rank_2threads "$q" run --no-plot experiments/mpi_scaling.yaml --out "$raw/mpi_threads" \
     --threads 2
-  timed mpi_2ranks_1thread "${mpi[@]}" "$q" run experiments/mpi_scaling.yaml \
+  timed mpi_2ranks_1thread "${mpi[@]}" "$q" run --no-plot experiments/mpi_scaling.yaml \
     --out "$raw/mpi_ranks" --threads 1
   mkdir -p "$docs/mpi"
   cp "$raw/mpi_threads/summary.json" "$docs/mpi/summary_1rank_2threads.json"

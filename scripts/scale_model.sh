@@ -35,7 +35,7 @@ for ranks in "${ranks_list[@]}"; do
   # Each rank writes its peak RSS (KiB) and CPU seconds (user, system) to rss/RANK.
   cmd=(/usr/bin/time -o "$run/rss/\${OMPI_COMM_WORLD_RANK:-0}" -f "'%M %U %S'" "$quadtune"
        --log-level warn
-       run "$root/experiments/scale_model.yaml" --set "repeats=$trials" --threads 1
+       run --no-plot "$root/experiments/scale_model.yaml" --set "repeats=$trials" --threads 1
        --out "$run/out" --quiet)
   # A non-zero exit of mpirun after rank 0 wrote summary.json is recorded (column mpirun_rc);
   # without summary.json the run failed.

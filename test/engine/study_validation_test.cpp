@@ -142,15 +142,16 @@ TEST(ResultStoreErrors, ResumedRunThatIsNotAPrefixOfTheStoredOne) {
   const std::string dir = test::TempDir("store_not_prefix");
   const std::string file = dir + "/toy.yaml";
   std::ofstream(file) << test::ToyYaml("[random]");
-  ASSERT_EQ(
-      RunCli("--log-level warn run " + file + " --out " + dir + "/run --quiet", dir + "/run.log"),
-      0)
+  ASSERT_EQ(RunCli("--log-level warn run --no-plot " + file + " --out " + dir + "/run --quiet",
+                   dir + "/run.log"),
+            0)
       << ReadAll(dir + "/run.log");
   const std::string store = dir + "/run/results.sqlite";
   // The unedited store resumes (every row replayed).
-  ASSERT_EQ(RunCli("--log-level warn run " + file + " --out " + dir + "/run --quiet --resume",
-                   dir + "/resume_ok.log"),
-            0)
+  ASSERT_EQ(
+      RunCli("--log-level warn run --no-plot " + file + " --out " + dir + "/run --quiet --resume",
+             dir + "/resume_ok.log"),
+      0)
       << ReadAll(dir + "/resume_ok.log");
   sqlite3* db = nullptr;
   ASSERT_EQ(sqlite3_open(store.c_str(), &db), SQLITE_OK);
@@ -164,9 +165,10 @@ TEST(ResultStoreErrors, ResumedRunThatIsNotAPrefixOfTheStoredOne) {
   ASSERT_EQ(sqlite3_changes(db), 1);
   sqlite3_close(db);
   const auto before = test::Deterministic(store);
-  EXPECT_EQ(RunCli("--log-level warn run " + file + " --out " + dir + "/run --quiet --resume",
-                   dir + "/resume.log"),
-            2);
+  EXPECT_EQ(
+      RunCli("--log-level warn run --no-plot " + file + " --out " + dir + "/run --quiet --resume",
+             dir + "/resume.log"),
+      2);
   const std::string log = ReadAll(dir + "/resume.log");
   EXPECT_NE(log.find("--resume"), std::string::npos) << log;
   EXPECT_NE(log.find("not a prefix"), std::string::npos) << log;

@@ -326,15 +326,17 @@ TEST(Resume, KillMinus9MidRunThenResumeEqualsUninterruptedRun) {
   // the recorded-query buffer.
   std::ofstream(file) << test::ToyYaml("[random, bo_pso]", ", flight_delay_s: 0.03");
   // Uninterrupted reference.
-  ASSERT_EQ(WaitExit(Spawn({bin, "--log-level", "warn", "run", file, "--out", dir + "/full",
-                            "--quiet"})), 0);
+  ASSERT_EQ(WaitExit(Spawn({bin, "--log-level", "warn", "run", "--no-plot", file, "--out",
+                            dir + "/full", "--quiet"})),
+            0);
   const auto reference = test::Deterministic(dir + "/full/results.sqlite");
   const int total = static_cast<int>(reference.size());
   ASSERT_GT(total, 20);
 
   // Killed run: kill -9 once some (not all) evaluations are stored.
   const std::string store = dir + "/cut/results.sqlite";
-  const pid_t pid = Spawn({bin, "--log-level", "warn", "run", file, "--out", dir + "/cut", "--quiet"});
+  const pid_t pid = Spawn(
+      {bin, "--log-level", "warn", "run", "--no-plot", file, "--out", dir + "/cut", "--quiet"});
   int at_kill = 0;
   for (int i = 0; i < 4000; ++i) {
     at_kill = CountRows(store);
@@ -349,8 +351,9 @@ TEST(Resume, KillMinus9MidRunThenResumeEqualsUninterruptedRun) {
   EXPECT_GT(stored, 0);
   EXPECT_LT(stored, total);
 
-  ASSERT_EQ(WaitExit(Spawn({bin, "--log-level", "warn", "run", file, "--out", dir + "/cut",
-                            "--resume", "--quiet", "--threads", "1"})), 0);
+  ASSERT_EQ(WaitExit(Spawn({bin, "--log-level", "warn", "run", "--no-plot", file, "--out",
+                            dir + "/cut", "--resume", "--quiet", "--threads", "1"})),
+            0);
   EXPECT_EQ(test::Deterministic(store), reference);
 }
 
@@ -360,8 +363,9 @@ TEST(Cli, ExportWritesCsvAndBenchRuns) {
   const std::string dir = test::TempDir("cli");
   const std::string file = dir + "/toy.yaml";
   std::ofstream(file) << test::ToyYaml("[bo]");
-  ASSERT_EQ(WaitExit(Spawn({bin, "--log-level", "warn", "run", file, "--out", dir + "/run",
-                            "--quiet", "--threads", "2"})), 0);
+  ASSERT_EQ(WaitExit(Spawn({bin, "--log-level", "warn", "run", "--no-plot", file, "--out",
+                            dir + "/run", "--quiet", "--threads", "2"})),
+            0);
   ASSERT_EQ(WaitExit(Spawn({bin, "--log-level", "warn", "export", dir + "/run/results.sqlite",
                             "--csv", dir + "/csv"})), 0);
   std::ifstream csv(dir + "/csv/evaluations.csv");
@@ -393,8 +397,9 @@ TEST(Cli, ExportWritesCsvAndBenchRuns) {
   EXPECT_EQ(bench_lines, 1 + 2);
   // A configuration error stops `run` before any work, with exit code 2.
   std::ofstream(dir + "/bad.yaml") << test::ToyYaml("[annealing]");
-  EXPECT_EQ(WaitExit(Spawn({bin, "--log-level", "off", "run", dir + "/bad.yaml", "--out",
-                            dir + "/bad"})), 2);
+  EXPECT_EQ(WaitExit(Spawn({bin, "--log-level", "off", "run", "--no-plot", dir + "/bad.yaml",
+                            "--out", dir + "/bad"})),
+            2);
   EXPECT_FALSE(std::filesystem::exists(dir + "/bad/results.sqlite"));
 }
 

@@ -270,7 +270,8 @@ TEST(CliFly, TimeoutIsExitCodeThreeAndRecorded) {
 TEST(CliRun, RealPlannerTimeoutsAreStoredRows) {
   const fs::path dir = Fresh("run_timeout");
   const fs::path out = dir / "run";
-  ASSERT_EQ(RunQuadtune("--log-level warn run " + kExperiments + "tiny.yaml --out " + out.string() +
+  ASSERT_EQ(RunQuadtune("--log-level warn run --no-plot " + kExperiments + "tiny.yaml --out " +
+                            out.string() +
                             " --quiet --set planner.max_time=2 --set 'methods=[random]' "
                             "--set budget.flights=2",
                         dir / "run.log"),
@@ -356,17 +357,17 @@ TEST(CliExitCodes, InterruptedRunIs130AndResumes) {
   const fs::path dir = Fresh("interrupt");
   std::ofstream(dir / "toy.yaml") << SlowToy();
   const std::string file = (dir / "toy.yaml").string();
-  ASSERT_EQ(
-      RunQuadtune("--log-level warn run " + file + " --out " + (dir / "full").string() + " --quiet",
-                  dir / "full.log"),
-      0);
+  ASSERT_EQ(RunQuadtune("--log-level warn run --no-plot " + file + " --out " +
+                            (dir / "full").string() + " --quiet",
+                        dir / "full.log"),
+            0);
   const int total = CountRows(dir / "full" / "results.sqlite");
   ASSERT_GT(total, 20);
 
   const fs::path cut = dir / "cut";
-  const pid_t pid = test::Spawn(
-      {QuadtuneBinary(), "--log-level", "warn", "run", file, "--out", cut.string(), "--quiet"},
-      (dir / "cut.log").string());
+  const pid_t pid = test::Spawn({QuadtuneBinary(), "--log-level", "warn", "run", "--no-plot", file,
+                                 "--out", cut.string(), "--quiet"},
+                                (dir / "cut.log").string());
   int seen = 0;
   for (int i = 0; i < 6000 && seen < 8; ++i) {
     seen = CountRows(cut / "results.sqlite");
@@ -379,10 +380,10 @@ TEST(CliExitCodes, InterruptedRunIs130AndResumes) {
   const int stored = CountRows(cut / "results.sqlite");
   EXPECT_GT(stored, 0);
   EXPECT_LT(stored, total);
-  ASSERT_EQ(
-      RunQuadtune("--log-level warn run " + file + " --out " + cut.string() + " --resume --quiet",
-                  dir / "resume.log"),
-      0)
+  ASSERT_EQ(RunQuadtune("--log-level warn run --no-plot " + file + " --out " + cut.string() +
+                            " --resume --quiet",
+                        dir / "resume.log"),
+            0)
       << ReadText(dir / "resume.log");
   EXPECT_EQ(ReadJson(cut / "summary.json")["status"], "completed");
   EXPECT_EQ(CountRows(cut / "results.sqlite"), total);
@@ -470,8 +471,8 @@ TEST(CliStudy, ResumeReplaysStoredStagesAndRerunsALostOne) {
 TEST(CliMpi, BuildWithoutMpiRefusesAMultiProcessLaunch) {
   if (QUADTUNE_TEST_HAVE_MPI) GTEST_SKIP() << "this quadtune is built with MPI";
   const fs::path dir = Fresh("no_mpi");
-  const std::string cmd = "OMPI_COMM_WORLD_SIZE=2 " + QuadtuneBinary() + " run " + ToyExperimentFile() +
-                          " --out " + (dir / "out").string() + " > '" +
+  const std::string cmd = "OMPI_COMM_WORLD_SIZE=2 " + QuadtuneBinary() + " run --no-plot " +
+                          ToyExperimentFile() + " --out " + (dir / "out").string() + " > '" +
                           (dir / "log").string() + "' 2>&1";
   const int status = std::system(cmd.c_str());
   ASSERT_TRUE(WIFEXITED(status));

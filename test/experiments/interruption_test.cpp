@@ -148,16 +148,17 @@ TEST_F(Interruption, SecondRunIntoTheSameDirectoryIsRefusedAndTheFirstCompletes)
   std::ofstream(dir_ / "a.yaml") << SlowToy(0.15);
   std::ofstream(dir_ / "b.yaml") << SlowToy(0.0);
   const fs::path out = dir_ / "out";
-  const Child first = Start({"run", (dir_ / "a.yaml").string(), "--out", out.string(), "--quiet"},
-                            dir_ / "first.err");
+  const Child first =
+      Start({"run", "--no-plot", (dir_ / "a.yaml").string(), "--out", out.string(), "--quiet"},
+            dir_ / "first.err");
   // The first holds the lock once its pid is in the lock file.
   WaitUntil(first, [&] { return !ReadText(out / ".quadtune.lock").empty(); });
-  const int second =
-      RunToEnd({"run", (dir_ / "b.yaml").string(), "--out", out.string(), "--overwrite", "--quiet"},
-               dir_ / "second.err");
-  const int resume =
-      RunToEnd({"run", (dir_ / "a.yaml").string(), "--out", out.string(), "--resume", "--quiet"},
-               dir_ / "resume.err");
+  const int second = RunToEnd({"run", "--no-plot", (dir_ / "b.yaml").string(), "--out",
+                               out.string(), "--overwrite", "--quiet"},
+                              dir_ / "second.err");
+  const int resume = RunToEnd({"run", "--no-plot", (dir_ / "a.yaml").string(), "--out",
+                               out.string(), "--resume", "--quiet"},
+                              dir_ / "resume.err");
   EXPECT_EQ(Wait(first), 0) << ReadText(dir_ / "first.err");
   EXPECT_EQ(second, 2);
   const std::string message = ReadText(dir_ / "second.err");
@@ -179,24 +180,26 @@ TEST_F(Interruption, SecondRunIntoTheSameDirectoryIsRefusedAndTheFirstCompletes)
 TEST_F(Interruption, RunIntoAUsedDirectoryNeedsResumeOrOverwrite) {
   std::ofstream(dir_ / "a.yaml") << SlowToy(0.0);
   const fs::path out = dir_ / "out";
-  ASSERT_EQ(RunToEnd({"run", (dir_ / "a.yaml").string(), "--out", out.string(), "--quiet"},
-                     dir_ / "1.err"),
-            0);
+  ASSERT_EQ(
+      RunToEnd({"run", "--no-plot", (dir_ / "a.yaml").string(), "--out", out.string(), "--quiet"},
+               dir_ / "1.err"),
+      0);
   const std::string store = ReadText(out / "results.sqlite");
   ASSERT_FALSE(store.empty());
-  EXPECT_EQ(RunToEnd({"run", (dir_ / "a.yaml").string(), "--out", out.string(), "--quiet"},
-                     dir_ / "2.err"),
-            2);
+  EXPECT_EQ(
+      RunToEnd({"run", "--no-plot", (dir_ / "a.yaml").string(), "--out", out.string(), "--quiet"},
+               dir_ / "2.err"),
+      2);
   const std::string message = ReadText(dir_ / "2.err");
   EXPECT_NE(message.find("--resume"), std::string::npos) << message;
   EXPECT_NE(message.find("--overwrite"), std::string::npos) << message;
   EXPECT_EQ(ReadText(out / "results.sqlite"), store) << "the refused run changed the store";
   // --overwrite replaces the run (and removes what the old one wrote).
   std::ofstream(out / "tuning.png") << "old figure";
-  EXPECT_EQ(
-      RunToEnd({"run", (dir_ / "a.yaml").string(), "--out", out.string(), "--overwrite", "--quiet"},
-               dir_ / "3.err"),
-      0)
+  EXPECT_EQ(RunToEnd({"run", "--no-plot", (dir_ / "a.yaml").string(), "--out", out.string(),
+                      "--overwrite", "--quiet"},
+                     dir_ / "3.err"),
+            0)
       << ReadText(dir_ / "3.err");
   EXPECT_FALSE(fs::exists(out / "tuning.png"));
   EXPECT_EQ(Rows(out / "results.sqlite", "SELECT COUNT(*) FROM experiment"),
@@ -207,8 +210,9 @@ TEST_F(Interruption, SigtermDuringARunLeavesAConsistentStoreThatResumesToTheSame
   std::ofstream(dir_ / "slow.yaml") << SlowToy(0.1);
   std::ofstream(dir_ / "fast.yaml") << SlowToy(0.1);
   const fs::path out = dir_ / "out";
-  const Child run = Start({"run", (dir_ / "slow.yaml").string(), "--out", out.string(), "--quiet"},
-                          dir_ / "run.err");
+  const Child run =
+      Start({"run", "--no-plot", (dir_ / "slow.yaml").string(), "--out", out.string(), "--quiet"},
+            dir_ / "run.err");
   WaitUntil(run, [&] { return EvaluationCount(out / "results.sqlite") >= 3; });
   kill(run.pid, SIGTERM);
   EXPECT_EQ(Wait(run), 130) << ReadText(dir_ / "run.err");
@@ -218,13 +222,14 @@ TEST_F(Interruption, SigtermDuringARunLeavesAConsistentStoreThatResumesToTheSame
   const int stored = EvaluationCount(out / "results.sqlite");
   EXPECT_GE(stored, 3);
   EXPECT_LT(stored, 2 * 8 + 8 * 4) << "the run was not interrupted";
-  ASSERT_EQ(
-      RunToEnd({"run", (dir_ / "slow.yaml").string(), "--out", out.string(), "--resume", "--quiet"},
-               dir_ / "resume.err"),
-      0)
+  ASSERT_EQ(RunToEnd({"run", "--no-plot", (dir_ / "slow.yaml").string(), "--out", out.string(),
+                      "--resume", "--quiet"},
+                     dir_ / "resume.err"),
+            0)
       << ReadText(dir_ / "resume.err");
   const fs::path ref = dir_ / "ref";
-  ASSERT_EQ(RunToEnd({"run", (dir_ / "fast.yaml").string(), "--out", ref.string(), "--quiet"},
+  ASSERT_EQ(RunToEnd({"run", "--no-plot", (dir_ / "fast.yaml").string(), "--out", ref.string(),
+                      "--quiet"},
                      dir_ / "ref.err"),
             0);
   const auto resumed = Rows(out / "results.sqlite", kEvaluations);
@@ -247,8 +252,9 @@ TEST_F(Interruption, SigtermDuringLayoutGenerationExitsWithTheResumeCommand) {
          "short_term: [w_col]\nlong_term: [v_des]\n"
          "budget: {flights: 1}\n";
   const fs::path out = dir_ / "out";
-  const Child run = Start({"run", (dir_ / "big.yaml").string(), "--out", out.string(), "--quiet"},
-                          dir_ / "run.err");
+  const Child run =
+      Start({"run", "--no-plot", (dir_ / "big.yaml").string(), "--out", out.string(), "--quiet"},
+            dir_ / "run.err");
   // The store is written before the maps are generated.
   WaitUntil(run,
             [&] { return !Rows(out / "results.sqlite", "SELECT id FROM experiment").empty(); });

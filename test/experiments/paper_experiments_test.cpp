@@ -119,14 +119,15 @@ double Mean(const std::vector<double>& v) {
 TEST(PaperExperiments, BenchmarkComparisonScaledDown) {
   const fs::path dir = Fresh("benchmark");
   const std::string out = (dir / "run").string();
-  ASSERT_EQ(RunQuadtune("--log-level warn run " + kExperiments + "benchmark.yaml --out " + out +
-                            " --quiet --set repeats=2 --set budget.flights=3 "
-                            "--set budget.default_flights=2 --set budget.short_evals_per_flight=4 "
-                            "--set budget.queries_per_eval=2 --set pso.num_particles=4 "
-                            "--set bo.initial_design_size=2 --set validation.maps=2 "
-                            "--set recommend.flights=2",
-                        dir / "run.log"),
-            0)
+  ASSERT_EQ(
+      RunQuadtune("--log-level warn run --no-plot " + kExperiments + "benchmark.yaml --out " + out +
+                      " --quiet --set repeats=2 --set budget.flights=3 "
+                      "--set budget.default_flights=2 --set budget.short_evals_per_flight=4 "
+                      "--set budget.queries_per_eval=2 --set pso.num_particles=4 "
+                      "--set bo.initial_design_size=2 --set validation.maps=2 "
+                      "--set recommend.flights=2",
+                  dir / "run.log"),
+      0)
       << ReadText(dir / "run.log");
   const fs::path db = fs::path(out) / "results.sqlite";
   // Every trial finished, with the budget's flights; bo_pso also scored θ_s by re-solves.

@@ -99,7 +99,7 @@ def main():
 
     work = tempfile.mkdtemp(prefix="quadtune_report_test_")
     run = os.path.join(work, "run")
-    subprocess.run([quadtune, "--log-level", "warn", "run", experiment, "--out", run], check=True)
+    subprocess.run([quadtune, "--log-level", "warn", "run", "--no-plot", experiment, "--out", run], check=True)
     subprocess.run([quadtune, "--log-level", "warn", "report", run, "--flights", "1"], check=True)
     page = os.path.join(run, "report.html")
     check(os.path.isfile(page), "report.html written")

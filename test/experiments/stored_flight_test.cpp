@@ -62,7 +62,7 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
   fs::remove_all(dir);
   fs::create_directories(dir);
   const fs::path run = dir / "run";
-  ASSERT_EQ(RunQuadtune("--log-level warn run " + std::string(QUADTUNE_SOURCE_DIR) +
+  ASSERT_EQ(RunQuadtune("--log-level warn run --no-plot " + std::string(QUADTUNE_SOURCE_DIR) +
                             "/experiments/tiny.yaml --out " + run.string(),
                         dir / "run.log"),
             0)

@@ -92,14 +92,14 @@ if [[ $mode == ipopt ]]; then
 fi
 
 # The single-process reference.
-"$quadtune" --log-level warn run "${experiment[@]}" --out one --threads 1 --quiet
+"$quadtune" --log-level warn run --no-plot "${experiment[@]}" --out one --threads 1 --quiet
 export_store one
 rows=$(($(wc -l < one/evaluations.txt) - 1))
 echo "1 process: $rows evaluations"
 (( rows > 30 ))
 
 if [[ $mode == equal || $mode == ipopt ]]; then
-  "${mpi[@]}" "$quadtune" --log-level debug run "${experiment[@]}" --out two --threads 1 \
+  "${mpi[@]}" "$quadtune" --log-level debug run --no-plot "${experiment[@]}" --out two --threads 1 \
     --quiet > two.log 2>&1 || { cat two.log; exit 1; }
   export_store two
   # Both ranks ran trials (rank 0 logs the trials the other ranks finished).
