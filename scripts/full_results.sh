@@ -54,7 +54,7 @@ run_benchmark_jc() {  # BO+PSO with the clearance term in f_s, against the same 
 
 run_benchmark_ego() {  # the same comparison with the EGO-Planner-style back end
   rm -rf "$raw/benchmark_ego"
-  timed benchmark_ego "$q" run experiments/benchmark_ego.yaml --out "$raw/benchmark_ego"
+  timed benchmark_ego "$q" run --no-plot experiments/benchmark_ego.yaml --out "$raw/benchmark_ego"
   "$q" plot run "$raw/benchmark_ego"
   mkdir -p "$docs/benchmark_ego"
   cp "$raw/benchmark_ego/"{tuning.png,tuning.md,tuning.csv,validation.png,validation.csv,summary.json} \
