@@ -79,6 +79,15 @@ void CheckMpiLaunch(int processes, bool mpi_built) {
                         "or rebuild with MPI");
 }
 
+void CheckSingleProcessLaunch(int processes, const std::string& command) {
+  if (processes <= 1) return;
+  throw ConfigError("", "mpirun",
+                    "`quadtune " + command + "` runs in one process but was started as one of " +
+                        std::to_string(processes) +
+                        " MPI processes; start it without mpirun/srun (only `quadtune run` "
+                        "spreads an experiment over MPI ranks)");
+}
+
 #if !defined(QUADTUNE_HAVE_MPI)
 
 namespace {

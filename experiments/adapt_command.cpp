@@ -23,6 +23,7 @@
 #include "result_dir.hpp"
 #include "quadtune/common/text_file.hpp"
 #include "quadtune/common/yaml.hpp"
+#include "quadtune/engine/distributed.hpp"
 #include "quadtune/engine/online_adaptation.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/planning/flight.hpp"
@@ -143,6 +144,7 @@ void WriteSegmentsCsv(const std::string& path, const engine::AdaptFlight& f,
 double Ratio(double num, double den) { return den > 0.0 ? num / den : 0.0; }
 
 int RunAdapt(const AdaptArgs& a) {
+  engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "adapt");
   const auto wall_start = std::chrono::steady_clock::now();
   const std::string dir_of_file = fs::path(a.experiment).parent_path().string();
   engine::AdaptExperiment e = engine::AdaptExperiment::FromString(

@@ -22,6 +22,7 @@
 
 #include "commands.hpp"
 #include "eta.hpp"
+#include "soak.hpp"
 #include "stored_flight.hpp"
 #include "result_dir.hpp"
 #include "quadtune/common/cancel.hpp"
@@ -347,23 +348,16 @@ int Soak(const engine::Experiment& e, int flights, int threads, const std::strin
     spdlog::warn("soak interrupted after {} of {} flights", done.load(), flights);
     return 130;
   }
-  double base = 0.0;
-  double high = 0.0;
-  double low = std::numeric_limits<double>::infinity();
-  for (const auto& [d, rss] : samples) {
-    if (d < warmup) continue;
-    if (base == 0.0) base = rss;
-    high = std::max(high, rss);
-    low = std::min(low, rss);
-  }
-  const double spread = base > 0.0 ? (high - low) / base : 0.0;
+  const SoakVerdict v = JudgeSoak(samples, warmup);
   std::printf("soak: %d flights on %d threads in %.1f s (%.2f flights/s), %d pooled worlds\n",
               flights, threads, wall, flights / wall, pool.Size());
-  std::printf("soak: RSS %.1f MiB at start, %.1f MiB after %d flights, %.1f .. %.1f MiB after "
-              "that (spread %.2f %% of %.1f MiB): %s\n",
-              rss_start, base, warmup, low, high, 100.0 * spread, base,
-              spread <= 0.05 ? "flat within 5 %" : "NOT flat within 5 %");
-  return spread <= 0.05 ? 0 : 3;
+  std::printf("soak: RSS %.1f MiB at start; after %d flights %.1f .. %.1f MiB; median of the first "
+              "tenth after warm-up %.1f MiB, of the last %.1f MiB (growth %+.2f %%, largest "
+              "tenth %.1f MiB), least-squares trend %+.2f %% over the run: %s\n",
+              rss_start, warmup, v.low, v.high, v.first_median, v.last_median,
+              100.0 * v.growth, v.max_median, 100.0 * v.trend,
+              v.flat ? "flat within 5 %" : "NOT flat within 5 %");
+  return v.flat ? 0 : 3;
 }
 
 /// Flights/s and re-solves/s at 1..N threads, and the scheduler's overhead per task.

@@ -16,6 +16,7 @@
 #include "commands.hpp"
 #include "eta.hpp"
 #include "quadtune/common/cancel.hpp"
+#include "quadtune/engine/distributed.hpp"
 #include "quadtune/engine/study.hpp"
 #include "result_dir.hpp"
 
@@ -35,6 +36,7 @@ struct StudyArgs {
 };
 
 int RunStudyCommand(const StudyArgs& a) {
+  engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "study");
   const engine::Study study = engine::Study::LoadFile(a.file, a.set);  // all errors before any work
   spdlog::info("study '{}' ({}): {} point(s){}, {} stage(s), {} validation flights per tuned trial",
                study.name, a.file, study.labels.size(),

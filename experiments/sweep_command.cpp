@@ -18,6 +18,7 @@
 
 #include "commands.hpp"
 #include "quadtune/common/error.hpp"
+#include "quadtune/engine/distributed.hpp"
 #include "quadtune/engine/planners.hpp"
 #include "quadtune/engine/sweep.hpp"
 
@@ -253,6 +254,7 @@ std::function<void(const engine::SweepProgress&)> Printer(bool tty, bool quiet, 
 }
 
 int RunSweepCommand(const SweepArgs& a) {
+  engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "sweep");
   if (fs::exists(a.out) && !fs::is_empty(a.out) && !a.overwrite) {
     throw ConfigError(a.out, "--out",
                       "the output directory exists and is not empty; choose another --out or "

@@ -55,5 +55,14 @@ TEST(CheckMpiLaunch, OneProcessOrAnMpiBuildIsAccepted) {
   EXPECT_NO_THROW(CheckMpiLaunch(4, /*mpi_built=*/true));
 }
 
+TEST(CheckSingleProcessLaunch, SeveralProcessesAreRefusedWithTheCommandNamed) {
+  EXPECT_TRUE(quadtune::test::ThrowsConfigError(
+      [] { CheckSingleProcessLaunch(2, "study"); }, "mpirun",
+      {"`quadtune study` runs in one process", "one of 2 MPI processes", "only `quadtune run`"}));
+  EXPECT_TRUE(quadtune::test::ThrowsConfigError([] { CheckSingleProcessLaunch(8, "adapt"); },
+                                                "mpirun", {"`quadtune adapt`", "one of 8"}));
+  EXPECT_NO_THROW(CheckSingleProcessLaunch(1, "sweep"));
+}
+
 }  // namespace
 }  // namespace quadtune::engine

@@ -66,6 +66,12 @@ int MpiLaunchSize();
 /// otherwise. `quadtune run` calls it with MpiLaunchSize() and MpiBuilt().
 void CheckMpiLaunch(int processes, bool mpi_built);
 
+/// Commands that run in one process (`study`, `adapt`, `sweep`) started as one of several MPI
+/// processes would run the whole job in each of them. Throws ConfigError (key "mpirun": the
+/// command, the process count, and that only `run` spreads over ranks) when `processes` > 1;
+/// returns otherwise. Those commands call it with MpiLaunchSize().
+void CheckSingleProcessLaunch(int processes, const std::string& command);
+
 /// Thrown on a rank when another rank failed before the run started (that rank reports why).
 class PeerError : public std::runtime_error {
  public:
