@@ -167,7 +167,8 @@ std::vector<Method> ReadMethods(const YamlMap& map) {
   for (const auto& name : StringList(map, "methods")) {
     const auto m = MethodFromString(name);
     if (!m) {
-      map.Fail("methods", "unknown method '" + name + "', allowed: default, random, pso, bo, bo_pso");
+      map.Fail("methods",
+               "unknown method '" + name + "', allowed: default, random, pso, bo, bo_pso");
     }
     if (!seen.insert(*m).second) map.Fail("methods", "method '" + name + "' listed twice");
     methods.push_back(*m);
@@ -243,16 +244,15 @@ void ReadParameterRoles(const YamlMap& map, const BuiltPlanner& built, const std
 void ReadMapsAndValidation(const YamlMap& map, Experiment& e) {
   const YamlMap m = map.Map("maps", true);
   m.RejectUnknownKeys({"mode", "pool"});
-  const std::string mode = m.String("mode", std::string(ToString(e.maps.mode)),
-                                    {"per_flight", "per_repeat", "pool"});
+  const std::string mode =
+      m.String("mode", std::string(ToString(e.maps.mode)), {"per_flight", "per_repeat", "pool"});
   for (MapMode candidate : {MapMode::kPerFlight, MapMode::kPerRepeat, MapMode::kPool}) {
     if (mode == ToString(candidate)) e.maps.mode = candidate;
   }
   e.maps.pool = static_cast<int>(m.Integer("pool", e.maps.pool, Range::Closed(1, 1e6)));
   const YamlMap v = map.Map("validation", true);
   v.RejectUnknownKeys({"maps"});
-  e.validation.maps =
-      static_cast<int>(v.Integer("maps", e.validation.maps, Range::Closed(0, 1e5)));
+  e.validation.maps = static_cast<int>(v.Integer("maps", e.validation.maps, Range::Closed(0, 1e5)));
   const YamlMap r = map.Map("recommend", true);
   r.RejectUnknownKeys({"candidates", "flights", "clearance", "z", "emergency_stops", "backoff"});
   e.recommend.candidates =
@@ -304,7 +304,6 @@ void ReadBudget(const YamlMap& map, Experiment& e) {
   if (e.budget.short_term_while_flying && e.mode != TimingMode::kRealtime) {
     b.Fail("short_term_while_flying", "true needs mode: realtime (it depends on wall-clock time)");
   }
-
 }
 
 }  // namespace
@@ -313,18 +312,18 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
                                   const std::string& base_dir) {
   const YamlMap map = YamlMap::FromString(text, origin);
   map.RejectUnknownKeys({"name", "seed", "threads", "mode", "repeats", "methods", "planner",
-                         "parameters", "short_term", "long_term", "initial_short_term",
-                         "start", "objective", "maps", "validation", "recommend", "budget", "pso",
-                         "bo"});
+                         "parameters", "short_term", "long_term", "initial_short_term", "start",
+                         "objective", "maps", "validation", "recommend", "budget", "pso", "bo"});
   Experiment e;
   e.file = origin;
   e.text = text;
   e.name = map.String("name", std::string("experiment"));
   e.seed = static_cast<std::uint64_t>(map.Integer("seed", 1, Range::Closed(0, 9.0e15)));
   e.threads = static_cast<int>(map.Integer("threads", 2, Range::Closed(1, 1024)));
-  e.mode = map.String("mode", std::string("reproducible"), {"reproducible", "realtime"}) == "realtime"
-               ? TimingMode::kRealtime
-               : TimingMode::kReproducible;
+  e.mode =
+      map.String("mode", std::string("reproducible"), {"reproducible", "realtime"}) == "realtime"
+          ? TimingMode::kRealtime
+          : TimingMode::kReproducible;
   e.repeats = static_cast<int>(map.Integer("repeats", 1, Range::Closed(1, kMaxRepeats)));
   e.methods = ReadMethods(map);
   BuiltPlanner built = BuildPlanner(map.Map("planner"), base_dir);

@@ -172,9 +172,10 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
       }
     }
     if (experiment_id_ == 0) {
-      Statement s(db_.get(),
-                  "INSERT INTO experiment(name, config, seed, version, machine, threads, mode, started) "
-                  "VALUES(?,?,?,?,?,?,?,?)");
+      Statement s(
+          db_.get(),
+          "INSERT INTO experiment(name, config, seed, version, machine, threads, mode, started) "
+          "VALUES(?,?,?,?,?,?,?,?)");
       s.Bind(1, experiment.name);
       s.Bind(2, experiment.text);
       s.Bind(3, static_cast<std::int64_t>(experiment.seed));
@@ -234,8 +235,9 @@ std::int64_t ResultStore::Trial(const std::string& method, int repeat, std::uint
     s.Bind(3, repeat);
     if (s.Step()) return s.Int(0);
   }
-  Statement s(db_.get(),
-              "INSERT INTO trial(experiment_id, method, repeat, map_seed, status) VALUES(?,?,?,?,?)");
+  Statement s(
+      db_.get(),
+      "INSERT INTO trial(experiment_id, method, repeat, map_seed, status) VALUES(?,?,?,?,?)");
   s.Bind(1, experiment_id_);
   s.Bind(2, method);
   s.Bind(3, repeat);

@@ -182,8 +182,8 @@ nlohmann::json StageEntry(const StudyStage& stage, const ParamValues& start,
   sj["wall_s"] = wall_s;
   nlohmann::json space = nlohmann::json::array();
   for (const auto& prm : e.space.Parameters()) {
-    space.push_back({{"name", prm.name}, {"lower", prm.lower}, {"upper", prm.upper},
-                     {"log", prm.log_scale}});
+    space.push_back(
+        {{"name", prm.name}, {"lower", prm.lower}, {"upper", prm.upper}, {"log", prm.log_scale}});
   }
   sj["space"] = space;
   return sj;
@@ -285,7 +285,7 @@ bool ValidatePoint(const Study& study, const StudyOptions& options, std::size_t 
     const std::size_t f = i % static_cast<std::size_t>(n);
     const FlightRecord& r = records[i];
     const double fl = r.status == EvalStatus::kOk ? LongTermObjective(r, last.objective).value
-                                                   : last.objective.failure_value;
+                                                  : last.objective.failure_value;
     csv << p << ',' << CsvField(study.labels[p]) << ',' << c.stage << ',' << c.method << ','
         << c.repeat << ',' << f << ',' << map_seeds[f] << ',' << ToString(r.status) << ','
         << (r.completed ? 1 : 0) << ',' << r.flight_time << ',' << r.collisions << ','

@@ -366,7 +366,8 @@ void SubmitFlights(const Experiment& e, const SweepOptions& o, Scheduler& schedu
 /// Step 3's re-solves: every distinct θ_s on every query; slot s·Q + j of `solved` and
 /// `solve_failed` (sized by the caller) for θ_s s and query j.
 void SubmitResolves(const Experiment& e, Scheduler& scheduler, TaskGroup& group,
-                    const std::vector<Opaque>& queries, const std::vector<ParamValues>& short_values,
+                    const std::vector<Opaque>& queries,
+                    const std::vector<ParamValues>& short_values,
                     std::vector<ObjectiveValue>& solved, std::vector<char>& solve_failed,
                     std::atomic<long>& resolves_done) {
   const std::size_t q = queries.size();
@@ -398,8 +399,8 @@ void AveragePerPoint(const Experiment& e, int k_maps, std::size_t q,
   for (std::size_t p = 0; p < result.points.size(); ++p) {
     SweepPoint& pt = result.points[p];
     for (int k = 0; k < k_maps; ++k) {
-      const SweepFlight& f = result.flights[p * static_cast<std::size_t>(k_maps) +
-                                            static_cast<std::size_t>(k)];
+      const SweepFlight& f =
+          result.flights[p * static_cast<std::size_t>(k_maps) + static_cast<std::size_t>(k)];
       pt.f_l += f.objective.value / k_maps;
       for (const auto& [name, v] : f.objective.terms) pt.terms[name] += v / k_maps;
       if (f.status != EvalStatus::kOk) ++pt.failed_flights;

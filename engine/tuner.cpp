@@ -5,12 +5,12 @@
 #include <cmath>
 #include <deque>
 #include <limits>
-#include <tuple>
 #include <map>
 #include <memory>
 #include <mutex>
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
+#include <tuple>
 
 #include "quadtune/common/random.hpp"
 #include "quadtune/engine/result_store.hpp"
@@ -214,10 +214,9 @@ class EvaluationLog {
     if (c_.e.mode == TimingMode::kReproducible && row.params != ToJson(asked)) {
       throw ConfigError(c_.options.store_path, "--resume",
                         "stored evaluation (" + row.kind + ", iteration " +
-                            std::to_string(row.iteration) + ", index " +
-                            std::to_string(row.index) + ") has parameters " + row.params +
-                            " but the run asks " + ToJson(asked) +
-                            "; the stored run is not a prefix of this one");
+                            std::to_string(row.iteration) + ", index " + std::to_string(row.index) +
+                            ") has parameters " + row.params + " but the run asks " +
+                            ToJson(asked) + "; the stored run is not a prefix of this one");
     }
     Outcome o;
     o.params = asked;
@@ -226,9 +225,9 @@ class EvaluationLog {
     for (auto it = terms.begin(); it != terms.end(); ++it) {
       o.objective.terms[it.key()] = it.value().get<double>();
     }
-    o.status = row.status == "ok" ? EvalStatus::kOk
-                                  : (row.status == "failed" ? EvalStatus::kFailed
-                                                            : EvalStatus::kCancelled);
+    o.status = row.status == "ok"
+                   ? EvalStatus::kOk
+                   : (row.status == "failed" ? EvalStatus::kFailed : EvalStatus::kCancelled);
     o.message = row.message;
     o.wall_s = row.wall_s;
     o.started = row.started;
@@ -269,7 +268,8 @@ std::unique_ptr<optimizers::Optimizer> MakeSingleOptimizer(const Experiment& e, 
       *bo = made.get();
       return made;
     }
-    default: return nullptr;
+    default:
+      return nullptr;
   }
 }
 
@@ -420,8 +420,12 @@ struct ShortEvaluation {
 class Trial {
  public:
   Trial(Context& c, Method method, int repeat)
-      : c_(c), e_(c.e), method_(method), repeat_(repeat),
-        seed_(DeriveSeed(c.e.seed, {static_cast<std::uint64_t>(method), static_cast<std::uint64_t>(repeat)})),
+      : c_(c),
+        e_(c.e),
+        method_(method),
+        repeat_(repeat),
+        seed_(DeriveSeed(c.e.seed,
+                         {static_cast<std::uint64_t>(method), static_cast<std::uint64_t>(repeat)})),
         log_(c, method, repeat),
         buffer_(c.e.budget.query_window) {
     summary_.method = ToString(method);
@@ -566,8 +570,8 @@ class Trial {
     int left = evaluations;
     while (left > 0 || (until != nullptr && !until->Done())) {
       if (c_.CancelRequested()) return;
-      const auto cands = bo_pso_.pso->Ask(left > 0 ? std::min(left, e_.pso.num_particles)
-                                                   : e_.pso.num_particles);
+      const auto cands =
+          bo_pso_.pso->Ask(left > 0 ? std::min(left, e_.pso.num_particles) : e_.pso.num_particles);
       if (cands.empty()) break;
       const int gen = generation_++;
       std::vector<ShortEvaluation> evals(cands.size());
@@ -723,7 +727,7 @@ class Trial {
       TaskGroup flights;
       std::vector<Outcome> out;
       SubmitFlights(flights, iteration, batch, true, out);  // flights first ...
-      const std::size_t entries = buffer_.Size();            // ... PSO on earlier queries meanwhile
+      const std::size_t entries = buffer_.Size();           // ... PSO on earlier queries meanwhile
       ShortPhase(e_.budget.short_evals_per_flight * static_cast<int>(cands.size()), entries,
                  e_.budget.short_term_while_flying ? &flights : nullptr);
       c_.scheduler.Wait(flights);

@@ -33,8 +33,7 @@ void ClearInfo(int* info) { std::fill(info, info + 20, 0); }
 // Scatters the triplets (1-based irn, icn; values a) into the lower triangle of the dense
 // column-major dim × dim matrix `dense` (LAPACK's "L" routines never read the strict upper
 // triangle). Returns the number of out-of-range triplets (ignored).
-int ScatterLower(int dim, int nnz, const int* irn, const int* icn, const double* a,
-                 double* dense) {
+int ScatterLower(int dim, int nnz, const int* irn, const int* icn, const double* a, double* dense) {
   for (int c = 0; c < dim; ++c) {
     double* column = dense + static_cast<std::ptrdiff_t>(c) * dim;
     std::fill(column + c, column + dim, 0.0);

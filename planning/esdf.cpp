@@ -141,7 +141,6 @@ void WindowedPass(const std::int16_t* in, std::int16_t* dst, std::size_t nx, int
   }
 }
 
-
 // Whether occupied cell (x, y, z) (index i) of the dims box has a free face neighbour.
 inline bool HasFreeNeighbour(std::span<const std::uint8_t> occupancy, const Eigen::Vector3i& dims,
                              int x, int y, int z, std::size_t i) {
@@ -188,7 +187,8 @@ void DeepCellBox(std::span<const std::uint8_t> occupancy, const Eigen::Vector3i&
   *hi = Eigen::Vector3i::Constant(-1);
   for (int z = 0; z < dims.z(); ++z) {
     for (int y = 0; y < dims.y(); ++y) {
-      const std::size_t row = snx * static_cast<std::size_t>(y) + snxy * static_cast<std::size_t>(z);
+      const std::size_t row =
+          snx * static_cast<std::size_t>(y) + snxy * static_cast<std::size_t>(z);
       for (int x = 0; x < dims.x(); ++x) {
         const std::size_t i = row + static_cast<std::size_t>(x);
         if (occupancy[i] == 0 || HasFreeNeighbour(occupancy, dims, x, y, z, i)) continue;
@@ -308,8 +308,8 @@ Esdf EsdfBuilder::Compute(const Eigen::Vector3d& origin_W, double resolution,
     FillDeepCells(occupancy, dims, t_cells, table, q_max, esdf.values_.data());
   }
   if (ground_layer.has_value()) {
-    LowerToGroundPlane(esdf.values_.data(), dims, *ground_layer, resolution,
-                       options.max_distance, inv_q);
+    LowerToGroundPlane(esdf.values_.data(), dims, *ground_layer, resolution, options.max_distance,
+                       inv_q);
   }
   return esdf;
 }

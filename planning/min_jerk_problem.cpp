@@ -598,14 +598,12 @@ class MinJerkProblem::GradientPass {
         ws_.v.row(i) = rows.row(ws_.active[static_cast<std::size_t>(i)].row).segment(3, m);
       }
     }
-    VTransposeTimes(own_3, mp, [](const ActiveSample& s) -> const Eigen::Vector3d& {
-      return s.grad;
-    });
+    VTransposeTimes(own_3, mp,
+                    [](const ActiveSample& s) -> const Eigen::Vector3d& { return s.grad; });
     for (int a = 0; a < 3; ++a) g_.segment(a * m, m) += ws_.vt_coef.col(a);
     if (!want_hess_) return;
-    VTransposeTimes(own_3, mp, [](const ActiveSample& s) -> const Eigen::Vector3d& {
-      return s.rho;
-    });
+    VTransposeTimes(own_3, mp,
+                    [](const ActiveSample& s) -> const Eigen::Vector3d& { return s.rho; });
     for (int a = 0; a < 3; ++a) hess_->row(ir_).segment(a * m, m) += ws_.vt_coef.col(a).transpose();
     for (int a = 0; a < 3; ++a) {
       for (int bb = 0; bb <= a; ++bb) AddQqBlock(own_m, mp, a, bb);

@@ -447,10 +447,10 @@ PathSearchResult PathSearcher::Search(const LocalMap& map, const Eigen::Vector3d
   const SearchBox box = BoxAround(map, start_cell, goal_cell);
   const double n_cells_d = static_cast<double>(box.dims.x()) * box.dims.y() * box.dims.z();
   if (n_cells_d > options_.max_search_cells) {
-    return fail(PathSearchStatus::kSearchBoxTooLarge,
-                "the search box holds " + std::to_string(static_cast<long long>(n_cells_d)) +
-                    " cells, more than max_search_cells = " +
-                    std::to_string(options_.max_search_cells));
+    return fail(
+        PathSearchStatus::kSearchBoxTooLarge,
+        "the search box holds " + std::to_string(static_cast<long long>(n_cells_d)) +
+            " cells, more than max_search_cells = " + std::to_string(options_.max_search_cells));
   }
   ResetCells(static_cast<std::size_t>(n_cells_d));
   CellIndex first;  // the start cell, or the nearest free cell within start_escape_radius
@@ -466,8 +466,10 @@ PathSearchResult PathSearcher::Search(const LocalMap& map, const Eigen::Vector3d
                             " before the goal");
   }
   if (status == PathSearchStatus::kNoPath) {
-    return fail(status, "no path: start or goal is enclosed, or the way around leaves the search "
-                        "box (search_margin); " + std::to_string(expansions) + " cells expanded");
+    return fail(status,
+                "no path: start or goal is enclosed, or the way around leaves the search "
+                "box (search_margin); " +
+                    std::to_string(expansions) + " cells expanded");
   }
   TracePath(map, box, box.Index(goal_cell), result);
   result.status = PathSearchStatus::kSuccess;

@@ -12,10 +12,10 @@
 #include <optional>
 #include <utility>
 
+#include "ipopt_timers.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/planning/dense_ma27.hpp"
 #include "quadtune/planning/ipopt_application.hpp"
-#include "ipopt_timers.hpp"
 
 namespace quadtune::planning {
 namespace {
@@ -245,8 +245,8 @@ Eigen::VectorXd InitialGuess(const MinJerkProblem& problem, const PlanRequest& r
   const bool warm = prev != nullptr && !prev->Empty();
   if (warm) {
     const double remaining = prev->Duration() - request.warm_start_time;
-    if (remaining > 0.0 && (prev->Position(prev->Duration()) - request.goal_W).norm() <
-                               0.05 * std::max(1.0, length)) {
+    if (remaining > 0.0 &&
+        (prev->Position(prev->Duration()) - request.goal_W).norm() < 0.05 * std::max(1.0, length)) {
       tau0 = std::clamp(remaining / sum_nominal, 0.2, 5.0);
     }
   }
@@ -277,9 +277,9 @@ void SetSolveOptions(Ipopt::IpoptApplication& app, const TrajectoryOptimizerOpti
   // objective's rounding floor, where the line search can no longer tell f(x + αd) from f(x).
   app.Options()->SetNumericValue("acceptable_tol", 1e19);
   app.Options()->SetNumericValue("acceptable_dual_inf_tol", 1e19);
-  app.Options()->SetNumericValue(
-      "acceptable_obj_change_tol",
-      curvature ? options.rounding_floor : options.stall_relative_change);
+  app.Options()->SetNumericValue("acceptable_obj_change_tol", curvature
+                                                                  ? options.rounding_floor
+                                                                  : options.stall_relative_change);
   app.Options()->SetIntegerValue("acceptable_iter", options.stall_iterations);
 }
 
@@ -306,10 +306,10 @@ std::optional<std::pair<PlanStatus, std::string>> UnusableIterate(
     const MinJerkTnlp& tnlp, Ipopt::ApplicationReturnStatus ipopt_status) {
   const int status = static_cast<int>(ipopt_status);
   if (!tnlp.HasFinal() || !tnlp.Final().allFinite()) {
-    return std::pair(ipopt_status == Ipopt::Invalid_Number_Detected ? PlanStatus::kNumericalError
-                                                                    : PlanStatus::kSolverFailure,
-                     "Ipopt returned status " + std::to_string(status) +
-                         " without a finite solution");
+    return std::pair(
+        ipopt_status == Ipopt::Invalid_Number_Detected ? PlanStatus::kNumericalError
+                                                       : PlanStatus::kSolverFailure,
+        "Ipopt returned status " + std::to_string(status) + " without a finite solution");
   }
   // A diverged time scale (the last iterate of a failed solve) is reported, not sampled: a
   // trajectory stretched 10^6 times would take gigabytes of check samples.
@@ -530,8 +530,8 @@ void TrajectoryOptimizer::Conclude(int ipopt_status, bool curvature, double requ
   if (!std::isfinite(result->cost.total) || !std::isfinite(result->max_speed) ||
       ipopt_status == Ipopt::Invalid_Number_Detected) {
     result->status = PlanStatus::kNumericalError;
-    result->message = "non-finite cost or trajectory (Ipopt status " +
-                      std::to_string(ipopt_status) + ")";
+    result->message =
+        "non-finite cost or trajectory (Ipopt status " + std::to_string(ipopt_status) + ")";
   } else if (ipopt_status == Ipopt::Maximum_Iterations_Exceeded) {
     result->status = PlanStatus::kMaxIterations;
     result->message = "Ipopt reached max_iter = " + std::to_string(options_.max_iterations);
