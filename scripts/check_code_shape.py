@@ -25,7 +25,7 @@ import sys
 MODULES = ("engine", "planning", "optimizers", "sim")
 SUFFIXES = (".cpp", ".hpp", ".h", ".cc")
 CONTAINER_RE = re.compile(r"\b(namespace|class|struct|union|enum)\b")
-EXTERN_RE = re.compile(r'^\s*extern\s+"C(\+\+)?"\s*$')
+EXTERN_RE = re.compile(r'^\s*extern\s+"\s*"\s*$')  # extern "C" (literals are blanked)
 
 
 def Blank(source):
