@@ -158,40 +158,28 @@ Experiment Experiment::LoadFile(const std::string& path,
   return FromString(ApplyAssignments(text, assignments, path), path, dir.empty() ? "." : dir);
 }
 
-Experiment Experiment::FromString(const std::string& text, const std::string& origin,
-                                  const std::string& base_dir) {
-  const YamlMap map = YamlMap::FromString(text, origin);
-  map.RejectUnknownKeys({"name", "seed", "threads", "mode", "repeats", "methods", "planner",
-                         "parameters", "short_term", "long_term", "initial_short_term",
-                         "start", "objective", "maps", "validation", "recommend", "budget", "pso",
-                         "bo"});
-  Experiment e;
-  e.file = origin;
-  e.text = text;
-  e.name = map.String("name", std::string("experiment"));
-  e.seed = static_cast<std::uint64_t>(map.Integer("seed", 1, Range::Closed(0, 9.0e15)));
-  e.threads = static_cast<int>(map.Integer("threads", 2, Range::Closed(1, 1024)));
-  e.mode = map.String("mode", std::string("reproducible"), {"reproducible", "realtime"}) == "realtime"
-               ? TimingMode::kRealtime
-               : TimingMode::kReproducible;
-  e.repeats = static_cast<int>(map.Integer("repeats", 1, Range::Closed(1, kMaxRepeats)));
-  {
-    std::set<Method> seen;
-    for (const auto& name : StringList(map, "methods")) {
-      const auto m = MethodFromString(name);
-      if (!m) {
-        map.Fail("methods", "unknown method '" + name + "', allowed: default, random, pso, bo, bo_pso");
-      }
-      if (!seen.insert(*m).second) map.Fail("methods", "method '" + name + "' listed twice");
-      e.methods.push_back(*m);
-    }
-  }
-  BuiltPlanner built = BuildPlanner(map.Map("planner"), base_dir);
-  e.planner_type = built.type;
-  e.planner = built.planner;
-  e.space = optimizers::ParameterSpace::FromYaml(map);
+namespace {
 
-  // Which parameters are short- and long-term: each must be the planner's and in the space.
+// The `methods` list: known names, each once.
+std::vector<Method> ReadMethods(const YamlMap& map) {
+  std::vector<Method> methods;
+  std::set<Method> seen;
+  for (const auto& name : StringList(map, "methods")) {
+    const auto m = MethodFromString(name);
+    if (!m) {
+      map.Fail("methods",
+               "unknown method '" + name + "', allowed: default, random, pso, bo, bo_pso");
+    }
+    if (!seen.insert(*m).second) map.Fail("methods", "method '" + name + "' listed twice");
+    methods.push_back(*m);
+  }
+  return methods;
+}
+
+// Which parameters are short- and long-term (each must be the planner's and in e.space), and
+// the optional `initial_short_term` and `start` points.
+void ReadParameterRoles(const YamlMap& map, const BuiltPlanner& built, const std::string& origin,
+                        Experiment& e) {
   std::set<std::string> planner_short, planner_long;
   for (const auto& p : built.schema.short_term) planner_short.insert(p.name);
   for (const auto& p : built.schema.long_term) planner_long.insert(p.name);
@@ -250,35 +238,36 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
     }
     e.start = values;
   }
-  e.objective = ObjectiveOptions::FromYaml(map.Map("objective", true));
-  e.objective.Validate(origin);
+}
 
-  {
-    const YamlMap m = map.Map("maps", true);
-    m.RejectUnknownKeys({"mode", "pool"});
-    const std::string mode = m.String("mode", std::string(ToString(e.maps.mode)),
-                                      {"per_flight", "per_repeat", "pool"});
-    for (MapMode candidate : {MapMode::kPerFlight, MapMode::kPerRepeat, MapMode::kPool}) {
-      if (mode == ToString(candidate)) e.maps.mode = candidate;
-    }
-    e.maps.pool = static_cast<int>(m.Integer("pool", e.maps.pool, Range::Closed(1, 1e6)));
-    const YamlMap v = map.Map("validation", true);
-    v.RejectUnknownKeys({"maps"});
-    e.validation.maps =
-        static_cast<int>(v.Integer("maps", e.validation.maps, Range::Closed(0, 1e5)));
-    const YamlMap r = map.Map("recommend", true);
-    r.RejectUnknownKeys({"candidates", "flights", "clearance", "z", "emergency_stops", "backoff"});
-    e.recommend.candidates =
-        static_cast<int>(r.Integer("candidates", e.recommend.candidates, Range::Closed(0, 1000)));
-    e.recommend.flights =
-        static_cast<int>(r.Integer("flights", e.recommend.flights, Range::Closed(1, 1000)));
-    e.recommend.clearance = r.Number("clearance", e.recommend.clearance, Range::Closed(0, 100));
-    e.recommend.z = r.Number("z", e.recommend.z, Range::Closed(0, 10));
-    e.recommend.emergency_stops = r.Bool("emergency_stops", e.recommend.emergency_stops);
-    e.recommend.backoff =
-        static_cast<int>(r.Integer("backoff", e.recommend.backoff, Range::Closed(0, 100)));
+// The `maps`, `validation` and `recommend` sections.
+void ReadMapsAndValidation(const YamlMap& map, Experiment& e) {
+  const YamlMap m = map.Map("maps", true);
+  m.RejectUnknownKeys({"mode", "pool"});
+  const std::string mode =
+      m.String("mode", std::string(ToString(e.maps.mode)), {"per_flight", "per_repeat", "pool"});
+  for (MapMode candidate : {MapMode::kPerFlight, MapMode::kPerRepeat, MapMode::kPool}) {
+    if (mode == ToString(candidate)) e.maps.mode = candidate;
   }
+  e.maps.pool = static_cast<int>(m.Integer("pool", e.maps.pool, Range::Closed(1, 1e6)));
+  const YamlMap v = map.Map("validation", true);
+  v.RejectUnknownKeys({"maps"});
+  e.validation.maps = static_cast<int>(v.Integer("maps", e.validation.maps, Range::Closed(0, 1e5)));
+  const YamlMap r = map.Map("recommend", true);
+  r.RejectUnknownKeys({"candidates", "flights", "clearance", "z", "emergency_stops", "backoff"});
+  e.recommend.candidates =
+      static_cast<int>(r.Integer("candidates", e.recommend.candidates, Range::Closed(0, 1000)));
+  e.recommend.flights =
+      static_cast<int>(r.Integer("flights", e.recommend.flights, Range::Closed(1, 1000)));
+  e.recommend.clearance = r.Number("clearance", e.recommend.clearance, Range::Closed(0, 100));
+  e.recommend.z = r.Number("z", e.recommend.z, Range::Closed(0, 10));
+  e.recommend.emergency_stops = r.Bool("emergency_stops", e.recommend.emergency_stops);
+  e.recommend.backoff =
+      static_cast<int>(r.Integer("backoff", e.recommend.backoff, Range::Closed(0, 100)));
+}
 
+// The `budget` section (after `methods`, `repeats` and `mode`, which bound it).
+void ReadBudget(const YamlMap& map, Experiment& e) {
   const YamlMap b = map.Map("budget", true);
   b.RejectUnknownKeys({"flights", "default_flights", "flight_batch", "short_evals_per_flight", "queries_per_eval",
                        "query_window", "short_term_while_flying"});
@@ -315,7 +304,37 @@ Experiment Experiment::FromString(const std::string& text, const std::string& or
   if (e.budget.short_term_while_flying && e.mode != TimingMode::kRealtime) {
     b.Fail("short_term_while_flying", "true needs mode: realtime (it depends on wall-clock time)");
   }
+}
 
+}  // namespace
+
+Experiment Experiment::FromString(const std::string& text, const std::string& origin,
+                                  const std::string& base_dir) {
+  const YamlMap map = YamlMap::FromString(text, origin);
+  map.RejectUnknownKeys({"name", "seed", "threads", "mode", "repeats", "methods", "planner",
+                         "parameters", "short_term", "long_term", "initial_short_term", "start",
+                         "objective", "maps", "validation", "recommend", "budget", "pso", "bo"});
+  Experiment e;
+  e.file = origin;
+  e.text = text;
+  e.name = map.String("name", std::string("experiment"));
+  e.seed = static_cast<std::uint64_t>(map.Integer("seed", 1, Range::Closed(0, 9.0e15)));
+  e.threads = static_cast<int>(map.Integer("threads", 2, Range::Closed(1, 1024)));
+  e.mode =
+      map.String("mode", std::string("reproducible"), {"reproducible", "realtime"}) == "realtime"
+          ? TimingMode::kRealtime
+          : TimingMode::kReproducible;
+  e.repeats = static_cast<int>(map.Integer("repeats", 1, Range::Closed(1, kMaxRepeats)));
+  e.methods = ReadMethods(map);
+  BuiltPlanner built = BuildPlanner(map.Map("planner"), base_dir);
+  e.planner_type = built.type;
+  e.planner = built.planner;
+  e.space = optimizers::ParameterSpace::FromYaml(map);
+  ReadParameterRoles(map, built, origin, e);
+  e.objective = ObjectiveOptions::FromYaml(map.Map("objective", true));
+  e.objective.Validate(origin);
+  ReadMapsAndValidation(map, e);
+  ReadBudget(map, e);
   if (map.Has("pso")) e.pso = optimizers::PsoOptions::FromYaml(map.Map("pso"));
   if (map.Has("bo")) e.bo = optimizers::BayesOptOptions::FromYaml(map.Map("bo"));
   return e;

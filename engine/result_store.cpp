@@ -132,10 +132,10 @@ std::string Num(double v) {
 
 void ResultStore::Exec(const std::string& sql) const {
   char* err = nullptr;
-  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
+  if (sqlite3_exec(db_.get(), sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
     std::string msg = err ? err : "?";
     sqlite3_free(err);
-    const char* file = sqlite3_db_filename(db_, "main");
+    const char* file = sqlite3_db_filename(db_.get(), "main");
     throw std::runtime_error("sqlite: " + std::string(file != nullptr ? file : "?") + ": " + msg);
   }
 }
@@ -149,21 +149,18 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
     throw ConfigError(path, "--resume", "no results file to resume from");
   }
   if (!fs::path(path).parent_path().empty()) fs::create_directories(fs::path(path).parent_path());
-  if (sqlite3_open(path.c_str(), &db_) != SQLITE_OK) {
-    throw std::runtime_error("sqlite: cannot open " + path);
-  }
-  sqlite3_busy_timeout(db_, 5000);
+  db_ = Open(path, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE);
   try {
     Exec("PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL;");
     if (resume) {
       // A damaged store (truncated, overwritten) is refused before anything is written to it.
-      Statement check(db_, "PRAGMA quick_check");
+      Statement check(db_.get(), "PRAGMA quick_check");
       const std::string verdict = check.Step() ? check.Text(0) : std::string("no answer");
       if (verdict != "ok") throw std::runtime_error("integrity check: " + verdict);
     }
     Exec(kSchema);
     {
-      Statement s(db_, "SELECT id, config FROM experiment ORDER BY id LIMIT 1");
+      Statement s(db_.get(), "SELECT id, config FROM experiment ORDER BY id LIMIT 1");
       if (s.Step()) {
         if (!resume) throw std::runtime_error("results file " + path + " is not empty");
         if (s.Text(1) != experiment.text) {
@@ -175,9 +172,10 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
       }
     }
     if (experiment_id_ == 0) {
-      Statement s(db_,
-                  "INSERT INTO experiment(name, config, seed, version, machine, threads, mode, started) "
-                  "VALUES(?,?,?,?,?,?,?,?)");
+      Statement s(
+          db_.get(),
+          "INSERT INTO experiment(name, config, seed, version, machine, threads, mode, started) "
+          "VALUES(?,?,?,?,?,?,?,?)");
       s.Bind(1, experiment.name);
       s.Bind(2, experiment.text);
       s.Bind(3, static_cast<std::int64_t>(experiment.seed));
@@ -187,21 +185,17 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
       s.Bind(7, std::string(experiment.mode == TimingMode::kRealtime ? "realtime" : "reproducible"));
       s.Bind(8, Now());
       s.Step();
-      experiment_id_ = sqlite3_last_insert_rowid(db_);
+      experiment_id_ = sqlite3_last_insert_rowid(db_.get());
     }
-    Statement s(db_, kSelectEval);
+    Statement s(db_.get(), kSelectEval);
     while (s.Step()) {
       EvaluationRow r = ReadRow(s);
       stored_.emplace(std::make_tuple(r.trial_id, r.kind, r.iteration, r.index), std::move(r));
     }
   } catch (const ConfigError&) {
-    sqlite3_close(db_);
-    db_ = nullptr;
-    throw;
+    throw;  // db_ closes the file
   } catch (const std::exception& e) {
     // sqlite errors, and stored text that does not parse (e.g. a seed column).
-    sqlite3_close(db_);
-    db_ = nullptr;
     if (!resume) throw;
     throw ConfigError(path, "--resume",
                       std::string("not a readable quadtune results store (") + e.what() +
@@ -211,34 +205,46 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
 
 ResultStore::ResultStore(const std::string& path) {
   if (!std::filesystem::exists(path)) throw ConfigError(path, "", "no such results file");
-  if (sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
-    throw std::runtime_error("sqlite: cannot open " + path);
-  }
-  sqlite3_busy_timeout(db_, 5000);
+  db_ = Open(path, SQLITE_OPEN_READONLY);
 }
 
-ResultStore::~ResultStore() {
-  sqlite3_finalize(insert_);
-  sqlite3_close(db_);
+ResultStore::~ResultStore() = default;
+
+void ResultStore::CloseConnection::operator()(sqlite3* db) const { sqlite3_close(db); }
+
+void ResultStore::FinalizeStatement::operator()(sqlite3_stmt* statement) const {
+  sqlite3_finalize(statement);
+}
+
+std::unique_ptr<sqlite3, ResultStore::CloseConnection> ResultStore::Open(const std::string& path,
+                                                                         int flags) {
+  sqlite3* raw = nullptr;
+  const int rc = sqlite3_open_v2(path.c_str(), &raw, flags, nullptr);
+  // Owned whatever the outcome: SQLite allocates a handle also when the open fails.
+  std::unique_ptr<sqlite3, CloseConnection> db(raw);
+  if (rc != SQLITE_OK) throw std::runtime_error("sqlite: cannot open " + path);
+  sqlite3_busy_timeout(db.get(), 5000);
+  return db;
 }
 
 std::int64_t ResultStore::Trial(const std::string& method, int repeat, std::uint64_t map_seed) {
   {
-    Statement s(db_, "SELECT id FROM trial WHERE experiment_id=? AND method=? AND repeat=?");
+    Statement s(db_.get(), "SELECT id FROM trial WHERE experiment_id=? AND method=? AND repeat=?");
     s.Bind(1, experiment_id_);
     s.Bind(2, method);
     s.Bind(3, repeat);
     if (s.Step()) return s.Int(0);
   }
-  Statement s(db_,
-              "INSERT INTO trial(experiment_id, method, repeat, map_seed, status) VALUES(?,?,?,?,?)");
+  Statement s(
+      db_.get(),
+      "INSERT INTO trial(experiment_id, method, repeat, map_seed, status) VALUES(?,?,?,?,?)");
   s.Bind(1, experiment_id_);
   s.Bind(2, method);
   s.Bind(3, repeat);
   s.Bind(4, std::to_string(map_seed));
   s.Bind(5, std::string("running"));
   s.Step();
-  return sqlite3_last_insert_rowid(db_);
+  return sqlite3_last_insert_rowid(db_.get());
 }
 
 const EvaluationRow* ResultStore::Find(std::int64_t trial_id, const std::string& kind,
@@ -262,34 +268,39 @@ void ResultStore::BindAndStep(const EvaluationRow& r) {
         "INSERT OR IGNORE INTO evaluation(trial_id, method, kind, iteration, idx, params, terms, "
         "value, status, message, wall_s, started, finished, map_seed, flight_seed) "
         "VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)";
-    if (sqlite3_prepare_v2(db_, sql, -1, &insert_, nullptr) != SQLITE_OK) {
-      throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(db_) + " in " + sql);
+    sqlite3_stmt* prepared = nullptr;
+    const int rc = sqlite3_prepare_v2(db_.get(), sql, -1, &prepared, nullptr);
+    insert_.reset(prepared);
+    if (rc != SQLITE_OK) {
+      throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(db_.get()) + " in " + sql);
     }
   }
   const auto text = [this](int i, const std::string& v) {
-    sqlite3_bind_text(insert_, i, v.data(), static_cast<int>(v.size()), SQLITE_STATIC);
+    sqlite3_bind_text(insert_.get(), i, v.data(), static_cast<int>(v.size()), SQLITE_STATIC);
   };
-  sqlite3_bind_int64(insert_, 1, r.trial_id);
+  sqlite3_bind_int64(insert_.get(), 1, r.trial_id);
   text(2, r.method);
   text(3, r.kind);
-  sqlite3_bind_int(insert_, 4, r.iteration);
-  sqlite3_bind_int(insert_, 5, r.index);
+  sqlite3_bind_int(insert_.get(), 4, r.iteration);
+  sqlite3_bind_int(insert_.get(), 5, r.index);
   text(6, r.params);
   text(7, r.terms);
-  sqlite3_bind_double(insert_, 8, r.value);
+  sqlite3_bind_double(insert_.get(), 8, r.value);
   text(9, r.status);
   text(10, r.message);
-  sqlite3_bind_double(insert_, 11, r.wall_s);
-  sqlite3_bind_double(insert_, 12, r.started);
-  sqlite3_bind_double(insert_, 13, r.finished);
+  sqlite3_bind_double(insert_.get(), 11, r.wall_s);
+  sqlite3_bind_double(insert_.get(), 12, r.started);
+  sqlite3_bind_double(insert_.get(), 13, r.finished);
   const std::string map_seed = SeedText(r.map_seed);
   const std::string flight_seed = SeedText(r.flight_seed);
   text(14, map_seed);
   text(15, flight_seed);
-  const int rc = sqlite3_step(insert_);
-  sqlite3_reset(insert_);
-  sqlite3_clear_bindings(insert_);
-  if (rc != SQLITE_DONE) throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(db_));
+  const int rc = sqlite3_step(insert_.get());
+  sqlite3_reset(insert_.get());
+  sqlite3_clear_bindings(insert_.get());
+  if (rc != SQLITE_DONE) {
+    throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(db_.get()));
+  }
 }
 
 void ResultStore::Insert(const EvaluationRow& r) { InsertBatch(std::span(&r, 1)); }
@@ -303,14 +314,17 @@ void ResultStore::InsertBatch(std::span<const EvaluationRow> rows) {
   } catch (...) {
     // SQLite may have rolled back already (e.g. on a full disk); the first error is the one to
     // report, so a failed rollback is not.
-    if (sqlite3_get_autocommit(db_) == 0) sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    if (sqlite3_get_autocommit(db_.get()) == 0) {
+      sqlite3_exec(db_.get(), "ROLLBACK", nullptr, nullptr, nullptr);
+    }
     throw;
   }
 }
 
 void ResultStore::FinishTrial(std::int64_t trial_id, const std::string& status,
                               const std::string& best_params, double best_value) {
-  Statement s(db_, "UPDATE trial SET status=?, best_params=?, best_value=?, finished=? WHERE id=?");
+  Statement s(db_.get(),
+              "UPDATE trial SET status=?, best_params=?, best_value=?, finished=? WHERE id=?");
   s.Bind(1, status);
   s.Bind(2, best_params);
   s.Bind(3, best_value);
@@ -321,14 +335,15 @@ void ResultStore::FinishTrial(std::int64_t trial_id, const std::string& status,
 
 std::vector<EvaluationRow> ResultStore::Evaluations() const {
   std::vector<EvaluationRow> rows;
-  Statement s(db_, std::string(kSelectEval) + " ORDER BY trial_id, kind, iteration, idx");
+  Statement s(db_.get(), std::string(kSelectEval) + " ORDER BY trial_id, kind, iteration, idx");
   while (s.Step()) rows.push_back(ReadRow(s));
   return rows;
 }
 
 std::vector<TrialRow> ResultStore::Trials() const {
   std::vector<TrialRow> rows;
-  Statement s(db_, "SELECT id, method, repeat, status, best_params, best_value FROM trial ORDER BY id");
+  Statement s(db_.get(),
+              "SELECT id, method, repeat, status, best_params, best_value FROM trial ORDER BY id");
   while (s.Step()) {
     TrialRow t;
     t.id = s.Int(0);
@@ -348,7 +363,8 @@ void ResultStore::ExportCsv(const std::string& directory) const {
   {
     std::ofstream out(fs::path(directory) / "experiment.csv");
     out << "id,name,seed,version,machine,threads,mode,started\n";
-    Statement s(db_, "SELECT id, name, seed, version, machine, threads, mode, started FROM experiment");
+    Statement s(db_.get(),
+                "SELECT id, name, seed, version, machine, threads, mode, started FROM experiment");
     while (s.Step()) {
       out << s.Int(0) << ',' << CsvField(s.Text(1)) << ',' << s.Int(2) << ',' << CsvField(s.Text(3))
           << ',' << CsvField(s.Text(4)) << ',' << s.Int(5) << ',' << s.Text(6) << ','

@@ -3,10 +3,11 @@
 #include <tbb/global_control.h>
 #include <tbb/task_arena.h>
 
-#include <chrono>
 #include <algorithm>
+#include <chrono>
 #include <exception>
 #include <thread>
+#include <utility>
 
 namespace quadtune::engine {
 
@@ -124,9 +125,27 @@ void WorldPool::Release(WorkerSlot* slot) {
   free_.push_back(slot);
 }
 
+WorldPool::Lease WorldPool::Borrow() { return Lease(this, Acquire()); }
+
+WorldPool::Lease::Lease(Lease&& other) noexcept
+    : pool_(std::exchange(other.pool_, nullptr)), slot_(std::exchange(other.slot_, nullptr)) {}
+
+WorldPool::Lease& WorldPool::Lease::operator=(Lease&& other) noexcept {
+  if (this != &other) {
+    if (slot_ != nullptr) pool_->Release(slot_);
+    pool_ = std::exchange(other.pool_, nullptr);
+    slot_ = std::exchange(other.slot_, nullptr);
+  }
+  return *this;
+}
+
+WorldPool::Lease::~Lease() {
+  if (slot_ != nullptr) pool_->Release(slot_);
+}
+
 FlightRecord FlyOnPool(const Planner& planner, WorldPool& pool, const FlightRequest& request,
                        bool* threw) {
-  WorkerSlot* slot = pool.Acquire();
+  const WorldPool::Lease slot = pool.Borrow();
   FlightRecord rec;
   std::string error;
   try {
@@ -144,7 +163,6 @@ FlightRecord FlyOnPool(const Planner& planner, WorldPool& pool, const FlightRequ
     slot->state.reset();  // rebuilt by the next flight in this slot
   }
   if (threw != nullptr) *threw = failed;
-  pool.Release(slot);
   return rec;
 }
 

@@ -165,12 +165,143 @@ Experiment Study::Build(std::size_t point, std::size_t stage, const ParamValues&
   return Experiment::FromString(YamlEmit(node), origin, base_dir);
 }
 
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// The index entry of one finished stage.
+nlohmann::json StageEntry(const StudyStage& stage, const ParamValues& start,
+                          const std::string& store, const ParamValues& best, double wall_s,
+                          const Experiment& e) {
+  nlohmann::json sj;
+  sj["name"] = stage.name;
+  sj["start_from"] = stage.start_from;
+  sj["start"] = ToJson(start);
+  sj["store"] = store;
+  sj["best"] = ToJson(best);
+  sj["wall_s"] = wall_s;
+  nlohmann::json space = nlohmann::json::array();
+  for (const auto& prm : e.space.Parameters()) {
+    space.push_back(
+        {{"name", prm.name}, {"lower", prm.lower}, {"upper", prm.upper}, {"log", prm.log_scale}});
+  }
+  sj["space"] = space;
+  return sj;
+}
+
+// The stages of point p in order, each started from its start_from stage's best point: their
+// index entries into point["stages"], the recommendations of the tuned trials into
+// *candidates, the last stage's experiment into *last. False when cancelled.
+bool RunPointStages(const Study& study, const StudyOptions& options, std::size_t p,
+                    StudySummary& summary, nlohmann::json& point,
+                    std::vector<Candidate>* candidates, Experiment* last) {
+  std::map<std::string, ParamValues> stage_best;
+  for (std::size_t k = 0; k < study.stages.size(); ++k) {
+    const StudyStage& stage = study.stages[k];
+    const ParamValues start =
+        stage.start_from.empty() ? ParamValues{} : stage_best.at(stage.start_from);
+    const Experiment e = study.Build(p, k, start);
+    if (k + 1 == study.stages.size()) *last = e;
+    const std::string dir = StagePath(options.out_dir, study.labels[p], stage.name);
+    fs::create_directories(dir);
+    RunOptions ro;
+    ro.store_path = (fs::path(dir) / "results.sqlite").string();
+    ro.threads = options.threads;
+    ro.resume = options.resume && fs::exists(ro.store_path);
+    ro.validate = false;  // the study validates every stage's points in the last stage's world
+    ro.cancel = options.cancel;
+    if (options.on_progress) {
+      ro.on_progress = [&](const Progress& run) {
+        StudyProgress sp;
+        sp.label = study.labels[p];
+        sp.stage = stage.name;
+        sp.point = p;
+        sp.points = study.labels.size();
+        sp.run = run;
+        options.on_progress(sp);
+      };
+    }
+    const RunSummary rs = RunExperiment(e, ro);
+    summary.flights += rs.flights;
+    summary.resolves += rs.resolves;
+    if (rs.status == RunStatus::kCancelled) return false;
+    double best = std::numeric_limits<double>::infinity();
+    for (const auto& t : rs.trials) {
+      if (t.method == ToString(Method::kDefault)) continue;
+      candidates->push_back({stage.name, t.method, t.repeat, t.recommended});
+      if (t.recommended_value < best) {
+        best = t.recommended_value;
+        stage_best[stage.name] = t.recommended;
+      }
+    }
+    if (!stage_best.count(stage.name)) stage_best[stage.name] = e.Defaults();
+    point["stages"].push_back(StageEntry(stage, start,
+                                         fs::relative(ro.store_path, options.out_dir).string(),
+                                         stage_best[stage.name], rs.wall_s, e));
+  }
+  return true;
+}
+
+// Validation of point p: every candidate (the defaults first) on the same held-out maps and
+// flight seeds, in the last stage's world `last`; one row per flight into `csv`. False when
+// cancelled.
+bool ValidatePoint(const Study& study, const StudyOptions& options, std::size_t p,
+                   const Experiment& last, std::vector<Candidate> candidates, std::ostream& csv,
+                   StudySummary& summary) {
+  candidates.insert(candidates.begin(), Candidate{"", "default", 0, last.Defaults()});
+  const int n = study.validation_flights;
+  std::vector<std::uint64_t> map_seeds(static_cast<std::size_t>(n));
+  for (int f = 0; f < n; ++f) map_seeds[static_cast<std::size_t>(f)] = last.HeldOutMapSeed(f);
+  std::vector<FlightJob> jobs;
+  for (const Candidate& c : candidates) {
+    for (int f = 0; f < n; ++f) {
+      FlightJob job;
+      job.params = last.Defaults();
+      for (const auto& [k, v] : c.params) job.params[k] = v;
+      job.map_seed = map_seeds[static_cast<std::size_t>(f)];
+      job.flight_seed = last.HeldOutFlightSeed(f);
+      jobs.push_back(std::move(job));
+    }
+  }
+  const std::size_t total = jobs.size();
+  const int threads = options.threads > 0 ? options.threads : last.threads;
+  const std::vector<FlightRecord> records =
+      FlyJobs(last.planner, jobs, threads, options.cancel, [&](int d, int t) {
+        if (!options.on_progress) return;
+        StudyProgress sp;
+        sp.label = study.labels[p];
+        sp.stage = "validation";
+        sp.point = p;
+        sp.points = study.labels.size();
+        sp.validating = true;
+        sp.validation_done = d;
+        sp.validation_total = t;
+        options.on_progress(sp);
+      });
+  if (options.cancel != nullptr && options.cancel->load()) return false;
+  summary.flights += static_cast<long>(total);
+  for (std::size_t i = 0; i < total; ++i) {
+    const Candidate& c = candidates[i / static_cast<std::size_t>(n)];
+    const std::size_t f = i % static_cast<std::size_t>(n);
+    const FlightRecord& r = records[i];
+    const double fl = r.status == EvalStatus::kOk ? LongTermObjective(r, last.objective).value
+                                                  : last.objective.failure_value;
+    csv << p << ',' << CsvField(study.labels[p]) << ',' << c.stage << ',' << c.method << ','
+        << c.repeat << ',' << f << ',' << map_seeds[f] << ',' << ToString(r.status) << ','
+        << (r.completed ? 1 : 0) << ',' << r.flight_time << ',' << r.collisions << ','
+        << r.emergency_stops << ',' << r.plans << ',' << r.failed_plans << ',' << fl << ','
+        << CsvField(ToJson(c.params).dump()) << '\n';
+  }
+  csv.flush();
+  return true;
+}
+
+}  // namespace
+
 StudySummary RunStudy(const Study& study, const StudyOptions& options) {
-  using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   StudySummary summary;
   fs::create_directories(options.out_dir);
-  auto cancelled = [&] { return options.cancel != nullptr && options.cancel->load(); };
 
   nlohmann::json index;
   index["name"] = study.name;
@@ -190,66 +321,12 @@ StudySummary RunStudy(const Study& study, const StudyOptions& options) {
     point["label"] = study.labels[p];
     point["value"] = study.sweep_key.empty() ? "" : study.sweep_values[p];
     point["stages"] = nlohmann::json::array();
-    std::map<std::string, ParamValues> stage_best;
     std::vector<Candidate> candidates;
     Experiment last = study.Build(p, study.stages.size() - 1);
-    for (std::size_t k = 0; k < study.stages.size(); ++k) {
-      const StudyStage& stage = study.stages[k];
-      const ParamValues start =
-          stage.start_from.empty() ? ParamValues{} : stage_best.at(stage.start_from);
-      const Experiment e = study.Build(p, k, start);
-      if (k + 1 == study.stages.size()) last = e;
-      const std::string dir = StagePath(options.out_dir, study.labels[p], stage.name);
-      fs::create_directories(dir);
-      RunOptions ro;
-      ro.store_path = (fs::path(dir) / "results.sqlite").string();
-      ro.threads = options.threads;
-      ro.resume = options.resume && fs::exists(ro.store_path);
-      ro.validate = false;  // the study validates every stage's points in the last stage's world
-      ro.cancel = options.cancel;
-      if (options.on_progress) {
-        ro.on_progress = [&](const Progress& run) {
-          StudyProgress sp;
-          sp.label = study.labels[p];
-          sp.stage = stage.name;
-          sp.point = p;
-          sp.points = study.labels.size();
-          sp.run = run;
-          options.on_progress(sp);
-        };
-      }
-      const RunSummary rs = RunExperiment(e, ro);
-      summary.flights += rs.flights;
-      summary.resolves += rs.resolves;
-      if (rs.status == RunStatus::kCancelled) {
-        summary.status = RunStatus::kCancelled;
-        summary.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
-        return summary;
-      }
-      double best = std::numeric_limits<double>::infinity();
-      for (const auto& t : rs.trials) {
-        if (t.method == ToString(Method::kDefault)) continue;
-        candidates.push_back({stage.name, t.method, t.repeat, t.recommended});
-        if (t.recommended_value < best) {
-          best = t.recommended_value;
-          stage_best[stage.name] = t.recommended;
-        }
-      }
-      if (!stage_best.count(stage.name)) stage_best[stage.name] = e.Defaults();
-      nlohmann::json sj;
-      sj["name"] = stage.name;
-      sj["start_from"] = stage.start_from;
-      sj["start"] = ToJson(start);
-      sj["store"] = fs::relative(ro.store_path, options.out_dir).string();
-      sj["best"] = ToJson(stage_best[stage.name]);
-      sj["wall_s"] = rs.wall_s;
-      nlohmann::json space = nlohmann::json::array();
-      for (const auto& prm : e.space.Parameters()) {
-        space.push_back({{"name", prm.name}, {"lower", prm.lower}, {"upper", prm.upper},
-                         {"log", prm.log_scale}});
-      }
-      sj["space"] = space;
-      point["stages"].push_back(sj);
+    if (!RunPointStages(study, options, p, summary, point, &candidates, &last)) {
+      summary.status = RunStatus::kCancelled;
+      summary.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+      return summary;
     }
     index["points"].push_back(point);
     {
@@ -257,57 +334,10 @@ StudySummary RunStudy(const Study& study, const StudyOptions& options) {
       out << index.dump(2) << "\n";
     }
     if (study.validation_flights == 0) continue;
-
-    // Validation: every candidate and the defaults on the same held-out maps and flight seeds,
-    // in the last stage's world.
-    candidates.insert(candidates.begin(), Candidate{"", "default", 0, last.Defaults()});
-    const int n = study.validation_flights;
-    std::vector<std::uint64_t> map_seeds(static_cast<std::size_t>(n));
-    for (int f = 0; f < n; ++f) map_seeds[static_cast<std::size_t>(f)] = last.HeldOutMapSeed(f);
-    std::vector<FlightJob> jobs;
-    for (const Candidate& c : candidates) {
-      for (int f = 0; f < n; ++f) {
-        FlightJob job;
-        job.params = last.Defaults();
-        for (const auto& [k, v] : c.params) job.params[k] = v;
-        job.map_seed = map_seeds[static_cast<std::size_t>(f)];
-        job.flight_seed = last.HeldOutFlightSeed(f);
-        jobs.push_back(std::move(job));
-      }
-    }
-    const std::size_t total = jobs.size();
-    const int threads = options.threads > 0 ? options.threads : last.threads;
-    const std::vector<FlightRecord> records =
-        FlyJobs(last.planner, jobs, threads, options.cancel, [&](int d, int t) {
-          if (!options.on_progress) return;
-          StudyProgress sp;
-          sp.label = study.labels[p];
-          sp.stage = "validation";
-          sp.point = p;
-          sp.points = study.labels.size();
-          sp.validating = true;
-          sp.validation_done = d;
-          sp.validation_total = t;
-          options.on_progress(sp);
-        });
-    if (cancelled()) {
+    if (!ValidatePoint(study, options, p, last, std::move(candidates), csv, summary)) {
       summary.status = RunStatus::kCancelled;
       break;
     }
-    summary.flights += static_cast<long>(total);
-    for (std::size_t i = 0; i < total; ++i) {
-      const Candidate& c = candidates[i / static_cast<std::size_t>(n)];
-      const std::size_t f = i % static_cast<std::size_t>(n);
-      const FlightRecord& r = records[i];
-      const double fl = r.status == EvalStatus::kOk ? LongTermObjective(r, last.objective).value
-                                                     : last.objective.failure_value;
-      csv << p << ',' << CsvField(study.labels[p]) << ',' << c.stage << ',' << c.method << ','
-          << c.repeat << ',' << f << ',' << map_seeds[f] << ',' << ToString(r.status) << ','
-          << (r.completed ? 1 : 0) << ',' << r.flight_time << ',' << r.collisions << ','
-          << r.emergency_stops << ',' << r.plans << ',' << r.failed_plans << ',' << fl << ','
-          << CsvField(ToJson(c.params).dump()) << '\n';
-    }
-    csv.flush();
   }
   summary.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
   return summary;

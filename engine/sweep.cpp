@@ -266,71 +266,57 @@ void WaitReporting(Scheduler& scheduler, TaskGroup& group, const SweepOptions& o
 
 }  // namespace
 
-SweepResult RunSweep(const Experiment& e, const SweepOptions& o) {
-  CheckOptions(o);
-  const auto t0 = Clock::now();
-  SweepResult result;
-  result.names = e.space.Names();
-  const int d = e.space.Dim();
-  const int n = o.points;
-  const int k_maps = o.maps;
-  const SaltelliDesign design = MakeSaltelliDesign(n, d, DeriveSeed(o.seed, {0xde5}));
+namespace {
+
+/// Step 1: the planning queries of one flight at the defaults on each map, in map order.
+std::vector<Opaque> RecordQueries(const Experiment& e, const SweepOptions& o, Scheduler& scheduler,
+                                  WorldPool& pool, const std::vector<Opaque>& maps,
+                                  const ParamValues& defaults) {
+  const auto k_maps = maps.size();
+  std::vector<std::vector<Opaque>> recorded(k_maps);
+  TaskGroup group;
+  std::vector<SweepFlight> rec(k_maps);
+  for (std::size_t ku = 0; ku < k_maps; ++ku) {
+    const auto k = static_cast<int>(ku);
+    scheduler.Submit(group, Priority::kFlight, [&, k, ku] {
+      FlySweep(e, pool, maps[ku], defaults,
+               DeriveSeed(o.seed, {0xde, static_cast<std::uint64_t>(k)}), o.cancel, &recorded[ku],
+               rec[ku]);
+    });
+  }
+  scheduler.Wait(group);
+  std::vector<Opaque> all;
+  for (const auto& r : recorded) all.insert(all.end(), r.begin(), r.end());
+  return all;
+}
+
+/// A seeded partial Fisher–Yates draw of `count` of `queries`, kept in recording order.
+std::vector<Opaque> DrawQueries(const std::vector<Opaque>& queries, int count, std::uint64_t seed) {
+  std::vector<std::size_t> idx(queries.size());
+  for (std::size_t i = 0; i < idx.size(); ++i) idx[i] = i;
+  const std::size_t q = std::min(idx.size(), static_cast<std::size_t>(count));
+  Rng rng(seed);
+  for (std::size_t i = 0; i < q; ++i) {
+    const auto j = static_cast<std::size_t>(
+        UniformInt(rng, static_cast<std::int64_t>(i), static_cast<std::int64_t>(idx.size()) - 1));
+    std::swap(idx[i], idx[j]);
+  }
+  idx.resize(q);
+  std::sort(idx.begin(), idx.end());
+  std::vector<Opaque> chosen;
+  for (std::size_t i : idx) chosen.push_back(queries[i]);
+  return chosen;
+}
+
+/// Step 2: the design points into result.points; returns the distinct θ_s among them, and the
+/// index into those of every point in *short_of_point.
+std::vector<ParamValues> DesignPoints(const Experiment& e, const SaltelliDesign& design,
+                                      SweepResult& result, std::vector<int>* short_of_point) {
   const int points = design.Points();
-  const ParamValues defaults = e.Defaults();
-
-  std::vector<Opaque> maps;
-  for (int k = 0; k < k_maps; ++k) {
-    result.map_seeds.push_back(DeriveSeed(o.seed, {0x3a, static_cast<std::uint64_t>(k)}));
-    maps.push_back(e.planner.PrepareMap(result.map_seeds.back()));
-  }
-
-  Scheduler scheduler(o.threads);
-  WorldPool pool;
-  std::atomic<int> flights_done{0};
-  std::atomic<long> resolves_done{0};
-
-  // 1. Queries recorded at the defaults, one flight per map.
-  std::vector<std::vector<Opaque>> recorded(static_cast<std::size_t>(k_maps));
-  {
-    TaskGroup group;
-    std::vector<SweepFlight> rec(static_cast<std::size_t>(k_maps));
-    for (int k = 0; k < k_maps; ++k) {
-      const auto ku = static_cast<std::size_t>(k);
-      scheduler.Submit(group, Priority::kFlight, [&, k, ku] {
-        FlySweep(e, pool, maps[ku], defaults,
-                 DeriveSeed(o.seed, {0xde, static_cast<std::uint64_t>(k)}), o.cancel, &recorded[ku],
-                 rec[ku]);
-      });
-    }
-    scheduler.Wait(group);
-  }
-  std::vector<Opaque> pool_queries;
-  for (const auto& r : recorded) pool_queries.insert(pool_queries.end(), r.begin(), r.end());
-  result.queries_recorded = static_cast<int>(pool_queries.size());
-  {
-    // A seeded partial Fisher–Yates draw of Q indices, kept in recording order.
-    std::vector<std::size_t> idx(pool_queries.size());
-    for (std::size_t i = 0; i < idx.size(); ++i) idx[i] = i;
-    const std::size_t q = std::min(idx.size(), static_cast<std::size_t>(o.queries));
-    Rng rng(DeriveSeed(o.seed, {0x9e}));
-    for (std::size_t i = 0; i < q; ++i) {
-      const auto j = static_cast<std::size_t>(
-          UniformInt(rng, static_cast<std::int64_t>(i), static_cast<std::int64_t>(idx.size()) - 1));
-      std::swap(idx[i], idx[j]);
-    }
-    idx.resize(q);
-    std::sort(idx.begin(), idx.end());
-    std::vector<Opaque> chosen;
-    for (std::size_t i : idx) chosen.push_back(pool_queries[i]);
-    pool_queries = std::move(chosen);
-  }
-  result.queries_used = static_cast<int>(pool_queries.size());
-
-  // 2. The design points, and the distinct θ_s among them.
   result.points.resize(static_cast<std::size_t>(points));
   std::map<std::vector<double>, int> short_index;
   std::vector<ParamValues> short_values;
-  std::vector<int> short_of_point(static_cast<std::size_t>(points));
+  short_of_point->assign(static_cast<std::size_t>(points), 0);
   for (int p = 0; p < points; ++p) {
     SweepPoint& pt = result.points[static_cast<std::size_t>(p)];
     pt.block = design.Block(p);
@@ -344,16 +330,19 @@ SweepResult RunSweep(const Experiment& e, const SweepOptions& o) {
     }
     const auto [it, inserted] = short_index.emplace(key, static_cast<int>(short_values.size()));
     if (inserted) short_values.push_back(theta_s);
-    short_of_point[static_cast<std::size_t>(p)] = it->second;
+    (*short_of_point)[static_cast<std::size_t>(p)] = it->second;
   }
-  result.distinct_short = static_cast<int>(short_values.size());
+  return short_values;
+}
 
-  // 3. Every flight and every re-solve, concurrently (flights first).
+/// Step 3's flights: every design point on every map, into result.flights (sized here).
+void SubmitFlights(const Experiment& e, const SweepOptions& o, Scheduler& scheduler,
+                   TaskGroup& group, WorldPool& pool, const std::vector<Opaque>& maps,
+                   const ParamValues& defaults, std::atomic<int>& flights_done,
+                   SweepResult& result) {
+  const int points = static_cast<int>(result.points.size());
+  const int k_maps = static_cast<int>(maps.size());
   result.flights.resize(static_cast<std::size_t>(points * k_maps));
-  const std::size_t q = pool_queries.size();
-  std::vector<ObjectiveValue> solved(short_values.size() * q);
-  std::vector<char> solve_failed(short_values.size() * q, 0);
-  TaskGroup group;
   for (int p = 0; p < points; ++p) {
     ParamValues params = defaults;
     for (const auto& [name, v] : result.points[static_cast<std::size_t>(p)].params)
@@ -372,13 +361,23 @@ SweepResult RunSweep(const Experiment& e, const SweepOptions& o) {
       });
     }
   }
+}
+
+/// Step 3's re-solves: every distinct θ_s on every query; slot s·Q + j of `solved` and
+/// `solve_failed` (sized by the caller) for θ_s s and query j.
+void SubmitResolves(const Experiment& e, Scheduler& scheduler, TaskGroup& group,
+                    const std::vector<Opaque>& queries,
+                    const std::vector<ParamValues>& short_values,
+                    std::vector<ObjectiveValue>& solved, std::vector<char>& solve_failed,
+                    std::atomic<long>& resolves_done) {
+  const std::size_t q = queries.size();
   for (std::size_t s = 0; s < short_values.size(); ++s) {
     for (std::size_t j = 0; j < q; ++j) {
       const std::size_t slot = s * q + j;
       scheduler.Submit(group, Priority::kShort, [&, s, j, slot] {
         ResolveRecord rec;
         try {
-          rec = e.planner.Resolve(pool_queries[j], short_values[s]);
+          rec = e.planner.Resolve(queries[j], short_values[s]);
         } catch (const std::exception& ex) {
           rec = ResolveRecord{};
           rec.status = EvalStatus::kFailed;
@@ -390,21 +389,23 @@ SweepResult RunSweep(const Experiment& e, const SweepOptions& o) {
       });
     }
   }
-  WaitReporting(scheduler, group, o, flights_done, points * k_maps, resolves_done,
-                static_cast<long>(short_values.size() * q), t0);
-  result.resolves = resolves_done.load();
-  const bool cancelled = o.cancel != nullptr && o.cancel->load();
+}
 
-  // 4. Per-point means, in index order.
-  for (int p = 0; p < points; ++p) {
-    SweepPoint& pt = result.points[static_cast<std::size_t>(p)];
+/// Step 4: per-point means over the maps and the queries, in index order.
+void AveragePerPoint(const Experiment& e, int k_maps, std::size_t q,
+                     const std::vector<int>& short_of_point,
+                     const std::vector<ObjectiveValue>& solved,
+                     const std::vector<char>& solve_failed, SweepResult& result) {
+  for (std::size_t p = 0; p < result.points.size(); ++p) {
+    SweepPoint& pt = result.points[p];
     for (int k = 0; k < k_maps; ++k) {
-      const SweepFlight& f = result.flights[static_cast<std::size_t>(p * k_maps + k)];
+      const SweepFlight& f =
+          result.flights[p * static_cast<std::size_t>(k_maps) + static_cast<std::size_t>(k)];
       pt.f_l += f.objective.value / k_maps;
       for (const auto& [name, v] : f.objective.terms) pt.terms[name] += v / k_maps;
       if (f.status != EvalStatus::kOk) ++pt.failed_flights;
     }
-    const auto s = static_cast<std::size_t>(short_of_point[static_cast<std::size_t>(p)]);
+    const auto s = static_cast<std::size_t>(short_of_point[p]);
     if (q == 0) {
       pt.f_s = e.objective.failure_value;
     }
@@ -413,13 +414,11 @@ SweepResult RunSweep(const Experiment& e, const SweepOptions& o) {
       pt.failed_resolves += solve_failed[s * q + j];
     }
   }
-  result.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
-  if (cancelled) {
-    result.status = RunStatus::kCancelled;
-    return result;
-  }
+}
 
-  // 5. Indices of every output.
+/// Step 5: Sobol' indices of every output (n base rows, d parameters) and the rank correlation
+/// of f_s and f_l.
+void EstimateIndices(const SweepOptions& o, int n, int d, SweepResult& result) {
   std::vector<double> f_l_all, f_s_all;
   for (const auto& pt : result.points) {
     f_l_all.push_back(pt.f_l);
@@ -448,6 +447,63 @@ SweepResult RunSweep(const Experiment& e, const SweepOptions& o) {
          EstimateSobolIndices(f_a, f_b, f_ab, o.bootstrap,
                               DeriveSeed(o.seed, {0xb5, static_cast<std::uint64_t>(out_i)}))});
   }
+}
+
+}  // namespace
+
+SweepResult RunSweep(const Experiment& e, const SweepOptions& o) {
+  CheckOptions(o);
+  const auto t0 = Clock::now();
+  SweepResult result;
+  result.names = e.space.Names();
+  const int d = e.space.Dim();
+  const int n = o.points;
+  const int k_maps = o.maps;
+  const SaltelliDesign design = MakeSaltelliDesign(n, d, DeriveSeed(o.seed, {0xde5}));
+  const ParamValues defaults = e.Defaults();
+
+  std::vector<Opaque> maps;
+  for (int k = 0; k < k_maps; ++k) {
+    result.map_seeds.push_back(DeriveSeed(o.seed, {0x3a, static_cast<std::uint64_t>(k)}));
+    maps.push_back(e.planner.PrepareMap(result.map_seeds.back()));
+  }
+
+  Scheduler scheduler(o.threads);
+  WorldPool pool;
+  std::atomic<int> flights_done{0};
+  std::atomic<long> resolves_done{0};
+
+  // 1. Queries recorded at the defaults, one flight per map, and the Q used.
+  const std::vector<Opaque> recorded = RecordQueries(e, o, scheduler, pool, maps, defaults);
+  result.queries_recorded = static_cast<int>(recorded.size());
+  const std::vector<Opaque> queries = DrawQueries(recorded, o.queries, DeriveSeed(o.seed, {0x9e}));
+  result.queries_used = static_cast<int>(queries.size());
+
+  // 2. The design points, and the distinct θ_s among them.
+  std::vector<int> short_of_point;
+  const std::vector<ParamValues> short_values = DesignPoints(e, design, result, &short_of_point);
+  result.distinct_short = static_cast<int>(short_values.size());
+
+  // 3. Every flight and every re-solve, concurrently (flights first).
+  const std::size_t q = queries.size();
+  std::vector<ObjectiveValue> solved(short_values.size() * q);
+  std::vector<char> solve_failed(short_values.size() * q, 0);
+  TaskGroup group;
+  SubmitFlights(e, o, scheduler, group, pool, maps, defaults, flights_done, result);
+  SubmitResolves(e, scheduler, group, queries, short_values, solved, solve_failed, resolves_done);
+  WaitReporting(scheduler, group, o, flights_done, design.Points() * k_maps, resolves_done,
+                static_cast<long>(short_values.size() * q), t0);
+  result.resolves = resolves_done.load();
+  const bool cancelled = o.cancel != nullptr && o.cancel->load();
+
+  // 4. Per-point means; 5. indices of every output.
+  AveragePerPoint(e, k_maps, q, short_of_point, solved, solve_failed, result);
+  result.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  if (cancelled) {
+    result.status = RunStatus::kCancelled;
+    return result;
+  }
+  EstimateIndices(o, n, d, result);
   return result;
 }
 

@@ -5,11 +5,12 @@
 #include <cmath>
 #include <deque>
 #include <limits>
-#include <tuple>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
+#include <tuple>
 
 #include "quadtune/common/random.hpp"
 #include "quadtune/engine/result_store.hpp"
@@ -122,57 +123,6 @@ void FlyInto(Context& c, std::uint64_t map_seed, const ParamValues& params, std:
   c.flights.fetch_add(1);
 }
 
-/// Replays a stored row into an Outcome; in reproducible mode the stored parameters must be the
-/// ones asked now.
-Outcome Replay(const Context& c, const EvaluationRow& row, const ParamValues& asked) {
-  if (c.e.mode == TimingMode::kReproducible && row.params != ToJson(asked)) {
-    throw ConfigError(c.options.store_path, "--resume",
-                      "stored evaluation (" + row.kind + ", iteration " +
-                          std::to_string(row.iteration) + ", index " + std::to_string(row.index) +
-                          ") has parameters " + row.params + " but the run asks " + ToJson(asked) +
-                          "; the stored run is not a prefix of this one");
-  }
-  Outcome o;
-  o.params = asked;
-  o.objective.value = row.value;
-  const auto terms = nlohmann::json::parse(row.terms);
-  for (auto it = terms.begin(); it != terms.end(); ++it) o.objective.terms[it.key()] = it.value().get<double>();
-  o.status = row.status == "ok" ? EvalStatus::kOk
-                                : (row.status == "failed" ? EvalStatus::kFailed : EvalStatus::kCancelled);
-  o.message = row.message;
-  o.wall_s = row.wall_s;
-  o.started = row.started;
-  o.finished = row.finished;
-  o.replayed = true;
-  o.map_seed = row.map_seed;
-  o.flight_seed = row.flight_seed;
-  auto q = o.objective.terms.find("queries");
-  o.query_count = q == o.objective.terms.end() ? 0 : static_cast<int>(q->second);
-  return o;
-}
-
-void Store(Context& c, std::int64_t trial_id, Method method, const char* kind, int iteration,
-           int index, const Outcome& o) {
-  if (c.store == nullptr || o.replayed) return;
-  EvaluationRow r;
-  r.trial_id = trial_id;
-  r.method = ToString(method);
-  r.kind = kind;
-  r.iteration = iteration;
-  r.index = index;
-  r.params = ToJson(o.params);
-  r.terms = ToJson(o.objective.terms);
-  r.value = o.objective.value;
-  r.status = ToString(o.status);
-  r.message = o.message;
-  r.wall_s = o.wall_s;
-  r.started = o.started;
-  r.finished = o.finished;
-  r.map_seed = o.map_seed;
-  r.flight_seed = o.flight_seed;
-  c.store->Insert(r);
-}
-
 /// Planner defaults, overridden by the space's explicit defaults.
 ParamValues DefaultsOf(const Experiment& e) { return e.Defaults(); }
 
@@ -208,18 +158,279 @@ void BoundAroundStart(const Experiment& e, optimizers::BayesOpt& bo) {
   bo.SetBounds(x_lo, x_hi);
 }
 
+/// The trial's evaluations in the results store: the stored ones are replayed (resume), the new
+/// ones stored. Without a store nothing is replayed and nothing stored.
+class EvaluationLog {
+ public:
+  EvaluationLog(Context& c, Method method, int repeat) : c_(c), method_(method) {
+    if (c.store != nullptr) {
+      trial_id_ = c.store->Trial(ToString(method), repeat, c.e.FlightMapSeed(repeat, 0));
+    }
+  }
+
+  [[nodiscard]] std::int64_t TrialId() const { return trial_id_; }
+
+  /// The stored evaluation (kind, iteration, index) replayed for the parameters `asked`, if one
+  /// is stored. In reproducible mode the stored parameters must be the ones asked now (else
+  /// ConfigError: the stored run is not a prefix of this one).
+  [[nodiscard]] std::optional<Outcome> Replayed(const char* kind, int iteration, int index,
+                                                const ParamValues& asked) const {
+    const EvaluationRow* row =
+        c_.store != nullptr ? c_.store->Find(trial_id_, kind, iteration, index) : nullptr;
+    if (row == nullptr) return std::nullopt;
+    return Replay(*row, asked);
+  }
+
+  /// Stores a new evaluation (a replayed one is stored already).
+  void Store(const char* kind, int iteration, int index, const Outcome& o) const {
+    if (c_.store == nullptr || o.replayed) return;
+    EvaluationRow r;
+    r.trial_id = trial_id_;
+    r.method = ToString(method_);
+    r.kind = kind;
+    r.iteration = iteration;
+    r.index = index;
+    r.params = ToJson(o.params);
+    r.terms = ToJson(o.objective.terms);
+    r.value = o.objective.value;
+    r.status = ToString(o.status);
+    r.message = o.message;
+    r.wall_s = o.wall_s;
+    r.started = o.started;
+    r.finished = o.finished;
+    r.map_seed = o.map_seed;
+    r.flight_seed = o.flight_seed;
+    c_.store->Insert(r);
+  }
+
+  /// Marks the trial finished (done, or cancelled) with its best point.
+  void Finish(bool done, const ParamValues& best, double best_value) const {
+    if (c_.store == nullptr) return;
+    c_.store->FinishTrial(trial_id_, done ? "done" : "cancelled", ToJson(best), best_value);
+  }
+
+ private:
+  Outcome Replay(const EvaluationRow& row, const ParamValues& asked) const {
+    if (c_.e.mode == TimingMode::kReproducible && row.params != ToJson(asked)) {
+      throw ConfigError(c_.options.store_path, "--resume",
+                        "stored evaluation (" + row.kind + ", iteration " +
+                            std::to_string(row.iteration) + ", index " + std::to_string(row.index) +
+                            ") has parameters " + row.params + " but the run asks " +
+                            ToJson(asked) + "; the stored run is not a prefix of this one");
+    }
+    Outcome o;
+    o.params = asked;
+    o.objective.value = row.value;
+    const auto terms = nlohmann::json::parse(row.terms);
+    for (auto it = terms.begin(); it != terms.end(); ++it) {
+      o.objective.terms[it.key()] = it.value().get<double>();
+    }
+    o.status = row.status == "ok"
+                   ? EvalStatus::kOk
+                   : (row.status == "failed" ? EvalStatus::kFailed : EvalStatus::kCancelled);
+    o.message = row.message;
+    o.wall_s = row.wall_s;
+    o.started = row.started;
+    o.finished = row.finished;
+    o.replayed = true;
+    o.map_seed = row.map_seed;
+    o.flight_seed = row.flight_seed;
+    auto q = o.objective.terms.find("queries");
+    o.query_count = q == o.objective.terms.end() ? 0 : static_cast<int>(q->second);
+    return o;
+  }
+
+  Context& c_;
+  Method method_;
+  std::int64_t trial_id_ = 0;
+};
+
+/// The optimiser of a single-loop method over the whole space (random, pso, bo; none for the
+/// defaults), seeded from the trial's seed. *bo: the optimiser as BayesOpt for bo, else null.
+std::unique_ptr<optimizers::Optimizer> MakeSingleOptimizer(const Experiment& e, Method method,
+                                                           std::uint64_t seed,
+                                                           optimizers::BayesOpt** bo) {
+  *bo = nullptr;
+  switch (method) {
+    case Method::kRandom:
+      return std::make_unique<optimizers::RandomSearch>(
+          e.space, optimizers::RandomSearchOptions{DeriveSeed(seed, {1})});
+    case Method::kPso: {
+      auto o = e.pso;
+      o.seed = DeriveSeed(seed, {1});
+      return std::make_unique<optimizers::Pso>(e.space, o);
+    }
+    case Method::kBo: {
+      auto o = e.bo;
+      o.seed = DeriveSeed(seed, {1});
+      auto made = std::make_unique<optimizers::BayesOpt>(e.space, o);
+      BoundAroundStart(e, *made);
+      *bo = made.get();
+      return made;
+    }
+    default:
+      return nullptr;
+  }
+}
+
+/// bo_pso's two optimisers: PSO over θ_s, BO over θ_l, each on its subspace.
+struct BoPsoOptimizers {
+  optimizers::ParameterSpace short_space, long_space;
+  std::unique_ptr<optimizers::Pso> pso;
+  std::unique_ptr<optimizers::BayesOpt> bo;
+};
+
+BoPsoOptimizers MakeBoPsoOptimizers(const Experiment& e, std::uint64_t seed) {
+  BoPsoOptimizers o;
+  o.short_space = e.space.Subspace(e.short_names);
+  o.long_space = e.space.Subspace(e.long_names);
+  auto po = e.pso;
+  po.seed = DeriveSeed(seed, {1});
+  o.pso = std::make_unique<optimizers::Pso>(o.short_space, po);
+  auto bo = e.bo;
+  bo.seed = DeriveSeed(seed, {2});
+  o.bo = std::make_unique<optimizers::BayesOpt>(o.long_space, bo);
+  BoundAroundStart(e, *o.bo);
+  return o;
+}
+
+/// bo_pso's planning queries: the recording flights, oldest first, trimmed so that dropping the
+/// oldest would leave fewer than `window` queries. A replayed flight's queries exist only after
+/// Materialise flies it again.
+class QueryBuffer {
+ public:
+  explicit QueryBuffer(int window) : window_(window) {}
+
+  [[nodiscard]] std::size_t Size() const { return entries_.size(); }
+
+  /// Queries of the first `entries` flights.
+  [[nodiscard]] int Total(std::size_t entries) const {
+    int n = 0;
+    for (std::size_t i = 0; i < entries; ++i) n += entries_[i].count;
+    return n;
+  }
+
+  /// Adds a flight's queries (nothing when it recorded none), then trims.
+  void Add(const Outcome& o) {
+    Entry b;
+    b.params = o.params;
+    b.seed = o.flight_seed;
+    b.map_seed = o.map_seed;
+    if (o.replayed) {
+      b.pending = o.query_count > 0;
+      b.count = o.query_count;
+    } else {
+      b.queries = o.queries;
+      b.count = static_cast<int>(o.queries.size());
+    }
+    if (b.count > 0) entries_.push_back(std::move(b));
+    while (!entries_.empty() && Total(entries_.size()) - entries_.front().count >= window_) {
+      entries_.pop_front();
+    }
+  }
+
+  /// Re-flies the replayed flights among the first `entries` so that their queries exist
+  /// (deterministic in reproducible mode).
+  void Materialise(Context& c, std::size_t entries) {
+    TaskGroup group;
+    std::vector<Outcome> out(entries);
+    bool any = false;
+    for (std::size_t i = 0; i < entries; ++i) {
+      if (!entries_[i].pending) continue;
+      any = true;
+      Outcome* slot = &out[i];
+      const ParamValues params = entries_[i].params;
+      const std::uint64_t seed = entries_[i].seed;
+      const std::uint64_t map_seed = entries_[i].map_seed;
+      c.scheduler.Submit(group, Priority::kFlight, [&c, slot, map_seed, params, seed] {
+        FlyInto(c, map_seed, params, seed, true, {}, *slot);
+      });
+    }
+    if (!any) return;
+    c.scheduler.Wait(group);
+    for (std::size_t i = 0; i < entries; ++i) {
+      if (!entries_[i].pending) continue;
+      entries_[i].queries = std::move(out[i].queries);
+      entries_[i].count = static_cast<int>(entries_[i].queries.size());
+      entries_[i].pending = false;
+    }
+  }
+
+  /// `count` queries drawn with replacement by `rng` from buffer positions
+  /// [window_begin, total).
+  std::vector<Opaque> Draw(Rng& rng, int count, int window_begin, int total) const {
+    std::vector<Opaque> subset;
+    for (int j = 0; j < count; ++j) {
+      int pick = static_cast<int>(UniformInt(rng, window_begin, total - 1));
+      std::size_t entry = 0;
+      while (pick >= entries_[entry].count) {
+        pick -= entries_[entry].count;
+        ++entry;
+      }
+      subset.push_back(entries_[entry].queries[static_cast<std::size_t>(pick)]);
+    }
+    return subset;
+  }
+
+ private:
+  struct Entry {
+    std::vector<Opaque> queries;
+    int count = 0;
+    bool pending = false;  // replayed flight: queries not materialised yet
+    ParamValues params;
+    std::uint64_t seed = 0;
+    std::uint64_t map_seed = 0;
+  };
+  int window_;
+  std::deque<Entry> entries_;
+};
+
+/// One θ_s candidate of a PSO generation: its outcome and, per re-solved query, the objective,
+/// the error (empty when none) and the wall time.
+struct ShortEvaluation {
+  Outcome outcome;
+  struct Resolve {
+    ObjectiveValue value;
+    std::string error;
+    double wall_s = 0.0;
+  };
+  std::vector<Resolve> resolves;
+
+  /// The mean over the re-solved queries, term by term, into the outcome (a replayed outcome,
+  /// or one without re-solves, is kept).
+  void Average() {
+    Outcome& o = outcome;
+    if (o.replayed || resolves.empty()) return;
+    const double n = static_cast<double>(resolves.size());
+    for (const Resolve& r : resolves) {
+      o.objective.value += r.value.value / n;
+      for (const auto& [k, v] : r.value.terms) o.objective.terms[k] += v / n;
+      o.wall_s += r.wall_s;
+      if (!r.error.empty()) {
+        o.status = EvalStatus::kFailed;
+        if (o.message.empty()) o.message = r.error;
+      }
+    }
+    o.objective.terms["queries"] = n;
+    o.finished = Now();
+  }
+};
+
 /// One trial: method × repeat.
 class Trial {
  public:
   Trial(Context& c, Method method, int repeat)
-      : c_(c), e_(c.e), method_(method), repeat_(repeat),
-        seed_(DeriveSeed(c.e.seed, {static_cast<std::uint64_t>(method), static_cast<std::uint64_t>(repeat)})) {
+      : c_(c),
+        e_(c.e),
+        method_(method),
+        repeat_(repeat),
+        seed_(DeriveSeed(c.e.seed,
+                         {static_cast<std::uint64_t>(method), static_cast<std::uint64_t>(repeat)})),
+        log_(c, method, repeat),
+        buffer_(c.e.budget.query_window) {
     summary_.method = ToString(method);
     summary_.repeat = repeat;
-    if (c.store != nullptr) {
-      trial_id_ = c.store->Trial(ToString(method), repeat, e_.FlightMapSeed(repeat, 0));
-    }
-    summary_.trial_id = trial_id_;
+    summary_.trial_id = log_.TrialId();
   }
 
   /// Returns false when cancelled.
@@ -227,10 +438,7 @@ class Trial {
     bool done = method_ == Method::kBoPso ? RunBoPso() : RunSingle();
     Recommend();
     if (done) done = Recheck();
-    if (c_.store != nullptr) {
-      c_.store->FinishTrial(trial_id_, done ? "done" : "cancelled", ToJson(summary_.best),
-                            summary_.best_value);
-    }
+    log_.Finish(done, summary_.best, summary_.best_value);
     return done;
   }
   [[nodiscard]] const TrialSummary& Summary() const { return summary_; }
@@ -275,27 +483,26 @@ class Trial {
     c_.options.on_progress(p);
   }
 
-  /// Flies a batch of parameter sets (replaying stored ones). Returns the outcomes in index order.
-  /// `wait` false: the caller must call scheduler.Wait(group) before reading them.
+  /// Flies a batch of parameter sets (replaying stored ones) into `out`, in index order. The
+  /// caller must call scheduler.Wait(group) before reading them.
   void SubmitFlights(TaskGroup& group, int iteration, const std::vector<ParamValues>& batch,
                      bool record, std::vector<Outcome>& out) {
     out.assign(batch.size(), Outcome{});
     for (std::size_t i = 0; i < batch.size(); ++i) {
-      const EvaluationRow* row =
-          c_.store ? c_.store->Find(trial_id_, "long", iteration, static_cast<int>(i)) : nullptr;
-      if (row != nullptr) {
-        out[i] = Replay(c_, *row, batch[i]);
-        const std::uint64_t map_seed =
-            e_.FlightMapSeed(repeat_, summary_.flights + static_cast<int>(i));
-        if (e_.mode == TimingMode::kReproducible && row->map_seed != map_seed) {
+      const int index = static_cast<int>(i);
+      const std::uint64_t map_seed = e_.FlightMapSeed(repeat_, summary_.flights + index);
+      if (auto replayed = log_.Replayed("long", iteration, index, batch[i])) {
+        if (e_.mode == TimingMode::kReproducible && replayed->map_seed != map_seed) {
           throw ConfigError(c_.options.store_path, "--resume",
                             "stored flight (iteration " + std::to_string(iteration) + ", index " +
-                                std::to_string(i) + ") flew map " + std::to_string(row->map_seed) +
-                                " but the run asks map " + std::to_string(map_seed) +
+                                std::to_string(i) + ") flew map " +
+                                std::to_string(replayed->map_seed) + " but the run asks map " +
+                                std::to_string(map_seed) +
                                 "; the stored run is not a prefix of this one");
         }
+        out[i] = std::move(*replayed);
         out[i].map_seed = map_seed;
-        out[i].flight_seed = FlightSeed(iteration, static_cast<int>(i));
+        out[i].flight_seed = FlightSeed(iteration, index);
         continue;
       }
       std::function<void(double, ParamValues&)> provider;
@@ -305,9 +512,7 @@ class Trial {
           if (!live_best_.empty()) theta_s = live_best_;
         };
       }
-      const std::uint64_t seed = FlightSeed(iteration, static_cast<int>(i));
-      const std::uint64_t map_seed =
-          e_.FlightMapSeed(repeat_, summary_.flights + static_cast<int>(i));
+      const std::uint64_t seed = FlightSeed(iteration, index);
       Outcome* slot = &out[i];
       const ParamValues params = batch[i];
       c_.scheduler.Submit(group, Priority::kFlight,
@@ -323,29 +528,8 @@ class Trial {
   }
 
   bool RunSingle() {
-    std::unique_ptr<optimizers::Optimizer>& opt = single_opt_;
-    switch (method_) {
-      case Method::kRandom:
-        opt = std::make_unique<optimizers::RandomSearch>(
-            e_.space, optimizers::RandomSearchOptions{DeriveSeed(seed_, {1})});
-        break;
-      case Method::kPso: {
-        auto o = e_.pso;
-        o.seed = DeriveSeed(seed_, {1});
-        opt = std::make_unique<optimizers::Pso>(e_.space, o);
-        break;
-      }
-      case Method::kBo: {
-        auto o = e_.bo;
-        o.seed = DeriveSeed(seed_, {1});
-        auto bo = std::make_unique<optimizers::BayesOpt>(e_.space, o);
-        BoundAroundStart(e_, *bo);
-        single_bo_ = bo.get();
-        opt = std::move(bo);
-        break;
-      }
-      default: break;
-    }
+    single_opt_ = MakeSingleOptimizer(e_, method_, seed_, &single_bo_);
+    optimizers::Optimizer* opt = single_opt_.get();
     const ParamValues defaults = DefaultsOf(e_);
     int iteration = 0;
     while (summary_.flights < FlightBudget()) {
@@ -353,7 +537,7 @@ class Trial {
       const int k = std::min(FlightBatch(), FlightBudget() - summary_.flights);
       std::vector<optimizers::Candidate> cands;
       std::vector<ParamValues> batch;
-      if (opt) {
+      if (opt != nullptr) {
         cands = opt->Ask(k);
         for (const auto& cand : cands) batch.push_back(Merge(defaults, e_.space.ToNamed(cand.x)));
       } else {
@@ -365,8 +549,8 @@ class Trial {
       c_.scheduler.Wait(group);
       if (c_.CancelRequested()) return false;
       for (std::size_t i = 0; i < out.size(); ++i) {
-        Store(c_, trial_id_, method_, "long", iteration, static_cast<int>(i), out[i]);
-        if (opt) opt->Tell(cands[i].id, out[i].objective.value);
+        log_.Store("long", iteration, static_cast<int>(i), out[i]);
+        if (opt != nullptr) opt->Tell(cands[i].id, out[i].objective.value);
         Observe(out[i]);
       }
       ++iteration;
@@ -377,148 +561,25 @@ class Trial {
 
   // ---- bo_pso ------------------------------------------------------------------------------
 
-  struct BufferEntry {
-    std::vector<Opaque> queries;
-    int count = 0;
-    bool pending = false;  // replayed flight: queries not materialised yet
-    ParamValues params;
-    std::uint64_t seed = 0;
-    std::uint64_t map_seed = 0;
-  };
-
-  int BufferTotal() const {
-    int n = 0;
-    for (const auto& b : buffer_) n += b.count;
-    return n;
-  }
-
-  void TrimBuffer() {
-    while (!buffer_.empty() && BufferTotal() - buffer_.front().count >= e_.budget.query_window) {
-      buffer_.pop_front();
-    }
-  }
-
-  /// Re-flies replayed flights so that their queries exist (deterministic in reproducible mode).
-  void Materialise(std::size_t entries) {
-    TaskGroup group;
-    std::vector<Outcome> out(entries);
-    bool any = false;
-    for (std::size_t i = 0; i < entries; ++i) {
-      if (!buffer_[i].pending) continue;
-      any = true;
-      Outcome* slot = &out[i];
-      const ParamValues params = buffer_[i].params;
-      const std::uint64_t seed = buffer_[i].seed;
-      const std::uint64_t map_seed = buffer_[i].map_seed;
-      c_.scheduler.Submit(group, Priority::kFlight, [this, slot, map_seed, params, seed] {
-        FlyInto(c_, map_seed, params, seed, true, {}, *slot);
-      });
-    }
-    if (!any) return;
-    c_.scheduler.Wait(group);
-    for (std::size_t i = 0; i < entries; ++i) {
-      if (!buffer_[i].pending) continue;
-      buffer_[i].queries = std::move(out[i].queries);
-      buffer_[i].count = static_cast<int>(buffer_[i].queries.size());
-      buffer_[i].pending = false;
-    }
-  }
-
   /// Runs `evaluations` θ_s evaluations (PSO generations) on the first `entries` buffer entries;
   /// then, when `until` is given, more generations until that group is done.
   void ShortPhase(int evaluations, std::size_t entries, const TaskGroup* until = nullptr) {
     if (evaluations <= 0) return;
-    int total = 0;
-    for (std::size_t i = 0; i < entries; ++i) total += buffer_[i].count;
-    if (total == 0) return;
-    int window_begin = std::max(0, total - e_.budget.query_window);
+    if (buffer_.Total(entries) == 0) return;
     bool materialised = false;
     int left = evaluations;
     while (left > 0 || (until != nullptr && !until->Done())) {
       if (c_.CancelRequested()) return;
-      const auto cands = pso_->Ask(left > 0 ? std::min(left, e_.pso.num_particles)
-                                            : e_.pso.num_particles);
+      const auto cands =
+          bo_pso_.pso->Ask(left > 0 ? std::min(left, e_.pso.num_particles) : e_.pso.num_particles);
       if (cands.empty()) break;
       const int gen = generation_++;
-      // One query subset per generation: every candidate is scored on the same problems.
-      std::vector<Opaque> subset;
-      std::vector<Outcome> out(cands.size());
-      std::vector<std::vector<ObjectiveValue>> per_query(cands.size());
-      std::vector<std::vector<std::string>> errors(cands.size());
-      std::vector<std::vector<double>> walls(cands.size());
-      TaskGroup group;
+      std::vector<ShortEvaluation> evals(cands.size());
+      if (!ScoreGeneration(gen, cands, entries, materialised, evals)) return;
       for (std::size_t i = 0; i < cands.size(); ++i) {
-        const ParamValues theta_s = short_space_.ToNamed(cands[i].x);
-        const EvaluationRow* row =
-            c_.store ? c_.store->Find(trial_id_, "short", gen, static_cast<int>(i)) : nullptr;
-        if (row != nullptr) {
-          out[i] = Replay(c_, *row, theta_s);
-          continue;
-        }
-        if (!materialised) {
-          Materialise(entries);
-          materialised = true;
-          // Re-flown flights give the stored query counts in reproducible mode; recount anyway.
-          total = 0;
-          for (std::size_t k = 0; k < entries; ++k) total += buffer_[k].count;
-          window_begin = std::max(0, total - e_.budget.query_window);
-        }
-        if (total == 0) {
-          out[i].params = theta_s;
-          out[i].status = EvalStatus::kFailed;
-          out[i].message = "no recorded planning query to re-solve";
-          out[i].objective.value = e_.objective.failure_value;
-          continue;
-        }
-        out[i].params = theta_s;
-        out[i].started = Now();
-        if (subset.empty()) subset = DrawSubset(gen, window_begin, total);
-        const int q = static_cast<int>(subset.size());
-        per_query[i].resize(static_cast<std::size_t>(q));
-        errors[i].resize(static_cast<std::size_t>(q));
-        walls[i].resize(static_cast<std::size_t>(q));
-        for (int j = 0; j < q; ++j) {
-          const Opaque query = subset[static_cast<std::size_t>(j)];
-          ObjectiveValue* value = &per_query[i][static_cast<std::size_t>(j)];
-          std::string* error = &errors[i][static_cast<std::size_t>(j)];
-          double* wall = &walls[i][static_cast<std::size_t>(j)];
-          c_.scheduler.Submit(group, Priority::kShort, [this, query, theta_s, value, error, wall] {
-            const auto t0 = Clock::now();
-            ResolveRecord rec;
-            try {
-              rec = e_.planner.Resolve(query, theta_s);
-            } catch (const std::exception& ex) {
-              rec = ResolveRecord{};
-              rec.status = EvalStatus::kFailed;
-              *error = std::string("exception: ") + ex.what();
-            }
-            *value = ShortTermObjective(rec, e_.objective, e_.mode);
-            *wall = std::chrono::duration<double>(Clock::now() - t0).count();
-            c_.resolves.fetch_add(1);
-          });
-        }
-      }
-      c_.scheduler.Wait(group);
-      if (c_.CancelRequested()) return;
-      for (std::size_t i = 0; i < cands.size(); ++i) {
-        Outcome& o = out[i];
-        if (!o.replayed && !per_query[i].empty()) {
-          // Mean over the re-solved queries, term by term.
-          const double n = static_cast<double>(per_query[i].size());
-          for (std::size_t j = 0; j < per_query[i].size(); ++j) {
-            o.objective.value += per_query[i][j].value / n;
-            for (const auto& [k, v] : per_query[i][j].terms) o.objective.terms[k] += v / n;
-            o.wall_s += walls[i][j];
-            if (!errors[i][j].empty()) {
-              o.status = EvalStatus::kFailed;
-              if (o.message.empty()) o.message = errors[i][j];
-            }
-          }
-          o.objective.terms["queries"] = n;
-          o.finished = Now();
-        }
-        Store(c_, trial_id_, method_, "short", gen, static_cast<int>(i), o);
-        pso_->Tell(cands[i].id, o.objective.value);
+        const Outcome& o = evals[i].outcome;
+        log_.Store("short", gen, static_cast<int>(i), o);
+        bo_pso_.pso->Tell(cands[i].id, o.objective.value);
         ++summary_.short_evals;
         if (o.status != EvalStatus::kOk) ++summary_.failed;
         if (o.replayed) ++summary_.replayed;
@@ -531,62 +592,106 @@ class Trial {
     }
   }
 
-  /// The queries_per_eval queries every candidate of generation `gen` re-solves, drawn (with
-  /// replacement) from buffer positions [window_begin, total).
-  std::vector<Opaque> DrawSubset(int gen, int window_begin, int total) const {
-    Rng rng(DeriveSeed(seed_, {0x5e, static_cast<std::uint64_t>(gen)}));
+  /// Scores the candidates of generation `gen` into `evals`: replayed where stored, else
+  /// re-solved on one query subset drawn for the generation (every candidate is scored on the
+  /// same problems), on the first `entries` buffer entries (materialised once, on first need:
+  /// *materialised). Returns false when cancelled.
+  bool ScoreGeneration(int gen, const std::vector<optimizers::Candidate>& cands,
+                       std::size_t entries, bool& materialised,
+                       std::vector<ShortEvaluation>& evals) {
+    int total = buffer_.Total(entries);
     std::vector<Opaque> subset;
-    for (int j = 0; j < e_.budget.queries_per_eval; ++j) {
-      int pick = static_cast<int>(UniformInt(rng, window_begin, total - 1));
-      std::size_t entry = 0;
-      while (pick >= buffer_[entry].count) {
-        pick -= buffer_[entry].count;
-        ++entry;
+    TaskGroup group;
+    for (std::size_t i = 0; i < cands.size(); ++i) {
+      const ParamValues theta_s = bo_pso_.short_space.ToNamed(cands[i].x);
+      Outcome& out = evals[i].outcome;
+      if (auto replayed = log_.Replayed("short", gen, static_cast<int>(i), theta_s)) {
+        out = std::move(*replayed);
+        continue;
       }
-      subset.push_back(buffer_[entry].queries[static_cast<std::size_t>(pick)]);
+      if (!materialised) {
+        buffer_.Materialise(c_, entries);
+        materialised = true;
+        // Re-flown flights give the stored query counts in reproducible mode; recount anyway.
+        total = buffer_.Total(entries);
+      }
+      out.params = theta_s;
+      if (total == 0) {
+        out.status = EvalStatus::kFailed;
+        out.message = "no recorded planning query to re-solve";
+        out.objective.value = e_.objective.failure_value;
+        continue;
+      }
+      out.started = Now();
+      if (subset.empty()) subset = DrawSubset(gen, total);
+      SubmitResolves(group, subset, theta_s, evals[i]);
     }
-    return subset;
+    c_.scheduler.Wait(group);
+    if (c_.CancelRequested()) return false;
+    for (ShortEvaluation& eval : evals) eval.Average();
+    return true;
+  }
+
+  /// Re-solves every query of `subset` with θ_s into eval.resolves (sized here).
+  void SubmitResolves(TaskGroup& group, const std::vector<Opaque>& subset,
+                      const ParamValues& theta_s, ShortEvaluation& eval) {
+    eval.resolves.resize(subset.size());
+    for (std::size_t j = 0; j < subset.size(); ++j) {
+      const Opaque query = subset[j];
+      ShortEvaluation::Resolve* resolve = &eval.resolves[j];
+      c_.scheduler.Submit(group, Priority::kShort, [this, query, theta_s, resolve] {
+        const auto t0 = Clock::now();
+        ResolveRecord rec;
+        try {
+          rec = e_.planner.Resolve(query, theta_s);
+        } catch (const std::exception& ex) {
+          rec = ResolveRecord{};
+          rec.status = EvalStatus::kFailed;
+          resolve->error = std::string("exception: ") + ex.what();
+        }
+        resolve->value = ShortTermObjective(rec, e_.objective, e_.mode);
+        resolve->wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+        c_.resolves.fetch_add(1);
+      });
+    }
+  }
+
+  /// The queries_per_eval queries every candidate of generation `gen` re-solves, drawn (with
+  /// replacement) from the last query_window of the first `total` buffered queries.
+  std::vector<Opaque> DrawSubset(int gen, int total) const {
+    Rng rng(DeriveSeed(seed_, {0x5e, static_cast<std::uint64_t>(gen)}));
+    const int window_begin = std::max(0, total - e_.budget.query_window);
+    return buffer_.Draw(rng, e_.budget.queries_per_eval, window_begin, total);
   }
 
   ParamValues BestShort() const {
-    const auto best = pso_->Best();
-    return best ? short_space_.ToNamed(best->x) : theta_s_start_;
-  }
-
-  void AddToBuffer(const Outcome& o) {
-    BufferEntry b;
-    b.params = o.params;
-    b.seed = o.flight_seed;
-    b.map_seed = o.map_seed;
-    if (o.replayed) {
-      b.pending = o.query_count > 0;
-      b.count = o.query_count;
-    } else {
-      b.queries = o.queries;
-      b.count = static_cast<int>(o.queries.size());
-    }
-    if (b.count > 0) buffer_.push_back(std::move(b));
-    TrimBuffer();
+    const auto best = bo_pso_.pso->Best();
+    return best ? bo_pso_.short_space.ToNamed(best->x) : theta_s_start_;
   }
 
   /// n_d advances once when the θ_s that flies this round differs from the last round's.
   void NoteFlyingShort(const ParamValues& theta_s) {
     if (theta_s == flying_short_) return;
     flying_short_ = theta_s;
-    bo_->NotifyContextChanged();
+    bo_pso_.bo->NotifyContextChanged();
     ++summary_.context_changes;
   }
 
+  /// Stores and tells the flights of one bo_pso round (BO is told when `cands` is given) and
+  /// buffers their queries.
+  void TakeLongRound(int iteration, std::vector<Outcome>& out,
+                     const std::vector<optimizers::Candidate>* cands) {
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      if (!out[i].replayed) out[i].objective.terms["n_d"] = summary_.context_changes;
+      log_.Store("long", iteration, static_cast<int>(i), out[i]);
+      if (cands != nullptr) bo_pso_.bo->Tell((*cands)[i].id, out[i].objective.value);
+      Observe(out[i]);
+    }
+    for (const Outcome& o : out) buffer_.Add(o);
+  }
+
   bool RunBoPso() {
-    short_space_ = e_.space.Subspace(e_.short_names);
-    long_space_ = e_.space.Subspace(e_.long_names);
-    auto po = e_.pso;
-    po.seed = DeriveSeed(seed_, {1});
-    pso_ = std::make_unique<optimizers::Pso>(short_space_, po);
-    auto bo = e_.bo;
-    bo.seed = DeriveSeed(seed_, {2});
-    bo_ = std::make_unique<optimizers::BayesOpt>(long_space_, bo);
-    BoundAroundStart(e_, *bo_);
+    bo_pso_ = MakeBoPsoOptimizers(e_, seed_);
     ParamValues defaults = DefaultsOf(e_);
     if (e_.start) {
       for (const auto& [name, value] : *e_.start) defaults[name] = value;
@@ -603,11 +708,8 @@ class Trial {
       SubmitFlights(group, 0, {defaults}, true, out);
       c_.scheduler.Wait(group);
       if (c_.CancelRequested()) return false;
-      if (!out[0].replayed) out[0].objective.terms["n_d"] = summary_.context_changes;
-      Store(c_, trial_id_, method_, "long", 0, 0, out[0]);
-      Observe(out[0]);
-      AddToBuffer(out[0]);
-      ShortPhase(e_.budget.short_evals_per_flight, buffer_.size());
+      TakeLongRound(0, out, nullptr);
+      ShortPhase(e_.budget.short_evals_per_flight, buffer_.Size());
       if (c_.CancelRequested()) return false;
       iteration = 1;
       Report();
@@ -617,26 +719,20 @@ class Trial {
       const int k = std::min(FlightBatch(), e_.budget.flights - summary_.flights);
       const ParamValues theta_s_round = BestShort();
       NoteFlyingShort(theta_s_round);
-      const auto cands = bo_->Ask(k);
+      const auto cands = bo_pso_.bo->Ask(k);
       std::vector<ParamValues> batch;
       for (const auto& cand : cands) {
-        batch.push_back(Merge(Merge(defaults, theta_s_round), long_space_.ToNamed(cand.x)));
+        batch.push_back(Merge(Merge(defaults, theta_s_round), bo_pso_.long_space.ToNamed(cand.x)));
       }
       TaskGroup flights;
       std::vector<Outcome> out;
       SubmitFlights(flights, iteration, batch, true, out);  // flights first ...
-      const std::size_t entries = buffer_.size();            // ... PSO on earlier queries meanwhile
+      const std::size_t entries = buffer_.Size();           // ... PSO on earlier queries meanwhile
       ShortPhase(e_.budget.short_evals_per_flight * static_cast<int>(cands.size()), entries,
                  e_.budget.short_term_while_flying ? &flights : nullptr);
       c_.scheduler.Wait(flights);
       if (c_.CancelRequested()) return false;
-      for (std::size_t i = 0; i < out.size(); ++i) {
-        if (!out[i].replayed) out[i].objective.terms["n_d"] = summary_.context_changes;
-        Store(c_, trial_id_, method_, "long", iteration, static_cast<int>(i), out[i]);
-        bo_->Tell(cands[i].id, out[i].objective.value);
-        Observe(out[i]);
-      }
-      for (const Outcome& o : out) AddToBuffer(o);
+      TakeLongRound(iteration, out, &cands);
       ++iteration;
       Report();
     }
@@ -654,9 +750,10 @@ class Trial {
         summary_.recommended = Merge(DefaultsOf(e_), e_.space.ToNamed(best->x));
         summary_.recommended_value = best->value;
       }
-    } else if (method_ == Method::kBoPso && bo_) {
-      if (const auto best = bo_->Best()) {
-        summary_.recommended = Merge(Merge(bo_pso_defaults_, BestShort()), long_space_.ToNamed(best->x));
+    } else if (method_ == Method::kBoPso && bo_pso_.bo) {
+      if (const auto best = bo_pso_.bo->Best()) {
+        summary_.recommended =
+            Merge(Merge(bo_pso_defaults_, BestShort()), bo_pso_.long_space.ToNamed(best->x));
         summary_.recommended_value = best->value;
       }
     }
@@ -693,10 +790,10 @@ class Trial {
     };
     if (method_ == Method::kBo && single_bo_ != nullptr) {
       for (const auto& b : single_bo_->Ranked()) add(Merge(DefaultsOf(e_), e_.space.ToNamed(b.x)));
-    } else if (method_ == Method::kBoPso && bo_) {
+    } else if (method_ == Method::kBoPso && bo_pso_.bo) {
       const ParamValues theta_s = BestShort();
-      for (const auto& b : bo_->Ranked()) {
-        add(Merge(Merge(bo_pso_defaults_, theta_s), long_space_.ToNamed(b.x)));
+      for (const auto& b : bo_pso_.bo->Ranked()) {
+        add(Merge(Merge(bo_pso_defaults_, theta_s), bo_pso_.long_space.ToNamed(b.x)));
       }
     } else {
       auto flown = flown_;  // completed flights first, then by f_l; ties keep flight order
@@ -771,9 +868,8 @@ class Trial {
         for (int i = 0; i < k; ++i) {
           const int index = j + i;
           Outcome* slot = &out[static_cast<std::size_t>(i)];
-          const EvaluationRow* row = c_.store ? c_.store->Find(trial_id_, "recheck", r, index) : nullptr;
-          if (row != nullptr) {
-            *slot = Replay(c_, *row, cands[rank]);
+          if (auto replayed = log_.Replayed("recheck", r, index, cands[rank])) {
+            *slot = std::move(*replayed);
             continue;
           }
           const std::uint64_t map_seed = e_.RecheckMapSeed(repeat_, index);
@@ -787,7 +883,7 @@ class Trial {
         if (c_.CancelRequested()) return false;
         for (int i = 0; i < k; ++i) {
           const Outcome& o = out[static_cast<std::size_t>(i)];
-          Store(c_, trial_id_, method_, "recheck", r, j + i, o);
+          log_.Store("recheck", r, j + i, o);
           ++summary_.recheck_flights;
           if (o.replayed) ++summary_.replayed;
           pass = pass && Passes(o);
@@ -820,7 +916,8 @@ class Trial {
   Method method_;
   int repeat_;
   std::uint64_t seed_;
-  std::int64_t trial_id_ = 0;
+  EvaluationLog log_;
+  QueryBuffer buffer_;  // bo_pso
   TrialSummary summary_;
   bool have_best_ = false;
   std::vector<Flown> flown_;  // every flight told, in order
@@ -828,10 +925,7 @@ class Trial {
   optimizers::BayesOpt* single_bo_ = nullptr;          // bo: single_opt_ as BayesOpt
   ParamValues bo_pso_defaults_;                        // bo_pso: defaults with e_.start
   // bo_pso
-  optimizers::ParameterSpace short_space_, long_space_;
-  std::unique_ptr<optimizers::Pso> pso_;
-  std::unique_ptr<optimizers::BayesOpt> bo_;
-  std::deque<BufferEntry> buffer_;
+  BoPsoOptimizers bo_pso_;
   int generation_ = 0;
   ParamValues theta_s_start_;
   ParamValues flying_short_;  // θ_s of the last round flown (n_d counts its changes)

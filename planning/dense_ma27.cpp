@@ -30,6 +30,82 @@ int IntSpaceNeeded(int n) { return kHeader + n; }
 
 void ClearInfo(int* info) { std::fill(info, info + 20, 0); }
 
+// Scatters the triplets (1-based irn, icn; values a) into the lower triangle of the dense
+// column-major dim × dim matrix `dense` (LAPACK's "L" routines never read the strict upper
+// triangle). Returns the number of out-of-range triplets (ignored).
+int ScatterLower(int dim, int nnz, const int* irn, const int* icn, const double* a, double* dense) {
+  for (int c = 0; c < dim; ++c) {
+    double* column = dense + static_cast<std::ptrdiff_t>(c) * dim;
+    std::fill(column + c, column + dim, 0.0);
+  }
+  int out_of_range = 0;
+  for (int k = 0; k < nnz; ++k) {
+    const int i = irn[k];
+    const int j = icn[k];
+    if (static_cast<unsigned>(i - 1) >= static_cast<unsigned>(dim) ||
+        static_cast<unsigned>(j - 1) >= static_cast<unsigned>(dim)) {
+      ++out_of_range;
+      continue;
+    }
+    const int r = std::max(i, j) - 1;
+    const int c = std::min(i, j) - 1;
+    dense[r + static_cast<std::ptrdiff_t>(c) * dim] += a[k];
+  }
+  return out_of_range;
+}
+
+// The largest magnitude in the lower triangle of `dense` into *max_abs; whether every entry is
+// finite (0·v is 0 for finite v, NaN for an infinity or NaN).
+bool LowerIsFinite(int dim, const double* dense, double* max_abs) {
+  *max_abs = 0.0;
+  double nonfinite = 0.0;
+  for (int c = 0; c < dim; ++c) {
+    const double* column = dense + static_cast<std::ptrdiff_t>(c) * dim;
+    for (int r = c; r < dim; ++r) {
+      const double v = column[r];
+      nonfinite += 0.0 * v;
+      *max_abs = std::max(*max_abs, std::abs(v));
+    }
+  }
+  return nonfinite == 0.0;
+}
+
+// Inertia and rank from the 1×1 and 2×2 blocks of D in dsytrf's factor `dense` (pivots `ipiv`):
+// the negative eigenvalues into *negative, the (numerically, below `tiny`) zero ones into *zero.
+void CountInertia(int dim, const double* dense, const int* ipiv, double tiny, int* negative,
+                  int* zero) {
+  *negative = 0;
+  *zero = 0;
+  for (int k = 0; k < dim;) {
+    const double d11 = dense[k + static_cast<std::ptrdiff_t>(k) * dim];
+    if (ipiv[k] > 0 || k + 1 == dim) {
+      if (std::abs(d11) <= tiny) {
+        ++*zero;
+      } else if (d11 < 0.0) {
+        ++*negative;
+      }
+      k += 1;
+    } else {
+      const double d21 = dense[(k + 1) + static_cast<std::ptrdiff_t>(k) * dim];
+      const double d22 = dense[(k + 1) + static_cast<std::ptrdiff_t>(k + 1) * dim];
+      const double det = d11 * d22 - d21 * d21;
+      const double scale = std::max({std::abs(d11), std::abs(d21), std::abs(d22)});
+      if (std::abs(det) <= tiny * scale) {
+        // At least one eigenvalue of the block is (numerically) zero.
+        ++*zero;
+        const double trace = d11 + d22;
+        if (trace < -tiny) ++*negative;
+        if (std::abs(trace) <= tiny) ++*zero;
+      } else if (det < 0.0) {
+        ++*negative;  // one positive and one negative eigenvalue
+      } else if (d11 + d22 < 0.0) {
+        *negative += 2;
+      }
+      k += 2;
+    }
+  }
+}
+
 }  // namespace
 
 void Ma27Id(int* icntl, double* cntl) {
@@ -116,39 +192,11 @@ void Ma27Bd(int* n, int* nz, const int* irn, const int* icn, double* a, int* la,
   *nsteps = 1;
   *maxfrt = dim;
 
-  // Scatter the triplets into the lower triangle of a dense column-major matrix placed after
-  // the input values (LAPACK's "L" routines never read the strict upper triangle).
+  // The dense matrix lies after the input values.
   double* dense = a + nnz;
-  for (int c = 0; c < dim; ++c) {
-    double* column = dense + static_cast<std::ptrdiff_t>(c) * dim;
-    std::fill(column + c, column + dim, 0.0);
-  }
-  int out_of_range = 0;
-  for (int k = 0; k < nnz; ++k) {
-    const int i = irn[k];
-    const int j = icn[k];
-    if (static_cast<unsigned>(i - 1) >= static_cast<unsigned>(dim) ||
-        static_cast<unsigned>(j - 1) >= static_cast<unsigned>(dim)) {
-      ++out_of_range;
-      continue;
-    }
-    const int r = std::max(i, j) - 1;
-    const int c = std::min(i, j) - 1;
-    dense[r + static_cast<std::ptrdiff_t>(c) * dim] += a[k];
-  }
-  // The largest magnitude, and whether every entry is finite: 0·v is 0 for finite v, NaN for
-  // an infinity or NaN.
+  const int out_of_range = ScatterLower(dim, nnz, irn, icn, a, dense);
   double max_abs = 0.0;
-  double nonfinite = 0.0;
-  for (int c = 0; c < dim; ++c) {
-    const double* column = dense + static_cast<std::ptrdiff_t>(c) * dim;
-    for (int r = c; r < dim; ++r) {
-      const double v = column[r];
-      nonfinite += 0.0 * v;
-      max_abs = std::max(max_abs, std::abs(v));
-    }
-  }
-  const bool finite = nonfinite == 0.0;
+  const bool finite = LowerIsFinite(dim, dense, &max_abs);
   iw[0] = kMagic;
   iw[1] = dim;
   iw[2] = nnz;
@@ -170,39 +218,11 @@ void Ma27Bd(int* n, int* nz, const int* irn, const int* icn, double* a, int* la,
     return;
   }
 
-  // Inertia and rank from D's 1×1 and 2×2 blocks.
   const double tiny =
       std::max(cntl[2], static_cast<double>(dim) * std::numeric_limits<double>::epsilon() * max_abs);
   int negative = 0;
   int zero = 0;
-  for (int k = 0; k < dim;) {
-    const double d11 = dense[k + static_cast<std::ptrdiff_t>(k) * dim];
-    if (ipiv[k] > 0 || k + 1 == dim) {
-      if (std::abs(d11) <= tiny) {
-        ++zero;
-      } else if (d11 < 0.0) {
-        ++negative;
-      }
-      k += 1;
-    } else {
-      const double d21 = dense[(k + 1) + static_cast<std::ptrdiff_t>(k) * dim];
-      const double d22 = dense[(k + 1) + static_cast<std::ptrdiff_t>(k + 1) * dim];
-      const double det = d11 * d22 - d21 * d21;
-      const double scale = std::max({std::abs(d11), std::abs(d21), std::abs(d22)});
-      if (std::abs(det) <= tiny * scale) {
-        // At least one eigenvalue of the block is (numerically) zero.
-        ++zero;
-        const double trace = d11 + d22;
-        if (trace < -tiny) ++negative;
-        if (std::abs(trace) <= tiny) ++zero;
-      } else if (det < 0.0) {
-        ++negative;  // one positive and one negative eigenvalue
-      } else if (d11 + d22 < 0.0) {
-        negative += 2;
-      }
-      k += 2;
-    }
-  }
+  CountInertia(dim, dense, ipiv, tiny, &negative, &zero);
   info[14] = negative;  // INFO(15)
   info[11] = 0;         // INFO(12): real compressions
   info[12] = 0;         // INFO(13): integer compressions

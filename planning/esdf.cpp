@@ -141,6 +141,65 @@ void WindowedPass(const std::int16_t* in, std::int16_t* dst, std::size_t nx, int
   }
 }
 
+// Whether occupied cell (x, y, z) (index i) of the dims box has a free face neighbour.
+inline bool HasFreeNeighbour(std::span<const std::uint8_t> occupancy, const Eigen::Vector3i& dims,
+                             int x, int y, int z, std::size_t i) {
+  const std::size_t snx = static_cast<std::size_t>(dims.x());
+  const std::size_t snxy = snx * static_cast<std::size_t>(dims.y());
+  return (x > 0 && occupancy[i - 1] == 0) || (x + 1 < dims.x() && occupancy[i + 1] == 0) ||
+         (y > 0 && occupancy[i - snx] == 0) || (y + 1 < dims.y() && occupancy[i + snx] == 0) ||
+         (z > 0 && occupancy[i - snxy] == 0) || (z + 1 < dims.z() && occupancy[i + snxy] == 0);
+}
+
+// Quantised signed distance (units of quantum = 1/inv_q) of every squared cell distance 0…cap.
+std::vector<std::int16_t> QuantisedDistances(std::int32_t cap, double resolution,
+                                             double max_distance, double inv_q) {
+  std::vector<std::int16_t> table(static_cast<std::size_t>(cap) + 1);
+  for (std::int32_t sq = 0; sq <= cap; ++sq) {
+    const double d =
+        std::min((std::sqrt(static_cast<double>(sq)) - 0.5) * resolution, max_distance);
+    table[static_cast<std::size_t>(sq)] = static_cast<std::int16_t>(std::lround(d * inv_q));
+  }
+  return table;
+}
+
+// The ground plane below local layer `ground_layer`: every stored value becomes
+// min(value, height of the cell centre above the plane).
+void LowerToGroundPlane(std::int16_t* values, const Eigen::Vector3i& dims, int ground_layer,
+                        double resolution, double max_distance, double inv_q) {
+  const std::size_t layer_cells = static_cast<std::size_t>(dims.x()) * dims.y();
+  for (int z = 0; z < dims.z(); ++z) {
+    const double d = (z - ground_layer + 0.5) * resolution;
+    if (d >= max_distance) break;
+    const auto qd = static_cast<std::int16_t>(std::lround(std::max(d, -max_distance) * inv_q));
+    std::int16_t* layer = values + layer_cells * z;
+    for (std::size_t i = 0; i < layer_cells; ++i) layer[i] = std::min(layer[i], qd);
+  }
+}
+
+// The bounding box [*lo, *hi] of the occupied cells without a free face neighbour; *hi has a
+// negative coordinate when there is none.
+void DeepCellBox(std::span<const std::uint8_t> occupancy, const Eigen::Vector3i& dims,
+                 Eigen::Vector3i* lo, Eigen::Vector3i* hi) {
+  const std::size_t snx = static_cast<std::size_t>(dims.x());
+  const std::size_t snxy = snx * static_cast<std::size_t>(dims.y());
+  *lo = dims;
+  *hi = Eigen::Vector3i::Constant(-1);
+  for (int z = 0; z < dims.z(); ++z) {
+    for (int y = 0; y < dims.y(); ++y) {
+      const std::size_t row =
+          snx * static_cast<std::size_t>(y) + snxy * static_cast<std::size_t>(z);
+      for (int x = 0; x < dims.x(); ++x) {
+        const std::size_t i = row + static_cast<std::size_t>(x);
+        if (occupancy[i] == 0 || HasFreeNeighbour(occupancy, dims, x, y, z, i)) continue;
+        const Eigen::Vector3i c(x, y, z);
+        *lo = lo->cwiseMin(c);
+        *hi = hi->cwiseMax(c);
+      }
+    }
+  }
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------- options
@@ -207,10 +266,7 @@ Esdf EsdfBuilder::Compute(const Eigen::Vector3d& origin_W, double resolution,
     throw std::invalid_argument(
         "Esdf::FromOccupancy: need resolution > 0, a finite origin and 1 to 2^26 cells");
   }
-  const int nx = dims.x();
-  const int ny = dims.y();
-  const int nz = dims.z();
-  const std::size_t n = static_cast<std::size_t>(nx) * ny * nz;
+  const std::size_t n = static_cast<std::size_t>(dims.x()) * dims.y() * dims.z();
   if (occupancy.size() != n) {
     throw std::invalid_argument("Esdf::FromOccupancy: occupancy holds " +
                                 std::to_string(occupancy.size()) + " cells, dims need " +
@@ -229,75 +285,49 @@ Esdf EsdfBuilder::Compute(const Eigen::Vector3d& origin_W, double resolution,
   // Truncation in cells: squared distances above cap need not be exact (they clamp anyway).
   const int t_cells = static_cast<int>(std::ceil(options.max_distance / resolution + 0.5)) + 1;
   const std::int32_t cap = t_cells * t_cells;
-
   std::size_t n_occupied = 0;
   for (std::uint8_t o : occupancy) n_occupied += o != 0 ? 1 : 0;
-
   // Quantised signed distance for a squared cell distance; a table for the small exact values.
-  std::vector<std::int16_t> table(static_cast<std::size_t>(cap) + 1);
   const double inv_q = 1.0 / esdf.quantum_;
-  for (std::int32_t sq = 0; sq <= cap; ++sq) {
-    const double d = std::min((std::sqrt(static_cast<double>(sq)) - 0.5) * resolution,
-                              options.max_distance);
-    table[static_cast<std::size_t>(sq)] = static_cast<std::int16_t>(std::lround(d * inv_q));
-  }
+  const std::vector<std::int16_t> table =
+      QuantisedDistances(cap, resolution, options.max_distance, inv_q);
   const auto q_max = static_cast<std::int16_t>(std::lround(options.max_distance * inv_q));
-  // The ground plane: stored value = min(value, height of the cell centre above the plane).
-  auto finish = [&]() -> Esdf {
-    if (!ground_layer.has_value()) return std::move(esdf);
-    for (int z = 0; z < nz; ++z) {
-      const double d = (z - *ground_layer + 0.5) * resolution;
-      if (d >= options.max_distance) break;
-      const auto qd = static_cast<std::int16_t>(
-          std::lround(std::max(d, -options.max_distance) * inv_q));
-      std::int16_t* layer = esdf.values_.data() + static_cast<std::size_t>(nx) * ny * z;
-      for (std::size_t i = 0; i < static_cast<std::size_t>(nx) * ny; ++i) {
-        layer[i] = std::min(layer[i], qd);
-      }
-    }
-    return std::move(esdf);
-  };
   if (n_occupied == 0) {
     std::fill(esdf.values_.begin(), esdf.values_.end(), q_max);
-    return finish();
-  }
-
-  // Outside: squared distance to the nearest occupied centre, for every cell.
-  SquaredEdt(occupancy.data(), dims, true, cap, &outside_);
-  const std::size_t snx = static_cast<std::size_t>(nx);
-  const std::size_t snxy = snx * static_cast<std::size_t>(ny);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (occupancy[i] == 0) {
-      const std::int32_t sq = outside_[i];
-      esdf.values_[i] = sq > cap ? q_max : table[static_cast<std::size_t>(sq)];
-    } else {
-      esdf.values_[i] = static_cast<std::int16_t>(-table[1]);  // nearest free centre 1 cell away
+  } else {
+    // Outside: squared distance to the nearest occupied centre, for every cell.
+    SquaredEdt(occupancy.data(), dims, true, cap, &outside_);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (occupancy[i] == 0) {
+        const std::int32_t sq = outside_[i];
+        esdf.values_[i] = sq > cap ? q_max : table[static_cast<std::size_t>(sq)];
+      } else {
+        esdf.values_[i] = static_cast<std::int16_t>(-table[1]);  // nearest free centre 1 cell away
+      }
     }
+    FillDeepCells(occupancy, dims, t_cells, table, q_max, esdf.values_.data());
   }
+  if (ground_layer.has_value()) {
+    LowerToGroundPlane(esdf.values_.data(), dims, *ground_layer, resolution, options.max_distance,
+                       inv_q);
+  }
+  return esdf;
+}
 
+void EsdfBuilder::FillDeepCells(std::span<const std::uint8_t> occupancy,
+                                const Eigen::Vector3i& dims, int t_cells,
+                                const std::vector<std::int16_t>& table, std::int16_t q_max,
+                                std::int16_t* values) {
   // Inside: an occupied cell with a free face neighbour is exactly one cell from free space.
   // The others ("deep" cells) get an exact transform of the free set over their bounding box
   // widened by the truncation (cells outside the box count as not free).
-  auto free_neighbour = [&](int x, int y, int z, std::size_t i) {
-    return (x > 0 && occupancy[i - 1] == 0) || (x + 1 < nx && occupancy[i + 1] == 0) ||
-           (y > 0 && occupancy[i - snx] == 0) || (y + 1 < ny && occupancy[i + snx] == 0) ||
-           (z > 0 && occupancy[i - snxy] == 0) || (z + 1 < nz && occupancy[i + snxy] == 0);
-  };
-  Eigen::Vector3i deep_lo = dims;
-  Eigen::Vector3i deep_hi = Eigen::Vector3i::Constant(-1);
-  for (int z = 0; z < nz; ++z) {
-    for (int y = 0; y < ny; ++y) {
-      const std::size_t row = snx * static_cast<std::size_t>(y) + snxy * static_cast<std::size_t>(z);
-      for (int x = 0; x < nx; ++x) {
-        const std::size_t i = row + static_cast<std::size_t>(x);
-        if (occupancy[i] == 0 || free_neighbour(x, y, z, i)) continue;
-        const Eigen::Vector3i c(x, y, z);
-        deep_lo = deep_lo.cwiseMin(c);
-        deep_hi = deep_hi.cwiseMax(c);
-      }
-    }
-  }
-  if ((deep_hi.array() < 0).any()) return finish();
+  const std::int32_t cap = t_cells * t_cells;
+  const std::size_t snx = static_cast<std::size_t>(dims.x());
+  const std::size_t snxy = snx * static_cast<std::size_t>(dims.y());
+  Eigen::Vector3i deep_lo;
+  Eigen::Vector3i deep_hi;
+  DeepCellBox(occupancy, dims, &deep_lo, &deep_hi);
+  if ((deep_hi.array() < 0).any()) return;
   const Eigen::Vector3i sub_lo = (deep_lo.array() - t_cells).max(0).matrix();
   const Eigen::Vector3i sub_hi = (deep_hi.array() + t_cells).min(dims.array() - 1).matrix();
   const Eigen::Vector3i sub_dims = sub_hi - sub_lo + Eigen::Vector3i::Ones();
@@ -345,7 +375,7 @@ Esdf EsdfBuilder::Compute(const Eigen::Vector3d& origin_W, double resolution,
   if (t_probe < t_cells) {
     bool complete = true;
     for_each_occupied([&](std::int32_t sq, int fx, int fy, int fz, std::size_t fi) {
-      complete = sq <= t_probe * t_probe || free_neighbour(fx, fy, fz, fi);
+      complete = sq <= t_probe * t_probe || HasFreeNeighbour(occupancy, dims, fx, fy, fz, fi);
       return complete;
     });
     if (!complete) SquaredEdt(sub_occupancy_.data(), sub_dims, false, cap, &inside_);
@@ -353,12 +383,11 @@ Esdf EsdfBuilder::Compute(const Eigen::Vector3d& origin_W, double resolution,
   for_each_occupied([&](std::int32_t sq, int fx, int fy, int fz, std::size_t fi) {
     // Cells with a free face neighbour keep their exact one-cell value (that neighbour may
     // lie outside the sub-box).
-    if (sq > 1 && free_neighbour(fx, fy, fz, fi)) return true;
-    esdf.values_[fi] = sq > cap ? static_cast<std::int16_t>(-q_max)
-                                : static_cast<std::int16_t>(-table[static_cast<std::size_t>(sq)]);
+    if (sq > 1 && HasFreeNeighbour(occupancy, dims, fx, fy, fz, fi)) return true;
+    values[fi] = sq > cap ? static_cast<std::int16_t>(-q_max)
+                          : static_cast<std::int16_t>(-table[static_cast<std::size_t>(sq)]);
     return true;
   });
-  return finish();
 }
 
 void EsdfBuilder::SquaredEdtWindowed(const std::uint8_t* occupancy, const Eigen::Vector3i& dims,

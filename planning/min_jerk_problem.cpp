@@ -431,14 +431,250 @@ void MinJerkProblem::EvaluateValue(const Eigen::VectorXd& z, ValueCache* vc) con
   vc->valid_ = true;
 }
 
+// The derivative steps of Evaluate(): each adds its part of ∇f (and of ∇²f's lower triangle,
+// when wanted) at one z, in the order Evaluate calls them (the sums keep their order, so the
+// bits do not depend on how the steps are cut).
+class MinJerkProblem::GradientPass {
+ public:
+  GradientPass(const MinJerkProblem& problem, const ValueCache& vc, EvaluateScratch& ws,
+               const Eigen::VectorXd& z, Eigen::VectorXd& g, Eigen::MatrixXd* hess)
+      : p_(problem),
+        vc_(vc),
+        ws_(ws),
+        g_(g),
+        hess_(hess),
+        want_hess_(hess != nullptr),
+        n_(problem.NumVariables()),
+        m_(problem.num_pieces_ - 1),
+        ir_(n_ - 1),
+        rho_(z(ir_)),
+        tau_(std::exp(rho_)),
+        rate_rows_(RateRows(problem.BoundarySize())) {
+    RateDerivatives(vc.b_, &ws.db, want_hess_ ? &ws.ddb : nullptr);
+  }
+
+  // Jerk energy: τ^-5 Σ_a b_aᵀ H̄ b_a.
+  void AddJerk() {
+    const Eigen::MatrixXd& db = ws_.db;
+    const Eigen::MatrixXd& ddb = ws_.ddb;
+    const double w_s = p_.params_.w_smooth;
+    const double e5 = std::exp(-5.0 * rho_);
+    const Eigen::MatrixXd& hb = vc_.hb_;
+    const double g0 = vc_.g0_;
+    const double g1 = 2.0 * (db.array() * hb.array()).sum();
+    for (int a = 0; a < 3; ++a) {
+      for (int i = 0; i < m_; ++i) g_(a * m_ + i) += w_s * e5 * 2.0 * hb(3 + i, a);
+    }
+    g_(ir_) += w_s * e5 * (g1 - 5.0 * g0);
+    if (!want_hess_) return;
+    TimesRate(p_.jerk_hess_, db, rate_rows_, &ws_.hdb);
+    const Eigen::MatrixXd& hdb = ws_.hdb;
+    const double g2 = 2.0 * ((db.array() * hdb.array()).sum() + (ddb.array() * hb.array()).sum());
+    for (int a = 0; a < 3; ++a) {
+      hess_->block(a * m_, a * m_, m_, m_) += (w_s * e5 * 2.0) * p_.jerk_hess_.block(3, 3, m_, m_);
+      for (int i = 0; i < m_; ++i) {
+        (*hess_)(ir_, a * m_ + i) += w_s * e5 * (2.0 * hdb(3 + i, a) - 10.0 * hb(3 + i, a));
+      }
+    }
+    (*hess_)(ir_, ir_) += w_s * e5 * (g2 - 10.0 * g1 + 25.0 * g0);
+  }
+
+  // Time stretch: ΣT̄ ρ².
+  void AddTimeStretch() {
+    g_(ir_) += p_.params_.w_time * 2.0 * p_.sum_nominal_ * rho_;
+    if (want_hess_) (*hess_)(ir_, ir_) += p_.params_.w_time * 2.0 * p_.sum_nominal_;
+  }
+
+  // The sampled penalty of derivative order d (0: collision, 1: speed, 2: acceleration), its
+  // active samples only.
+  void AddSampledPenalty(int d) {
+    const double weights[3] = {p_.params_.w_col, p_.params_.w_dyn, p_.params_.w_dyn};
+    const double weight = weights[d];
+    if (weight == 0.0) return;
+    CollectActiveSamples(d, weight);
+    if (ws_.active.empty()) return;
+    AddActiveProducts(d);
+  }
+
+ private:
+  // ψ's derivatives at active sample j of order d (at r): ∂ψ/∂r into *gamma and, when the
+  // Hessian is wanted, ∂²ψ/∂r² into *big_gamma. False: the sample adds nothing here.
+  bool PenaltyDerivatives(int d, int j, const Eigen::Vector3d& r, Eigen::Vector3d* gamma,
+                          Eigen::Matrix3d* big_gamma) const {
+    const MinJerkCostParams& params = p_.params_;
+    if (d == 0) {
+      const double inv_c = 1.0 / params.clearance;
+      Eigen::Vector3d grad_d;
+      Eigen::Matrix3d hess_d;
+      double dist = 0.0;
+      // Active at this z: the field evaluates it (the same distance as EvaluateValue's).
+      if (!p_.field_->EvaluateWithHessianBelow(r, params.clearance, &dist, &grad_d,
+                                               want_hess_ ? &hess_d : nullptr)) {
+        return false;
+      }
+      const double e = (params.clearance - dist) * inv_c;
+      if (!(e > 0.0)) return false;
+      // ∂ψ/∂r = −3κe²/C ∇d, ∂²ψ/∂r² = 6κe/C² ∇d∇dᵀ − 3κe²/C ∇²d.
+      const double k = params.collision_scale;
+      *gamma = (-3.0 * k * e * e * inv_c) * grad_d;
+      if (want_hess_) {
+        *big_gamma = (6.0 * k * e * inv_c * inv_c) * (grad_d * grad_d.transpose()) -
+                     (3.0 * k * e * e * inv_c) * hess_d;
+      }
+      return true;
+    }
+    double inv_l = 0.0;
+    const double viol = p_.RateViolation(d, j, r, &inv_l);
+    if (!(viol > 0.0)) return false;
+    const double k = params.feasibility_scale;
+    const Eigen::Vector3d dviol = 2.0 * inv_l * r;
+    *gamma = (3.0 * k * viol * viol) * dviol;
+    if (want_hess_) {
+      *big_gamma = (6.0 * k * viol) * (dviol * dviol.transpose()) +
+                   (6.0 * k * viol * viol * inv_l) * Eigen::Matrix3d::Identity();
+    }
+    return true;
+  }
+
+  // Per active sample: its row index, the q-gradient coefficients wγ τ^-d, the ρ-row
+  // coefficients t τ^-d and the six distinct entries of wΓ τ^-2d (for the q–q blocks), into
+  // ws_.active; its ρ entries straight into ∇f and ∇²f.
+  void CollectActiveSamples(int d, double weight) {
+    const double inv_tau_pow[3] = {1.0, 1.0 / tau_, 1.0 / (tau_ * tau_)};
+    const auto& rows = p_.sample_rows_[d];
+    const Eigen::MatrixXd& wd = vc_.w_[d];
+    const double scale = inv_tau_pow[d];
+    const double dd = static_cast<double>(d);
+    ws_.active.clear();
+    for (const int j : vc_.active_[d]) {
+      const Eigen::Vector3d w = wd.row(j).transpose();
+      const Eigen::Vector3d r =
+          d == 0 ? Eigen::Vector3d(w + p_.boundary_.p0_W) : Eigen::Vector3d(scale * w);
+      Eigen::Vector3d gamma;      // ∂ψ/∂r
+      Eigen::Matrix3d big_gamma;  // ∂²ψ/∂r²
+      if (!PenaltyDerivatives(d, j, r, &gamma, &big_gamma)) continue;
+      // r = τ^-d S_j b: ∂r/∂q_a(i) = τ^-d row(3+i) e_a, ∂r/∂ρ = τ^-d (S_j b' − d S_j b).
+      const Eigen::Vector3d w1 = RateRow(rows, j, ws_.db, rate_rows_);
+      const Eigen::Vector3d r_rho = scale * (w1 - dd * w);
+      const Eigen::Vector3d wg = weight * gamma;
+      g_(ir_) += wg.dot(r_rho);
+      ActiveSample sample;
+      sample.row = j;
+      sample.grad = scale * wg;
+      if (want_hess_) {
+        const Eigen::Matrix3d wgg = weight * big_gamma;
+        // ρ row: ∂²ψ/∂ρ∂q = (wΓ r_ρ)_a v_i + wγ_a ∂²r_a/∂ρ∂q_a(i), the latter = −d v_i.
+        sample.rho = scale * (wgg * r_rho - dd * wg);
+        const Eigen::Vector3d w2 = RateRow(rows, j, ws_.ddb, rate_rows_);
+        const Eigen::Vector3d r_rhorho = scale * (w2 - 2.0 * dd * w1 + dd * dd * w);
+        (*hess_)(ir_, ir_) += r_rho.dot(wgg * r_rho) + wg.dot(r_rhorho);
+        sample.hess = (scale * scale) * wgg;
+      }
+      ws_.active.push_back(sample);
+    }
+  }
+
+  // v_j = τ^-d S_j(3..3+m): gather the active rows, then the q-gradient, the ρ row and the
+  // q–q blocks are small matrix products: g_qa += Vᵀ c_a, H_ρq_a += Vᵀ t_a,
+  // H_qa,qb += Vᵀ diag(wΓ_ab) V (lower block triangle; the mirror fills the rest). Each runs in
+  // AddTransposedProduct where that gives the bits of Eigen's product, else in Eigen's.
+  void AddActiveProducts(int d) {
+    const auto& rows = p_.sample_rows_[d];
+    const int na = static_cast<int>(ws_.active.size());
+    const int m = m_;
+    const bool own_3 = detail::TransposedProductApplies(na, m, 3);
+    const bool own_m = want_hess_ && detail::TransposedProductApplies(na, m, m);
+    const int mp = detail::TransposedProductStride(m);
+    if (own_3 || own_m) {  // V by rows, padded to mp columns
+      ws_.vr.assign(static_cast<std::size_t>(na) * static_cast<std::size_t>(mp), 0.0);
+      for (int i = 0; i < na; ++i) {
+        const int row = ws_.active[static_cast<std::size_t>(i)].row;
+        for (int c = 0; c < m; ++c) ws_.vr[static_cast<std::size_t>(i * mp + c)] = rows(row, 3 + c);
+      }
+    }
+    if (!own_3 || (want_hess_ && !own_m)) {  // V by columns, for Eigen's products
+      ws_.v.resize(na, m);
+      for (int i = 0; i < na; ++i) {
+        ws_.v.row(i) = rows.row(ws_.active[static_cast<std::size_t>(i)].row).segment(3, m);
+      }
+    }
+    VTransposeTimes(own_3, mp,
+                    [](const ActiveSample& s) -> const Eigen::Vector3d& { return s.grad; });
+    for (int a = 0; a < 3; ++a) g_.segment(a * m, m) += ws_.vt_coef.col(a);
+    if (!want_hess_) return;
+    VTransposeTimes(own_3, mp,
+                    [](const ActiveSample& s) -> const Eigen::Vector3d& { return s.rho; });
+    for (int a = 0; a < 3; ++a) hess_->row(ir_).segment(a * m, m) += ws_.vt_coef.col(a).transpose();
+    for (int a = 0; a < 3; ++a) {
+      for (int bb = 0; bb <= a; ++bb) AddQqBlock(own_m, mp, a, bb);
+    }
+  }
+
+  // ws_.vt_coef = Vᵀ C (m × 3), C's row i the coefficients `coef(active[i])`.
+  template <typename Coef>
+  void VTransposeTimes(bool own_3, int mp, Coef coef) {
+    const int na = static_cast<int>(ws_.active.size());
+    if (own_3) {
+      ws_.cr.resize(static_cast<std::size_t>(na) * 3);
+      for (int i = 0; i < na; ++i) {
+        const Eigen::Vector3d& c = coef(ws_.active[static_cast<std::size_t>(i)]);
+        for (int a = 0; a < 3; ++a) ws_.cr[static_cast<std::size_t>(3 * i + a)] = c(a);
+      }
+      ws_.vt_coef.setZero(m_, 3);  // as Eigen's product: zero, then add
+      detail::AddTransposedProduct(na, m_, 3, ws_.vr.data(), mp, ws_.cr.data(), 3,
+                                   ws_.vt_coef.data(), m_, /*lower_only=*/false);
+    } else {
+      ws_.coef.resize(na, 3);
+      for (int i = 0; i < na; ++i) {
+        ws_.coef.row(i) = coef(ws_.active[static_cast<std::size_t>(i)]).transpose();
+      }
+      ws_.vt_coef.noalias() = ws_.v.transpose() * ws_.coef;
+    }
+  }
+
+  // H_qa,qb += Vᵀ diag(wΓ_ab) V.
+  void AddQqBlock(bool own_m, int mp, int a, int bb) {
+    const int na = static_cast<int>(ws_.active.size());
+    const int m = m_;
+    if (own_m) {
+      ws_.wr.resize(ws_.vr.size());
+      for (int i = 0; i < na; ++i) {
+        const double h = ws_.active[static_cast<std::size_t>(i)].hess(a, bb);
+        for (int c = 0; c < mp; ++c) {
+          const auto k = static_cast<std::size_t>(i * mp + c);
+          ws_.wr[k] = h * ws_.vr[k];
+        }
+      }
+      detail::AddTransposedProduct(na, m, m, ws_.wr.data(), mp, ws_.vr.data(), mp,
+                                   &(*hess_)(a * m, bb * m), n_, /*lower_only=*/a == bb);
+    } else {
+      ws_.weighted.resize(na, m);
+      for (int i = 0; i < na; ++i) {
+        ws_.weighted.row(i) = ws_.active[static_cast<std::size_t>(i)].hess(a, bb) * ws_.v.row(i);
+      }
+      hess_->block(a * m, bb * m, m, m).noalias() += ws_.weighted.transpose() * ws_.v;
+    }
+  }
+
+  const MinJerkProblem& p_;
+  const ValueCache& vc_;
+  EvaluateScratch& ws_;
+  Eigen::VectorXd& g_;
+  Eigen::MatrixXd* hess_;
+  bool want_hess_;
+  int n_;
+  int m_;   // inner waypoints per axis
+  int ir_;  // index of ρ
+  double rho_;
+  double tau_;
+  std::array<int, 4> rate_rows_;
+};
+
 MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::VectorXd* grad,
                                           Eigen::MatrixXd* hess, ValueCache* cache) const {
   const int n = NumVariables();
-  const int m = num_pieces_ - 1;
-  const int ir = n - 1;  // index of ρ
   QT_DEMAND(z.size() == n, "wrong number of variables");
   const bool want_grad = grad != nullptr || hess != nullptr;
-  const bool want_hess = hess != nullptr;
   EvaluateScratch& ws = Scratch();
   // The value and the active samples: from the cache when it holds this z, else computed (into
   // the cache, or into scratch).
@@ -451,184 +687,12 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
   Eigen::VectorXd& g = grad != nullptr ? *grad : g_local;
   g.setZero(n);
   // The Hessian is accumulated in its lower triangle and mirrored at the end.
-  if (want_hess) hess->setZero(n, n);
-
-  const double rho = z(ir);
-  const double tau = std::exp(rho);
-  RateDerivatives(vc.b_, &ws.db, want_hess ? &ws.ddb : nullptr);
-  const Eigen::MatrixXd& db = ws.db;
-  const Eigen::MatrixXd& ddb = ws.ddb;
-  const std::array<int, 4> rate_rows = RateRows(BoundarySize());
-
-  // ---- jerk energy: τ^-5 Σ_a b_aᵀ H̄ b_a ----
-  {
-    const double w_s = params_.w_smooth;
-    const double e5 = std::exp(-5.0 * rho);
-    const Eigen::MatrixXd& hb = vc.hb_;
-    const double g0 = vc.g0_;
-    const double g1 = 2.0 * (db.array() * hb.array()).sum();
-    for (int a = 0; a < 3; ++a) {
-      for (int i = 0; i < m; ++i) g(a * m + i) += w_s * e5 * 2.0 * hb(3 + i, a);
-    }
-    g(ir) += w_s * e5 * (g1 - 5.0 * g0);
-    if (want_hess) {
-      TimesRate(jerk_hess_, db, rate_rows, &ws.hdb);
-      const Eigen::MatrixXd& hdb = ws.hdb;
-      const double g2 = 2.0 * ((db.array() * hdb.array()).sum() + (ddb.array() * hb.array()).sum());
-      for (int a = 0; a < 3; ++a) {
-        hess->block(a * m, a * m, m, m) += (w_s * e5 * 2.0) * jerk_hess_.block(3, 3, m, m);
-        for (int i = 0; i < m; ++i) {
-          (*hess)(ir, a * m + i) += w_s * e5 * (2.0 * hdb(3 + i, a) - 10.0 * hb(3 + i, a));
-        }
-      }
-      (*hess)(ir, ir) += w_s * e5 * (g2 - 10.0 * g1 + 25.0 * g0);
-    }
-  }
-
-  // ---- time stretch ----
-  g(ir) += params_.w_time * 2.0 * sum_nominal_ * rho;
-  if (want_hess) (*hess)(ir, ir) += params_.w_time * 2.0 * sum_nominal_;
-
-  // ---- sampled penalties, active samples only ----
-  const double inv_c = 1.0 / params_.clearance;
-  const double inv_tau_pow[3] = {1.0, 1.0 / tau, 1.0 / (tau * tau)};
-  const double weights[3] = {params_.w_col, params_.w_dyn, params_.w_dyn};
-  for (int d = 0; d < 3; ++d) {
-    const double weight = weights[d];
-    if (weight == 0.0) continue;
-    const auto& rows = sample_rows_[d];
-    const Eigen::MatrixXd& wd = vc.w_[d];
-    const double scale = inv_tau_pow[d];
-    const double dd = static_cast<double>(d);
-    // Per active sample: its row index, the q-gradient coefficients wγ τ^-d, the ρ-row
-    // coefficients t τ^-d and the six distinct entries of wΓ τ^-2d (for the q–q blocks).
-    ws.active.clear();
-    for (const int j : vc.active_[d]) {
-      const Eigen::Vector3d w = wd.row(j).transpose();
-      const Eigen::Vector3d r =
-          d == 0 ? Eigen::Vector3d(w + boundary_.p0_W) : Eigen::Vector3d(scale * w);
-      Eigen::Vector3d gamma;      // ∂ψ/∂r
-      Eigen::Matrix3d big_gamma;  // ∂²ψ/∂r²
-      if (d == 0) {
-        Eigen::Vector3d grad_d;
-        Eigen::Matrix3d hess_d;
-        double dist = 0.0;
-        // Active at this z: the field evaluates it (the same distance as EvaluateValue's).
-        if (!field_->EvaluateWithHessianBelow(r, params_.clearance, &dist, &grad_d,
-                                              want_hess ? &hess_d : nullptr)) {
-          continue;
-        }
-        const double e = (params_.clearance - dist) * inv_c;
-        if (!(e > 0.0)) continue;
-        // ∂ψ/∂r = −3κe²/C ∇d, ∂²ψ/∂r² = 6κe/C² ∇d∇dᵀ − 3κe²/C ∇²d.
-        const double k = params_.collision_scale;
-        gamma = (-3.0 * k * e * e * inv_c) * grad_d;
-        if (want_hess) {
-          big_gamma = (6.0 * k * e * inv_c * inv_c) * (grad_d * grad_d.transpose()) -
-                      (3.0 * k * e * e * inv_c) * hess_d;
-        }
-      } else {
-        double inv_l = 0.0;
-        const double viol = RateViolation(d, j, r, &inv_l);
-        if (!(viol > 0.0)) continue;
-        const double k = params_.feasibility_scale;
-        const Eigen::Vector3d dviol = 2.0 * inv_l * r;
-        gamma = (3.0 * k * viol * viol) * dviol;
-        if (want_hess) {
-          big_gamma = (6.0 * k * viol) * (dviol * dviol.transpose()) +
-                      (6.0 * k * viol * viol * inv_l) * Eigen::Matrix3d::Identity();
-        }
-      }
-
-      // r = τ^-d S_j b: ∂r/∂q_a(i) = τ^-d row(3+i) e_a, ∂r/∂ρ = τ^-d (S_j b' − d S_j b).
-      const Eigen::Vector3d w1 = RateRow(rows, j, db, rate_rows);
-      const Eigen::Vector3d r_rho = scale * (w1 - dd * w);
-      const Eigen::Vector3d wg = weight * gamma;
-      g(ir) += wg.dot(r_rho);
-      ActiveSample sample;
-      sample.row = j;
-      sample.grad = scale * wg;
-      if (want_hess) {
-        const Eigen::Matrix3d wgg = weight * big_gamma;
-        // ρ row: ∂²ψ/∂ρ∂q = (wΓ r_ρ)_a v_i + wγ_a ∂²r_a/∂ρ∂q_a(i), the latter = −d v_i.
-        sample.rho = scale * (wgg * r_rho - dd * wg);
-        const Eigen::Vector3d w2 = RateRow(rows, j, ddb, rate_rows);
-        const Eigen::Vector3d r_rhorho = scale * (w2 - 2.0 * dd * w1 + dd * dd * w);
-        (*hess)(ir, ir) += r_rho.dot(wgg * r_rho) + wg.dot(r_rhorho);
-        sample.hess = (scale * scale) * wgg;
-      }
-      ws.active.push_back(sample);
-    }
-    const int na = static_cast<int>(ws.active.size());
-    if (na == 0) continue;
-    // v_j = τ^-d S_j(3..3+m): gather the active rows, then the q-gradient, the ρ row and the
-    // q–q blocks are small matrix products: g_qa += Vᵀ c_a, H_ρq_a += Vᵀ t_a,
-    // H_qa,qb += Vᵀ diag(wΓ_ab) V (lower block triangle; the mirror fills the rest). Each runs in
-    // AddTransposedProduct where that gives the bits of Eigen's product, else in Eigen's.
-    const bool own_3 = detail::TransposedProductApplies(na, m, 3);
-    const bool own_m = want_hess && detail::TransposedProductApplies(na, m, m);
-    const int mp = detail::TransposedProductStride(m);
-    if (own_3 || own_m) {  // V by rows, padded to mp columns
-      ws.vr.assign(static_cast<std::size_t>(na) * static_cast<std::size_t>(mp), 0.0);
-      for (int i = 0; i < na; ++i) {
-        const int row = ws.active[static_cast<std::size_t>(i)].row;
-        for (int c = 0; c < m; ++c) ws.vr[static_cast<std::size_t>(i * mp + c)] = rows(row, 3 + c);
-      }
-    }
-    if (!own_3 || (want_hess && !own_m)) {  // V by columns, for Eigen's products
-      ws.v.resize(na, m);
-      for (int i = 0; i < na; ++i) {
-        ws.v.row(i) = rows.row(ws.active[static_cast<std::size_t>(i)].row).segment(3, m);
-      }
-    }
-    // ws.vt_coef = Vᵀ C (m × 3), C's row i the coefficients `coef(active[i])`.
-    const auto v_transpose_times = [&](auto coef) {
-      if (own_3) {
-        ws.cr.resize(static_cast<std::size_t>(na) * 3);
-        for (int i = 0; i < na; ++i) {
-          const Eigen::Vector3d& c = coef(ws.active[static_cast<std::size_t>(i)]);
-          for (int a = 0; a < 3; ++a) ws.cr[static_cast<std::size_t>(3 * i + a)] = c(a);
-        }
-        ws.vt_coef.setZero(m, 3);  // as Eigen's product: zero, then add
-        detail::AddTransposedProduct(na, m, 3, ws.vr.data(), mp, ws.cr.data(), 3, ws.vt_coef.data(),
-                                     m, /*lower_only=*/false);
-      } else {
-        ws.coef.resize(na, 3);
-        for (int i = 0; i < na; ++i) {
-          ws.coef.row(i) = coef(ws.active[static_cast<std::size_t>(i)]).transpose();
-        }
-        ws.vt_coef.noalias() = ws.v.transpose() * ws.coef;
-      }
-    };
-    v_transpose_times([](const ActiveSample& s) -> const Eigen::Vector3d& { return s.grad; });
-    for (int a = 0; a < 3; ++a) g.segment(a * m, m) += ws.vt_coef.col(a);
-    if (!want_hess) continue;
-    v_transpose_times([](const ActiveSample& s) -> const Eigen::Vector3d& { return s.rho; });
-    for (int a = 0; a < 3; ++a) hess->row(ir).segment(a * m, m) += ws.vt_coef.col(a).transpose();
-    for (int a = 0; a < 3; ++a) {
-      for (int bb = 0; bb <= a; ++bb) {
-        if (own_m) {
-          ws.wr.resize(ws.vr.size());
-          for (int i = 0; i < na; ++i) {
-            const double h = ws.active[static_cast<std::size_t>(i)].hess(a, bb);
-            for (int c = 0; c < mp; ++c) {
-              const auto k = static_cast<std::size_t>(i * mp + c);
-              ws.wr[k] = h * ws.vr[k];
-            }
-          }
-          detail::AddTransposedProduct(na, m, m, ws.wr.data(), mp, ws.vr.data(), mp,
-                                       &(*hess)(a * m, bb * m), n, /*lower_only=*/a == bb);
-        } else {
-          ws.weighted.resize(na, m);
-          for (int i = 0; i < na; ++i) {
-            ws.weighted.row(i) = ws.active[static_cast<std::size_t>(i)].hess(a, bb) * ws.v.row(i);
-          }
-          hess->block(a * m, bb * m, m, m).noalias() += ws.weighted.transpose() * ws.v;
-        }
-      }
-    }
-  }
-  if (want_hess) hess->triangularView<Eigen::StrictlyUpper>() = hess->transpose();
+  if (hess != nullptr) hess->setZero(n, n);
+  GradientPass pass(*this, vc, ws, z, g, hess);
+  pass.AddJerk();
+  pass.AddTimeStretch();
+  for (int d = 0; d < 3; ++d) pass.AddSampledPenalty(d);
+  if (hess != nullptr) hess->triangularView<Eigen::StrictlyUpper>() = hess->transpose();
   return terms;
 }
 

@@ -244,6 +244,185 @@ PathSearchResult PathSearcher::Plan(const LocalMap& map, const Eigen::Vector3d& 
   return r;
 }
 
+/// The search box [lo, hi] (inclusive, global cells) and the local index of its cells.
+struct PathSearcher::SearchBox {
+  CellIndex lo;
+  CellIndex hi;
+  Eigen::Vector3i dims;
+  int nx = 0;
+  int nxy = 0;
+
+  [[nodiscard]] int Index(const CellIndex& g) const {
+    const CellIndex l = g - lo;
+    return l.x() + nx * l.y() + nxy * l.z();
+  }
+  [[nodiscard]] CellIndex Cell(int idx) const {
+    return CellIndex(lo.x() + idx % nx, lo.y() + (idx / nx) % dims.y(), lo.z() + idx / nxy);
+  }
+  [[nodiscard]] bool Inside(const CellIndex& g) const {
+    return (g.array() >= lo.array()).all() && (g.array() <= hi.array()).all();
+  }
+};
+
+PathSearcher::SearchBox PathSearcher::BoxAround(const LocalMap& map, const CellIndex& start_cell,
+                                                const CellIndex& goal_cell) const {
+  const int margin = static_cast<int>(std::ceil(options_.search_margin / map.resolution()));
+  SearchBox box;
+  box.lo = start_cell.cwiseMin(goal_cell);
+  box.hi = start_cell.cwiseMax(goal_cell);
+  box.lo.head<2>().array() -= margin;
+  box.hi.head<2>().array() += margin;
+  const int z_lo = map.CellOf(Eigen::Vector3d(0, 0, options_.z_min)).z();
+  const int z_hi = map.CellOf(Eigen::Vector3d(0, 0, options_.z_max)).z();
+  box.lo.z() = std::min(box.lo.z(), z_lo);
+  box.hi.z() = std::max(box.hi.z(), std::max(z_hi, z_lo));
+  box.dims = box.hi - box.lo + Eigen::Vector3i::Ones();
+  box.nx = box.dims.x();
+  box.nxy = box.dims.x() * box.dims.y();
+  return box;
+}
+
+void PathSearcher::ResetCells(std::size_t n_cells) {
+  if (cell_stamp_.size() < n_cells) {
+    cell_stamp_.assign(n_cells, 0);
+    g_.resize(n_cells);
+    parent_.resize(n_cells);
+    flags_.resize(n_cells);
+  }
+  if (++stamp_ == 0) {  // wrapped: invalidate everything
+    std::fill(cell_stamp_.begin(), cell_stamp_.end(), 0);
+    stamp_ = 1;
+  }
+}
+
+bool PathSearcher::Occupied(const LocalMap& map, const CellIndex& g, int idx) {
+  const auto i = static_cast<std::size_t>(idx);
+  if (cell_stamp_[i] != stamp_) {  // first touch in this search
+    cell_stamp_[i] = stamp_;
+    flags_[i] = 0;
+    g_[i] = std::numeric_limits<float>::infinity();
+    parent_[i] = -1;
+  }
+  std::uint8_t& f = flags_[i];
+  if ((f & kKnown) == 0) f |= kKnown | (map.IsOccupiedCell(g) ? kOccupied : 0);
+  return (f & kOccupied) != 0;
+}
+
+bool PathSearcher::FreeStartCell(const LocalMap& map, const SearchBox& box,
+                                 const Eigen::Vector3d& start_W, const CellIndex& start_cell,
+                                 CellIndex* first) {
+  *first = start_cell;
+  if (!Occupied(map, start_cell, box.Index(start_cell))) return true;
+  const int r = static_cast<int>(std::ceil(options_.start_escape_radius / map.resolution()));
+  double best = std::numeric_limits<double>::infinity();
+  bool found = false;
+  for (int dz = -r; dz <= r; ++dz) {
+    for (int dy = -r; dy <= r; ++dy) {
+      for (int dx = -r; dx <= r; ++dx) {
+        const CellIndex c = start_cell + CellIndex(dx, dy, dz);
+        if (!box.Inside(c)) continue;
+        const double d = (map.CellCenter(c) - start_W).norm();
+        if (d > options_.start_escape_radius || d >= best) continue;
+        if (Occupied(map, c, box.Index(c))) continue;
+        best = d;
+        *first = c;
+        found = true;
+      }
+    }
+  }
+  return found;
+}
+
+PathSearchStatus PathSearcher::AStar(const LocalMap& map, const SearchBox& box,
+                                     const CellIndex& first, const CellIndex& goal_cell,
+                                     int* expansions) {
+  const float w = static_cast<float>(options_.heuristic_weight);
+  auto heuristic = [&](const CellIndex& g) {
+    const CellIndex d = goal_cell - g;
+    return static_cast<float>(Octile(d.x(), d.y(), d.z()));
+  };
+  std::priority_queue<OpenEntry, std::vector<OpenEntry>, WorseThan> open;
+  const int first_idx = box.Index(first);
+  const int goal_idx = box.Index(goal_cell);
+  g_[static_cast<std::size_t>(first_idx)] = 0.0f;
+  {
+    const float h = heuristic(first);
+    open.push({w * h, h, 0.0f, first_idx});
+  }
+  const std::vector<Move>& moves = Moves();
+  // Per move, the offset of its target in the box's cell index: a neighbour's index is then
+  // one addition (its coordinates are only range-checked).
+  QT_DEMAND(moves.size() == 26, "26-connected moves");
+  std::array<int, 26> move_offset{};
+  for (std::size_t k = 0; k < moves.size(); ++k) {
+    const Eigen::Vector3i& d = moves[k].d;
+    move_offset[k] = d.x() + box.nx * d.y() + box.nxy * d.z();
+  }
+  *expansions = 0;
+  while (!open.empty()) {
+    const OpenEntry top = open.top();
+    open.pop();
+    const auto ti = static_cast<std::size_t>(top.idx);
+    if ((flags_[ti] & kClosed) != 0 || top.g > g_[ti]) continue;  // stale entry
+    if (top.idx == goal_idx) return PathSearchStatus::kSuccess;
+    if (*expansions >= options_.max_expansions) return PathSearchStatus::kExpansionLimit;
+    flags_[ti] |= kClosed;
+    ++*expansions;
+    const CellIndex c = box.Cell(top.idx);
+    // The occupancy of the 26 neighbours inside the box, one bit per move. A move's corner
+    // cells are neighbours too, and inside the box whenever its target is.
+    std::uint32_t outside = 0;
+    std::uint32_t occupied_mask = 0;
+    for (std::size_t k = 0; k < moves.size(); ++k) {
+      const CellIndex nb = c + moves[k].d;
+      if (!box.Inside(nb)) {
+        outside |= 1u << k;
+      } else if (Occupied(map, nb, top.idx + move_offset[k])) {
+        occupied_mask |= 1u << k;
+      }
+    }
+    for (std::size_t k = 0; k < moves.size(); ++k) {
+      if (((outside | occupied_mask) >> k) & 1u) continue;
+      const Move& m = moves[k];
+      const int ni = top.idx + move_offset[k];
+      const auto nu = static_cast<std::size_t>(ni);
+      if ((flags_[nu] & kClosed) != 0) continue;
+      if ((occupied_mask & m.sub_mask) != 0) continue;  // cuts an occupied corner
+      const CellIndex nb = c + m.d;
+      const float g_new = top.g + m.cost;
+      if (g_new < g_[nu]) {
+        g_[nu] = g_new;
+        parent_[nu] = top.idx;
+        const float h = heuristic(nb);
+        open.push({g_new + w * h, h, g_new, ni});
+      }
+    }
+  }
+  return PathSearchStatus::kNoPath;
+}
+
+void PathSearcher::TracePath(const LocalMap& map, const SearchBox& box, int goal_idx,
+                             PathSearchResult& result) const {
+  // Cell path, start → goal.
+  for (int idx = goal_idx; idx >= 0; idx = parent_[static_cast<std::size_t>(idx)]) {
+    result.path.push_back(map.CellCenter(box.Cell(idx)));
+  }
+  std::reverse(result.path.begin(), result.path.end());
+  std::vector<Eigen::Vector3d> points;
+  points.reserve(result.path.size() + 2);
+  points.push_back(result.start_W);
+  points.insert(points.end(), result.path.begin(), result.path.end());
+  points.push_back(result.goal_W);
+  result.waypoints = PrunePath(map, points);
+  // Drop points that coincide with a neighbour (start/goal within their cell centres).
+  result.waypoints.erase(std::unique(result.waypoints.begin(), result.waypoints.end(),
+                                     [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+                                       return (a - b).squaredNorm() < 1e-18;
+                                     }),
+                         result.waypoints.end());
+  result.length = PolylineLength(result.waypoints);
+}
+
 PathSearchResult PathSearcher::Search(const LocalMap& map, const Eigen::Vector3d& start_W,
                                       const Eigen::Vector3d& goal_W) {
   if (!start_W.allFinite() || !goal_W.allFinite()) {
@@ -265,186 +444,34 @@ PathSearchResult PathSearcher::Search(const LocalMap& map, const Eigen::Vector3d
   if (map.IsOccupiedCell(goal_cell)) {
     return fail(PathSearchStatus::kGoalOccupied, "the goal cell is occupied (inflated map)");
   }
-
-  // Search box [lo, hi] (inclusive) in global cells.
-  const int margin = static_cast<int>(std::ceil(options_.search_margin / map.resolution()));
-  CellIndex lo = start_cell.cwiseMin(goal_cell);
-  CellIndex hi = start_cell.cwiseMax(goal_cell);
-  lo.head<2>().array() -= margin;
-  hi.head<2>().array() += margin;
-  const int z_lo = map.CellOf(Eigen::Vector3d(0, 0, options_.z_min)).z();
-  const int z_hi = map.CellOf(Eigen::Vector3d(0, 0, options_.z_max)).z();
-  lo.z() = std::min(lo.z(), z_lo);
-  hi.z() = std::max(hi.z(), std::max(z_hi, z_lo));
-  const Eigen::Vector3i dims = hi - lo + Eigen::Vector3i::Ones();
-  const double n_cells_d = static_cast<double>(dims.x()) * dims.y() * dims.z();
+  const SearchBox box = BoxAround(map, start_cell, goal_cell);
+  const double n_cells_d = static_cast<double>(box.dims.x()) * box.dims.y() * box.dims.z();
   if (n_cells_d > options_.max_search_cells) {
-    return fail(PathSearchStatus::kSearchBoxTooLarge,
-                "the search box holds " + std::to_string(static_cast<long long>(n_cells_d)) +
-                    " cells, more than max_search_cells = " +
-                    std::to_string(options_.max_search_cells));
+    return fail(
+        PathSearchStatus::kSearchBoxTooLarge,
+        "the search box holds " + std::to_string(static_cast<long long>(n_cells_d)) +
+            " cells, more than max_search_cells = " + std::to_string(options_.max_search_cells));
   }
-  const std::size_t n_cells = static_cast<std::size_t>(n_cells_d);
-  if (cell_stamp_.size() < n_cells) {
-    cell_stamp_.assign(n_cells, 0);
-    g_.resize(n_cells);
-    parent_.resize(n_cells);
-    flags_.resize(n_cells);
+  ResetCells(static_cast<std::size_t>(n_cells_d));
+  CellIndex first;  // the start cell, or the nearest free cell within start_escape_radius
+  if (!FreeStartCell(map, box, start_W, start_cell, &first)) {
+    return fail(PathSearchStatus::kStartOccupied,
+                "the start cell and every cell within start_escape_radius are occupied");
   }
-  if (++stamp_ == 0) {  // wrapped: invalidate everything
-    std::fill(cell_stamp_.begin(), cell_stamp_.end(), 0);
-    stamp_ = 1;
-  }
-
-  const int nx = dims.x();
-  const int nxy = dims.x() * dims.y();
-  auto local_index = [&](const CellIndex& g) {
-    const CellIndex l = g - lo;
-    return l.x() + nx * l.y() + nxy * l.z();
-  };
-  auto cell_of = [&](int idx) {
-    return CellIndex(lo.x() + idx % nx, lo.y() + (idx / nx) % dims.y(), lo.z() + idx / nxy);
-  };
-  auto inside = [&](const CellIndex& g) {
-    return (g.array() >= lo.array()).all() && (g.array() <= hi.array()).all();
-  };
-  auto touch = [&](int idx) {
-    if (cell_stamp_[static_cast<std::size_t>(idx)] != stamp_) {
-      cell_stamp_[static_cast<std::size_t>(idx)] = stamp_;
-      flags_[static_cast<std::size_t>(idx)] = 0;
-      g_[static_cast<std::size_t>(idx)] = std::numeric_limits<float>::infinity();
-      parent_[static_cast<std::size_t>(idx)] = -1;
-    }
-  };
-  auto occupied = [&](const CellIndex& g, int idx) {
-    touch(idx);
-    std::uint8_t& f = flags_[static_cast<std::size_t>(idx)];
-    if ((f & kKnown) == 0) f |= kKnown | (map.IsOccupiedCell(g) ? kOccupied : 0);
-    return (f & kOccupied) != 0;
-  };
-
-  // Start cell, or the nearest free cell within start_escape_radius.
-  CellIndex first = start_cell;
-  if (occupied(start_cell, local_index(start_cell))) {
-    const int r = static_cast<int>(std::ceil(options_.start_escape_radius / map.resolution()));
-    double best = std::numeric_limits<double>::infinity();
-    bool found = false;
-    for (int dz = -r; dz <= r; ++dz) {
-      for (int dy = -r; dy <= r; ++dy) {
-        for (int dx = -r; dx <= r; ++dx) {
-          const CellIndex c = start_cell + CellIndex(dx, dy, dz);
-          if (!inside(c)) continue;
-          const double d = (map.CellCenter(c) - start_W).norm();
-          if (d > options_.start_escape_radius || d >= best) continue;
-          if (occupied(c, local_index(c))) continue;
-          best = d;
-          first = c;
-          found = true;
-        }
-      }
-    }
-    if (!found) {
-      return fail(PathSearchStatus::kStartOccupied,
-                  "the start cell and every cell within start_escape_radius are occupied");
-    }
-  }
-
-  const float w = static_cast<float>(options_.heuristic_weight);
-  auto heuristic = [&](const CellIndex& g) {
-    const CellIndex d = goal_cell - g;
-    return static_cast<float>(Octile(d.x(), d.y(), d.z()));
-  };
-  std::priority_queue<OpenEntry, std::vector<OpenEntry>, WorseThan> open;
-  const int first_idx = local_index(first);
-  const int goal_idx = local_index(goal_cell);
-  g_[static_cast<std::size_t>(first_idx)] = 0.0f;
-  {
-    const float h = heuristic(first);
-    open.push({w * h, h, 0.0f, first_idx});
-  }
-  const std::vector<Move>& moves = Moves();
-  // Per move, the offset of its target in the box's cell index: a neighbour's index is then
-  // one addition (its coordinates are only range-checked).
-  QT_DEMAND(moves.size() == 26, "26-connected moves");
-  std::array<int, 26> move_offset{};
-  for (std::size_t k = 0; k < moves.size(); ++k) {
-    const Eigen::Vector3i& d = moves[k].d;
-    move_offset[k] = d.x() + nx * d.y() + nxy * d.z();
-  }
-  bool reached = false;
   int expansions = 0;
-  while (!open.empty()) {
-    const OpenEntry top = open.top();
-    open.pop();
-    const auto ti = static_cast<std::size_t>(top.idx);
-    if ((flags_[ti] & kClosed) != 0 || top.g > g_[ti]) continue;  // stale entry
-    if (top.idx == goal_idx) {
-      reached = true;
-      break;
-    }
-    if (expansions >= options_.max_expansions) {
-      result.expansions = expansions;
-      return fail(PathSearchStatus::kExpansionLimit,
-                  "A* reached max_expansions = " + std::to_string(options_.max_expansions) +
-                      " before the goal");
-    }
-    flags_[ti] |= kClosed;
-    ++expansions;
-    const CellIndex c = cell_of(top.idx);
-    // The occupancy of the 26 neighbours inside the box, one bit per move. A move's corner
-    // cells are neighbours too, and inside the box whenever its target is.
-    std::uint32_t outside = 0;
-    std::uint32_t occupied_mask = 0;
-    for (std::size_t k = 0; k < moves.size(); ++k) {
-      const CellIndex nb = c + moves[k].d;
-      if (!inside(nb)) {
-        outside |= 1u << k;
-      } else if (occupied(nb, top.idx + move_offset[k])) {
-        occupied_mask |= 1u << k;
-      }
-    }
-    for (std::size_t k = 0; k < moves.size(); ++k) {
-      if (((outside | occupied_mask) >> k) & 1u) continue;
-      const Move& m = moves[k];
-      const int ni = top.idx + move_offset[k];
-      const auto nu = static_cast<std::size_t>(ni);
-      if ((flags_[nu] & kClosed) != 0) continue;
-      if ((occupied_mask & m.sub_mask) != 0) continue;  // cuts an occupied corner
-      const CellIndex nb = c + m.d;
-      const float g_new = top.g + m.cost;
-      if (g_new < g_[nu]) {
-        g_[nu] = g_new;
-        parent_[nu] = top.idx;
-        const float h = heuristic(nb);
-        open.push({g_new + w * h, h, g_new, ni});
-      }
-    }
-  }
+  const PathSearchStatus status = AStar(map, box, first, goal_cell, &expansions);
   result.expansions = expansions;
-  if (!reached) {
-    return fail(PathSearchStatus::kNoPath,
-                "no path: start or goal is enclosed, or the way around leaves the search box "
-                "(search_margin); " + std::to_string(expansions) + " cells expanded");
+  if (status == PathSearchStatus::kExpansionLimit) {
+    return fail(status, "A* reached max_expansions = " + std::to_string(options_.max_expansions) +
+                            " before the goal");
   }
-
-  // Cell path, start → goal.
-  for (int idx = goal_idx; idx >= 0; idx = parent_[static_cast<std::size_t>(idx)]) {
-    result.path.push_back(map.CellCenter(cell_of(idx)));
+  if (status == PathSearchStatus::kNoPath) {
+    return fail(status,
+                "no path: start or goal is enclosed, or the way around leaves the search "
+                "box (search_margin); " +
+                    std::to_string(expansions) + " cells expanded");
   }
-  std::reverse(result.path.begin(), result.path.end());
-  std::vector<Eigen::Vector3d> points;
-  points.reserve(result.path.size() + 2);
-  points.push_back(start_W);
-  points.insert(points.end(), result.path.begin(), result.path.end());
-  points.push_back(goal_W);
-  result.waypoints = PrunePath(map, points);
-  // Drop points that coincide with a neighbour (start/goal within their cell centres).
-  result.waypoints.erase(std::unique(result.waypoints.begin(), result.waypoints.end(),
-                                     [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-                                       return (a - b).squaredNorm() < 1e-18;
-                                     }),
-                         result.waypoints.end());
-  result.length = PolylineLength(result.waypoints);
+  TracePath(map, box, box.Index(goal_cell), result);
   result.status = PathSearchStatus::kSuccess;
   result.message = "path found: " + std::to_string(result.path.size()) + " cells, " +
                    std::to_string(result.waypoints.size()) + " waypoints, " +

@@ -6,13 +6,13 @@
 #include <coin/IpIpoptApplication.hpp>
 #include <coin/IpSolveStatistics.hpp>
 #include <coin/IpTNLP.hpp>
-#include <coin/IpUtils.hpp>
 #include <cstring>
-#include <ctime>
 #include <exception>
 #include <limits>
+#include <optional>
 #include <utility>
 
+#include "ipopt_timers.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/planning/dense_ma27.hpp"
 #include "quadtune/planning/ipopt_application.hpp"
@@ -181,9 +181,153 @@ PlanResult Invalid(std::string message) {
   return r;
 }
 
+// Why `request` with `params` cannot be planned (a PlanStatus::kInvalidInput message), if so;
+// `vf` is the requested final velocity.
+std::optional<std::string> RequestError(const PlanRequest& request, const PlannerParams& params,
+                                        const Eigen::Vector3d& vf) {
+  try {
+    params.Validate("PlannerParams");
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  if (!request.p0_W.allFinite() || !request.v0_W.allFinite() || !request.a0_W.allFinite() ||
+      !request.goal_W.allFinite() || !vf.allFinite()) {
+    return "start state or goal is not finite";
+  }
+  for (const auto& p : request.initial_path_W) {
+    if (!p.allFinite()) return "initial path has a non-finite point";
+  }
+  if (!(request.warm_start_time >= 0.0) || !std::isfinite(request.warm_start_time)) {
+    return "warm_start_time must be finite and >= 0";
+  }
+  if (!(request.speed_scale > 0.0 && request.speed_scale <= 1.0)) {
+    return "speed_scale must be in (0, 1]";
+  }
+  if (!(request.braking_deceleration >= 0.0) || !std::isfinite(request.braking_deceleration)) {
+    return "braking_deceleration must be finite and >= 0";
+  }
+  return std::nullopt;
+}
+
+// The polyline start → goal through the front end's points (repeated points dropped).
+std::vector<Eigen::Vector3d> PathThrough(const PlanRequest& request) {
+  std::vector<Eigen::Vector3d> path{request.p0_W};
+  for (const auto& p : request.initial_path_W) {
+    if ((p - path.back()).norm() > 1e-6) path.push_back(p);
+  }
+  if ((request.goal_W - path.back()).norm() > 1e-6) path.push_back(request.goal_W);
+  return path;
+}
+
+// The cost parameters of one solve: the planner's, with the request's speed scale and braking.
+MinJerkCostParams CostParamsFor(const PlanRequest& request, const PlannerParams& params,
+                                const TrajectoryOptimizerOptions& options) {
+  MinJerkCostParams cost_params = MinJerkCostParams::FromPlannerParams(params);
+  cost_params.v_max = request.speed_scale * params.v_des;  // the check keeps params.v_des
+  cost_params.collision_scale = options.collision_scale;
+  cost_params.feasibility_scale = options.feasibility_scale;
+  cost_params.brake_from_speed = request.v0_W.norm();
+  cost_params.braking_deceleration = request.braking_deceleration;
+  return cost_params;
+}
+
+// Initial guess: waypoints at equal arc length on `path` (τ = 1), or on the previous trajectory
+// where it covers the new knots.
+Eigen::VectorXd InitialGuess(const MinJerkProblem& problem, const PlanRequest& request,
+                             const std::vector<Eigen::Vector3d>& path,
+                             const std::vector<double>& arc, const std::vector<double>& nominal) {
+  const double length = arc.back();
+  const int n_pieces = static_cast<int>(nominal.size());
+  double tau0 = 1.0;
+  double sum_nominal = 0.0;
+  for (double t : nominal) sum_nominal += t;
+  const Trajectory* prev = request.warm_start;
+  const bool warm = prev != nullptr && !prev->Empty();
+  if (warm) {
+    const double remaining = prev->Duration() - request.warm_start_time;
+    if (remaining > 0.0 &&
+        (prev->Position(prev->Duration()) - request.goal_W).norm() < 0.05 * std::max(1.0, length)) {
+      tau0 = std::clamp(remaining / sum_nominal, 0.2, 5.0);
+    }
+  }
+  std::vector<Eigen::Vector3d> inner;
+  inner.reserve(static_cast<std::size_t>(n_pieces - 1));
+  double knot_time = 0.0;
+  for (int i = 1; i < n_pieces; ++i) {
+    knot_time += tau0 * nominal[static_cast<std::size_t>(i - 1)];
+    const double t_prev = request.warm_start_time + knot_time;
+    if (warm && t_prev < prev->Duration()) {
+      inner.push_back(prev->Position(t_prev));
+    } else {
+      inner.push_back(PointAt(path, arc, length * i / n_pieces));
+    }
+  }
+  return problem.Pack(inner, tau0);
+}
+
+// The per-solve options of the thread's application.
+void SetSolveOptions(Ipopt::IpoptApplication& app, const TrajectoryOptimizerOptions& options,
+                     bool curvature) {
+  app.Options()->SetNumericValue("tol", options.tolerance);
+  app.Options()->SetIntegerValue("max_iter", options.max_iterations);
+  // Stagnation safeguards (TrajectoryOptimizerOptions::stall_relative_change, rounding_floor):
+  // Ipopt's "acceptable" termination with only its objective-change part active. For a field
+  // without curvature, whose Gauss–Newton model and kinked gradient keep Newton from reaching
+  // `tol`, at stall_relative_change; for a C² field (ProvidesCurvature()) only at the
+  // objective's rounding floor, where the line search can no longer tell f(x + αd) from f(x).
+  app.Options()->SetNumericValue("acceptable_tol", 1e19);
+  app.Options()->SetNumericValue("acceptable_dual_inf_tol", 1e19);
+  app.Options()->SetNumericValue("acceptable_obj_change_tol", curvature
+                                                                  ? options.rounding_floor
+                                                                  : options.stall_relative_change);
+  app.Options()->SetIntegerValue("acceptable_iter", options.stall_iterations);
+}
+
+// The solver's effort: evaluation counts, iterations and the machine-independent compute units.
+void RecordEffort(const MinJerkProblem& problem, const MinJerkTnlp& tnlp,
+                  Ipopt::IpoptApplication& app, PlanResult* result) {
+  result->num_variables = problem.NumVariables();
+  result->function_evaluations = tnlp.FunctionEvaluations();
+  result->gradient_evaluations = tnlp.GradientEvaluations();
+  result->hessian_evaluations = tnlp.HessianEvaluations();
+  result->distance_queries = tnlp.DistanceQueries();
+  if (Ipopt::SmartPtr<Ipopt::SolveStatistics> stats = app.Statistics(); Ipopt::IsValid(stats)) {
+    result->iterations = stats->IterationCount();
+  }
+  const double nv = result->num_variables;
+  result->compute_units = 2.0 + 1.3 * result->iterations +
+                          0.4 * (result->function_evaluations + result->gradient_evaluations) +
+                          0.002 * static_cast<double>(result->distance_queries) +
+                          1e-4 * (nv * nv * nv / 3.0) * result->hessian_evaluations;
+}
+
+// Why the final iterate of a solve with `ipopt_status` is not a trajectory, if so.
+std::optional<std::pair<PlanStatus, std::string>> UnusableIterate(
+    const MinJerkTnlp& tnlp, Ipopt::ApplicationReturnStatus ipopt_status) {
+  const int status = static_cast<int>(ipopt_status);
+  if (!tnlp.HasFinal() || !tnlp.Final().allFinite()) {
+    return std::pair(
+        ipopt_status == Ipopt::Invalid_Number_Detected ? PlanStatus::kNumericalError
+                                                       : PlanStatus::kSolverFailure,
+        "Ipopt returned status " + std::to_string(status) + " without a finite solution");
+  }
+  // A diverged time scale (the last iterate of a failed solve) is reported, not sampled: a
+  // trajectory stretched 10^6 times would take gigabytes of check samples.
+  const double time_scale = MinJerkProblem::TimeScale(tnlp.Final());
+  if (!std::isfinite(time_scale) || time_scale > kMaxTimeScale ||
+      time_scale < 1.0 / kMaxTimeScale) {
+    return std::pair(PlanStatus::kSolverFailure,
+                     "time scale " + std::to_string(time_scale) +
+                         " of the nominal allocation is out of range (Ipopt status " +
+                         std::to_string(status) + ")");
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 Ipopt::SmartPtr<Ipopt::IpoptApplication> NewPlannerIpoptApplication() {
+  LinkIpoptTimerOverride();
   RegisterDenseMa27WithIpopt();
   Ipopt::SmartPtr<Ipopt::IpoptApplication> a =
       new Ipopt::IpoptApplication(/*create_console_out=*/false);
@@ -319,36 +463,10 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   };
   try {
-    try {
-      params.Validate("PlannerParams");
-    } catch (const std::exception& e) {
-      return Invalid(e.what());
-    }
     const Eigen::Vector3d vf =
         request.speed_scale * request.goal_v_W.value_or(Eigen::Vector3d::Zero());
-    if (!request.p0_W.allFinite() || !request.v0_W.allFinite() || !request.a0_W.allFinite() ||
-        !request.goal_W.allFinite() || !vf.allFinite()) {
-      return Invalid("start state or goal is not finite");
-    }
-    for (const auto& p : request.initial_path_W) {
-      if (!p.allFinite()) return Invalid("initial path has a non-finite point");
-    }
-    if (!(request.warm_start_time >= 0.0) || !std::isfinite(request.warm_start_time)) {
-      return Invalid("warm_start_time must be finite and >= 0");
-    }
-    if (!(request.speed_scale > 0.0 && request.speed_scale <= 1.0)) {
-      return Invalid("speed_scale must be in (0, 1]");
-    }
-    if (!(request.braking_deceleration >= 0.0) || !std::isfinite(request.braking_deceleration)) {
-      return Invalid("braking_deceleration must be finite and >= 0");
-    }
-
-    // Path start → goal through the front-end's points.
-    std::vector<Eigen::Vector3d> path{request.p0_W};
-    for (const auto& p : request.initial_path_W) {
-      if ((p - path.back()).norm() > 1e-6) path.push_back(p);
-    }
-    if ((request.goal_W - path.back()).norm() > 1e-6) path.push_back(request.goal_W);
+    if (auto error = RequestError(request, params, vf)) return Invalid(std::move(*error));
+    const std::vector<Eigen::Vector3d> path = PathThrough(request);
     const std::vector<double> arc = ArcLengths(path);
     const double length = arc.back();
     if (path.size() < 2 || !(length > 1e-3)) return Invalid("goal coincides with the start");
@@ -357,136 +475,43 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     const std::vector<double> nominal = AllocateTime(path, n_pieces, request.v0_W.norm(), vf.norm(),
                                                      request.speed_scale * params.v_des,
                                                      params.a_max, request.braking_deceleration);
-    const double piece_length = length / n_pieces;
     const int samples =
-        std::clamp(static_cast<int>(std::ceil(piece_length / options_.sample_spacing)),
+        std::clamp(static_cast<int>(std::ceil(length / n_pieces / options_.sample_spacing)),
                    options_.min_samples_per_piece, options_.max_samples_per_piece);
-
     MinJerkBoundary boundary;
     boundary.p0_W = request.p0_W;
     boundary.v0_W = request.v0_W;
     boundary.a0_W = request.a0_W;
     boundary.pf_W = request.goal_W;
     boundary.vf_W = vf;
-    MinJerkCostParams cost_params = MinJerkCostParams::FromPlannerParams(params);
-    cost_params.v_max = request.speed_scale * params.v_des;  // the check keeps params.v_des
-    cost_params.collision_scale = options_.collision_scale;
-    cost_params.feasibility_scale = options_.feasibility_scale;
-    cost_params.brake_from_speed = request.v0_W.norm();
-    cost_params.braking_deceleration = request.braking_deceleration;
     const MinJerkProblem problem(boundary, nominal,
                                  std::vector<int>(static_cast<std::size_t>(n_pieces), samples),
-                                 field, cost_params);
-
-    // Initial guess: waypoints at equal arc length on the path (τ = 1), or on the previous
-    // trajectory where it covers the new knots.
-    double tau0 = 1.0;
-    double sum_nominal = 0.0;
-    for (double t : nominal) sum_nominal += t;
-    const Trajectory* prev = request.warm_start;
-    const bool warm = prev != nullptr && !prev->Empty();
-    if (warm) {
-      const double remaining = prev->Duration() - request.warm_start_time;
-      if (remaining > 0.0 && (prev->Position(prev->Duration()) - request.goal_W).norm() <
-                                 0.05 * std::max(1.0, length)) {
-        tau0 = std::clamp(remaining / sum_nominal, 0.2, 5.0);
-      }
-    }
-    std::vector<Eigen::Vector3d> inner;
-    inner.reserve(static_cast<std::size_t>(n_pieces - 1));
-    double knot_time = 0.0;
-    for (int i = 1; i < n_pieces; ++i) {
-      knot_time += tau0 * nominal[static_cast<std::size_t>(i - 1)];
-      const double t_prev = request.warm_start_time + knot_time;
-      if (warm && t_prev < prev->Duration()) {
-        inner.push_back(prev->Position(t_prev));
-      } else {
-        inner.push_back(PointAt(path, arc, length * i / n_pieces));
-      }
-    }
-    const Eigen::VectorXd z0 = problem.Pack(inner, tau0);
+                                 field, CostParamsFor(request, params, options_));
 
     Ipopt::IpoptApplication& app = ThreadApplication();
-    app.Options()->SetNumericValue("tol", options_.tolerance);
-    app.Options()->SetIntegerValue("max_iter", options_.max_iterations);
-    // Stagnation safeguards (TrajectoryOptimizerOptions::stall_relative_change, rounding_floor):
-    // Ipopt's "acceptable" termination with only its objective-change part active. For a field
-    // without curvature, whose Gauss–Newton model and kinked gradient keep Newton from reaching
-    // `tol`, at stall_relative_change; for a C² field (ProvidesCurvature()) only at the
-    // objective's rounding floor, where the line search can no longer tell f(x + αd) from f(x).
     const bool curvature = field.ProvidesCurvature();
-    app.Options()->SetNumericValue("acceptable_tol", 1e19);
-    app.Options()->SetNumericValue("acceptable_dual_inf_tol", 1e19);
-    app.Options()->SetNumericValue(
-        "acceptable_obj_change_tol",
-        curvature ? options_.rounding_floor : options_.stall_relative_change);
-    app.Options()->SetIntegerValue("acceptable_iter", options_.stall_iterations);
-    Ipopt::SmartPtr<MinJerkTnlp> tnlp = new MinJerkTnlp(problem, z0);
+    SetSolveOptions(app, options_, curvature);
+    Ipopt::SmartPtr<MinJerkTnlp> tnlp =
+        new MinJerkTnlp(problem, InitialGuess(problem, request, path, arc, nominal));
     const Ipopt::ApplicationReturnStatus ipopt_status = app.OptimizeTNLP(tnlp);
 
     PlanResult result;
     result.ipopt_status = static_cast<int>(ipopt_status);
-    result.num_variables = problem.NumVariables();
-    result.function_evaluations = tnlp->FunctionEvaluations();
-    result.gradient_evaluations = tnlp->GradientEvaluations();
-    result.hessian_evaluations = tnlp->HessianEvaluations();
-    result.distance_queries = tnlp->DistanceQueries();
-    if (Ipopt::SmartPtr<Ipopt::SolveStatistics> stats = app.Statistics(); Ipopt::IsValid(stats)) {
-      result.iterations = stats->IterationCount();
-    }
-    const double nv = result.num_variables;
-    result.compute_units = 2.0 + 1.3 * result.iterations +
-                           0.4 * (result.function_evaluations + result.gradient_evaluations) +
-                           0.002 * static_cast<double>(result.distance_queries) +
-                           1e-4 * (nv * nv * nv / 3.0) * result.hessian_evaluations;
-
-    const bool converged =
-        ipopt_status == Ipopt::Solve_Succeeded || ipopt_status == Ipopt::Solved_To_Acceptable_Level;
-    if (!tnlp->HasFinal() || !tnlp->Final().allFinite()) {
-      result.status = ipopt_status == Ipopt::Invalid_Number_Detected ? PlanStatus::kNumericalError
-                                                                     : PlanStatus::kSolverFailure;
-      result.message = "Ipopt returned status " + std::to_string(result.ipopt_status) +
-                       " without a finite solution";
-      result.solve_time_s = elapsed();
-      return result;
-    }
+    RecordEffort(problem, *tnlp, app, &result);
     const Eigen::VectorXd& z = tnlp->Final();
-    const MinJerkCostTerms* final_terms = tnlp->TermsAt(z);
-    result.cost = final_terms != nullptr ? *final_terms : problem.Evaluate(z, nullptr, nullptr);
-    // A diverged time scale (the last iterate of a failed solve) is reported, not sampled: a
-    // trajectory stretched 10^6 times would take gigabytes of check samples.
-    const double time_scale = MinJerkProblem::TimeScale(z);
-    if (!std::isfinite(time_scale) || time_scale > kMaxTimeScale ||
-        time_scale < 1.0 / kMaxTimeScale) {
-      result.status = PlanStatus::kSolverFailure;
-      result.message = "time scale " + std::to_string(time_scale) +
-                       " of the nominal allocation is out of range (Ipopt status " +
-                       std::to_string(result.ipopt_status) + ")";
+    if (tnlp->HasFinal() && z.allFinite()) {
+      const MinJerkCostTerms* final_terms = tnlp->TermsAt(z);
+      result.cost = final_terms != nullptr ? *final_terms : problem.Evaluate(z, nullptr, nullptr);
+    }
+    if (auto unusable = UnusableIterate(*tnlp, ipopt_status)) {
+      result.status = unusable->first;
+      result.message = std::move(unusable->second);
       result.solve_time_s = elapsed();
       return result;
     }
     result.trajectory = problem.ToTrajectory(z);
-
-    const double required_clearance = Measure(request.p0_W, field, params, &result);
-
-    if (!std::isfinite(result.cost.total) || !std::isfinite(result.max_speed) ||
-        ipopt_status == Ipopt::Invalid_Number_Detected) {
-      result.status = PlanStatus::kNumericalError;
-      result.message = "non-finite cost or trajectory (Ipopt status " +
-                       std::to_string(result.ipopt_status) + ")";
-    } else if (ipopt_status == Ipopt::Maximum_Iterations_Exceeded) {
-      result.status = PlanStatus::kMaxIterations;
-      result.message = "Ipopt reached max_iter = " + std::to_string(options_.max_iterations);
-    } else if (!converged) {
-      result.status = PlanStatus::kSolverFailure;
-      result.message = "Ipopt failed with status " + std::to_string(result.ipopt_status);
-    } else if (Judge(required_clearance, params, &result)) {
-      result.message =
-          ipopt_status == Ipopt::Solve_Succeeded
-              ? "converged"
-              : (curvature ? "stalled at the objective's rounding floor"
-                           : "stalled (non-smooth field)");
-    }
+    Conclude(ipopt_status, curvature, Measure(request.p0_W, field, params, &result), params,
+             &result);
     result.solve_time_s = elapsed();
     return result;
   } catch (const std::exception& e) {
@@ -495,6 +520,29 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
     r.message = std::string("exception during solve: ") + e.what();
     r.solve_time_s = elapsed();
     return r;
+  }
+}
+
+void TrajectoryOptimizer::Conclude(int ipopt_status, bool curvature, double required_clearance,
+                                   const PlannerParams& params, PlanResult* result) const {
+  const bool converged =
+      ipopt_status == Ipopt::Solve_Succeeded || ipopt_status == Ipopt::Solved_To_Acceptable_Level;
+  if (!std::isfinite(result->cost.total) || !std::isfinite(result->max_speed) ||
+      ipopt_status == Ipopt::Invalid_Number_Detected) {
+    result->status = PlanStatus::kNumericalError;
+    result->message =
+        "non-finite cost or trajectory (Ipopt status " + std::to_string(ipopt_status) + ")";
+  } else if (ipopt_status == Ipopt::Maximum_Iterations_Exceeded) {
+    result->status = PlanStatus::kMaxIterations;
+    result->message = "Ipopt reached max_iter = " + std::to_string(options_.max_iterations);
+  } else if (!converged) {
+    result->status = PlanStatus::kSolverFailure;
+    result->message = "Ipopt failed with status " + std::to_string(ipopt_status);
+  } else if (Judge(required_clearance, params, result)) {
+    result->message = ipopt_status == Ipopt::Solve_Succeeded
+                          ? "converged"
+                          : (curvature ? "stalled at the objective's rounding floor"
+                                       : "stalled (non-smooth field)");
   }
 }
 
@@ -559,20 +607,3 @@ void TrajectoryOptimizer::Check(const Eigen::Vector3d& p0_W, const DistanceField
 }
 
 }  // namespace quadtune::planning
-
-// Ipopt times its internal tasks with Ipopt::CpuTime()/SysTime() (IpUtils), which in Ipopt
-// 3.11.9 call getrusage(RUSAGE_SELF) at the start and end of every timed task: ≈135 system
-// calls per iteration (perf, forest benchmark), each summing the CPU time of all threads of the
-// process under a lock — 13% of a single-threaded solve, and contention between concurrent
-// solves. quadtune uses neither Ipopt's timing
-// statistics nor its CPU-time limit (options are deterministic: no max_cpu_time), so these
-// definitions interpose libipopt's (its calls go through the PLT) with the vDSO monotonic clock
-// (≈20 ns, no system call). Effect: Ipopt's reported "CPU" seconds are elapsed seconds.
-namespace Ipopt {
-Number CpuTime() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<Number>(ts.tv_sec) + 1e-9 * static_cast<Number>(ts.tv_nsec);
-}
-Number SysTime() { return 0.0; }
-}  // namespace Ipopt

@@ -121,6 +121,51 @@ TEST(Scheduler, CancelSkipsJobsNotStarted) {
   EXPECT_TRUE(s.Cancelled());
 }
 
+TEST(WorldPool, LeaseReturnsItsSlotWhenDestroyed) {
+  WorldPool pool;
+  WorkerSlot* first = nullptr;
+  {
+    const WorldPool::Lease a = pool.Borrow();
+    const WorldPool::Lease b = pool.Borrow();
+    EXPECT_NE(a.get(), b.get());
+    first = a.get();
+  }
+  // Both slots are back: the next two loans reuse them, and no slot is created.
+  const WorldPool::Lease c = pool.Borrow();
+  const WorldPool::Lease d = pool.Borrow();
+  EXPECT_EQ(pool.Size(), 2);
+  EXPECT_TRUE(c.get() == first || d.get() == first);
+}
+
+TEST(WorldPool, LeaseReturnsItsSlotWhenTheTaskThrows) {
+  WorldPool pool;
+  WorkerSlot* lent = nullptr;
+  try {
+    const WorldPool::Lease a = pool.Borrow();
+    lent = a.get();
+    throw std::runtime_error("flight failed");
+  } catch (const std::runtime_error&) {
+  }
+  EXPECT_EQ(pool.Borrow().get(), lent);
+  EXPECT_EQ(pool.Size(), 1);
+}
+
+TEST(WorldPool, MovedLeaseReturnsItsSlotOnce) {
+  WorldPool pool;
+  WorldPool::Lease a = pool.Borrow();
+  WorkerSlot* slot = a.get();
+  {
+    const WorldPool::Lease b = std::move(a);
+    EXPECT_EQ(b.get(), slot);
+  }
+  // Returned once: two loans now get that slot and one new slot.
+  const WorldPool::Lease c = pool.Borrow();
+  const WorldPool::Lease d = pool.Borrow();
+  EXPECT_EQ(c.get(), slot);
+  EXPECT_NE(d.get(), slot);
+  EXPECT_EQ(pool.Size(), 2);
+}
+
 TEST(WorldPool, ReusesReleasedSlots) {
   WorldPool pool;
   WorkerSlot* a = pool.Acquire();

@@ -128,8 +128,19 @@ class ResultStore : public EvaluationStore {
   void Exec(const std::string& sql) const;
   /// Binds `row` to the prepared insert statement and runs it (inside a transaction).
   void BindAndStep(const EvaluationRow& row);
-  sqlite3* db_ = nullptr;
-  sqlite3_stmt* insert_ = nullptr;  // prepared on first use
+  /// Deleters: sqlite3_close of a connection, sqlite3_finalize of a statement.
+  struct CloseConnection {
+    void operator()(sqlite3* db) const;
+  };
+  struct FinalizeStatement {
+    void operator()(sqlite3_stmt* statement) const;
+  };
+  /// Opens the file at `path` with sqlite3_open_v2 `flags` (busy timeout 5 s); throws when it
+  /// cannot.
+  static std::unique_ptr<sqlite3, CloseConnection> Open(const std::string& path, int flags);
+  // Declared in this order, so the statement is finalised before the connection closes.
+  std::unique_ptr<sqlite3, CloseConnection> db_;
+  std::unique_ptr<sqlite3_stmt, FinalizeStatement> insert_;  // prepared on first use
   std::int64_t experiment_id_ = 0;
   std::map<std::tuple<std::int64_t, std::string, int, int>, EvaluationRow> stored_;
 };

@@ -13,7 +13,8 @@
 /// WorldPool: reusable WorkerSlots (each holds a planner's per-task state, e.g. a Bullet world),
 /// handed to one task at a time.
 ///
-/// Thread safety: Submit, Wait, Cancel and the pool's Acquire/Release are thread-safe.
+/// Thread safety: Submit, Wait, Cancel and the pool's Borrow (and Acquire/Release) are
+/// thread-safe; a lease is used by one task at a time.
 
 #include <atomic>
 #include <condition_variable>
@@ -101,7 +102,30 @@ class Scheduler {
 /// before the pool.
 class WorldPool {
  public:
-  /// A slot, owned by the caller until Release().
+  /// A slot on loan to one task: it goes back to the pool when the lease is destroyed (also
+  /// when the task throws). Movable, not copyable; a moved-from lease holds no slot. Must not
+  /// outlive its pool.
+  class Lease {
+   public:
+    Lease(Lease&& other) noexcept;
+    Lease& operator=(Lease&& other) noexcept;
+    Lease(const Lease&) = delete;
+    Lease& operator=(const Lease&) = delete;
+    ~Lease();
+    WorkerSlot& operator*() const { return *slot_; }
+    WorkerSlot* operator->() const { return slot_; }
+    [[nodiscard]] WorkerSlot* get() const { return slot_; }
+
+   private:
+    friend class WorldPool;
+    Lease(WorldPool* pool, WorkerSlot* slot) : pool_(pool), slot_(slot) {}
+    WorldPool* pool_;
+    WorkerSlot* slot_;
+  };
+
+  /// Lends a free slot (a new one when none is free) until the lease ends.
+  [[nodiscard]] Lease Borrow();
+  /// The manual form of Borrow(): a slot owned by the caller until it calls Release(slot).
   WorkerSlot* Acquire();
   void Release(WorkerSlot* slot);
   /// Slots created so far.
@@ -115,7 +139,7 @@ class WorldPool {
   std::vector<WorkerSlot*> free_;
 };
 
-/// Flies `request` with `planner` on a slot of `pool` (acquired and released here). An exception
+/// Flies `request` with `planner` on a slot borrowed from `pool` for the flight. An exception
 /// from the planner becomes a failed FlightRecord (message "exception: …"), resets the slot's
 /// state (the world may be in any state) and sets `*threw` when given. Never throws.
 /// Thread-safe as the pool and the plug-in are.

@@ -167,6 +167,13 @@ class EsdfBuilder {
   Esdf Compute(const Eigen::Vector3d& origin_W, double resolution, const Eigen::Vector3i& dims,
                std::span<const std::uint8_t> occupancy, const EsdfOptions& options,
                std::optional<int> ground_layer);
+  /// Compute's inside distances of the occupied cells without a free face neighbour (the
+  /// "deep" cells) into `values` (the dims box, x fastest); t_cells: the truncation in cells,
+  /// `table`: the quantised distance of each squared cell distance up to t_cells², q_max: the
+  /// quantised truncation distance.
+  void FillDeepCells(std::span<const std::uint8_t> occupancy, const Eigen::Vector3i& dims,
+                     int t_cells, const std::vector<std::int16_t>& table, std::int16_t q_max,
+                     std::int16_t* values);
   /// Squared distances (cells²) from every cell of the dims box to the nearest cell whose
   /// occupancy equals `target`; values above `cap` (a squared truncation) may read kInf.
   void SquaredEdt(const std::uint8_t* occupancy, const Eigen::Vector3i& dims, bool target,

@@ -173,6 +173,7 @@ class MinJerkProblem {
   [[nodiscard]] Trajectory ToTrajectory(const Eigen::VectorXd& z) const;
 
  private:
+  class GradientPass;  // Evaluate()'s derivative steps (min_jerk_problem.cpp)
   int BoundarySize() const { return num_pieces_ + 5; }
   // Boundary vector per axis (nb × 3), positions relative to p0 (see "Numerics").
   void BoundaryVectors(const Eigen::VectorXd& z, Eigen::MatrixXd* b) const;

@@ -127,6 +127,20 @@ class PathSearcher {
                                       const Eigen::Vector3d& mission_goal_W, double h_pl);
 
  private:
+  struct SearchBox;  // the cells searched and their local index
+  // Steps of Search(), in order.
+  [[nodiscard]] SearchBox BoxAround(const LocalMap& map, const CellIndex& start_cell,
+                                    const CellIndex& goal_cell) const;
+  void ResetCells(std::size_t n_cells);  // sizes the per-cell state, starts a new stamp
+  /// Whether the cell (local index `idx`) is occupied; its occupancy is looked up once.
+  bool Occupied(const LocalMap& map, const CellIndex& g, int idx);
+  bool FreeStartCell(const LocalMap& map, const SearchBox& box, const Eigen::Vector3d& start_W,
+                     const CellIndex& start_cell, CellIndex* first);
+  PathSearchStatus AStar(const LocalMap& map, const SearchBox& box, const CellIndex& first,
+                         const CellIndex& goal_cell, int* expansions);
+  void TracePath(const LocalMap& map, const SearchBox& box, int goal_idx,
+                 PathSearchResult& result) const;
+
   PathSearchOptions options_;
   std::uint32_t stamp_ = 0;
   std::vector<std::uint32_t> cell_stamp_;  // cell state valid when == stamp_

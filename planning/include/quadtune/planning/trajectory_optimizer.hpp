@@ -200,6 +200,10 @@ class TrajectoryOptimizer {
   double Measure(const Eigen::Vector3d& p0_W, const DistanceField& field,
                  const PlannerParams& params, PlanResult* result) const;
   bool Judge(double required_clearance, const PlannerParams& params, PlanResult* result) const;
+  // Solve()'s verdict on a usable final iterate whose figures Measure filled: the status and
+  // message from Ipopt's status (`ipopt_status`, an Ipopt::ApplicationReturnStatus), then Judge.
+  void Conclude(int ipopt_status, bool curvature, double required_clearance,
+                const PlannerParams& params, PlanResult* result) const;
 
   TrajectoryOptimizerOptions options_;
 };

@@ -1,0 +1,80 @@
+#!/usr/bin/python3
+"""Tests of scripts/check_code_shape.py on small made-up source trees.
+
+Usage: check_code_shape_test.py SOURCE_DIR. Exit status 0 when every case passes.
+"""
+
+import pathlib
+import subprocess
+import sys
+import tempfile
+
+
+def Body(lines, indent="  "):
+  return "".join(f"{indent}x += {i};\n" for i in range(lines))
+
+
+def Check(tree, *extra):
+  """(exit status, stdout) of the checker on `tree` (dict: relative path -> text)."""
+  with tempfile.TemporaryDirectory() as tmp:
+    root = pathlib.Path(tmp)
+    for path, text in tree.items():
+      (root / path).parent.mkdir(parents=True, exist_ok=True)
+      (root / path).write_text(text)
+    done = subprocess.run([sys.executable, str(CHECKER), *extra, str(root)],
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return done.returncode, done.stdout
+
+
+def Expect(name, condition, detail=""):
+  if not condition:
+    FAILURES.append(f"{name}: {detail}")
+
+
+def main():
+  # A function of exactly 120 lines passes, one of 121 fails (signature to closing brace).
+  at_limit = "int F() {\n  int x = 0;\n" + Body(116) + "  return x;\n}\n"
+  rc, out = Check({"engine/a.cpp": at_limit})
+  Expect("120 lines pass", rc == 0 and out == "", f"rc {rc}, output {out!r}")
+  over = "namespace q {\nint G(int a,\n      int b) {\n  int x = a + b;\n" + Body(116) + \
+         "  return x;\n}\n}  // namespace q\n"
+  rc, out = Check({"planning/b.cpp": over})
+  Expect("121 lines fail", rc == 1 and "planning/b.cpp:2: G 121 lines" in out, out)
+
+  # A lambda's lines count towards the function that holds it; braces in strings, comments and
+  # character literals are not code.
+  lambda_inside = ("void H() {\n  auto f = [](int v) {\n    int x = v;\n" + Body(120, "    ") +
+                   "    return x;\n  };\n  const char* s = \"}}{\";\n  // }\n  char c = '}';\n"
+                   "  (void)f; (void)s; (void)c;\n}\n")
+  rc, out = Check({"optimizers/c.cpp": lambda_inside})
+  Expect("lambda counts", rc == 1 and ": H " in out, out)
+
+  # Member functions inside a class, functions inside extern "C" and a constructor with brace
+  # member initialisers are found; a long class with short methods passes.
+  klass = ("class K {\n public:\n  K() : a_{1}, b_(2) {\n" + Body(125) + "  }\n" +
+           "".join(f"  int M{i}() {{ return {i}; }}\n" for i in range(200)) +
+           " private:\n  int a_, b_;\n  int x = 0;\n};\n")
+  rc, out = Check({"sim/d.hpp": klass})
+  Expect("constructor found", rc == 1 and ": K " in out and "M1" not in out, out)
+  extern_c = 'extern "C" {\nvoid E() {\n  int x = 0;\n' + Body(130) + "}\n}\n"
+  rc, out = Check({"engine/e.cpp": extern_c})
+  Expect("extern C", rc == 1 and ": E " in out, out)
+
+  # Only the checked modules count.
+  rc, out = Check({"physics/f.cpp": over})
+  Expect("other modules ignored", rc == 0, out)
+  # --max-lines moves the limit.
+  rc, out = Check({"engine/a.cpp": at_limit}, "--max-lines", "100")
+  Expect("--max-lines", rc == 1 and ": F 120 lines" in out, out)
+
+  for line in FAILURES:
+    print(line)
+  print(f"{len(FAILURES)} failure(s)" if FAILURES else "every case passed")
+  return 1 if FAILURES else 0
+
+
+CHECKER = pathlib.Path(sys.argv[1]) / "scripts" / "check_code_shape.py"
+FAILURES = []
+
+if __name__ == "__main__":
+  sys.exit(main())
