@@ -319,14 +319,13 @@ int Soak(const engine::Experiment& e, int flights, int threads, const std::strin
   for (int i = 0; i < flights; ++i) {
     sched.Submit(group, engine::Priority::kFlight, [&, i] {
       if (CancelRequested()) return;
-      engine::WorkerSlot* slot = pool.Acquire();
+      const engine::WorldPool::Lease slot = pool.Borrow();
       engine::FlightRequest req;
       req.map = map;
       req.params = defaults;
       req.seed = static_cast<std::uint64_t>(i) + 1;
       req.cancelled = [] { return CancelRequested(); };
       (void)e.planner.Fly(req, *slot);
-      pool.Release(slot);
       const int d = ++done;
       if (d % every == 0 || d == flights) {
         const double rss = ResidentMiB();
@@ -403,13 +402,12 @@ int Bench(const BenchArgs& a) {
     const auto submit_flights = [&](engine::TaskGroup& g) {
       for (int i = 0; i < a.flights; ++i) {
         sched.Submit(g, engine::Priority::kFlight, [&, i] {
-          engine::WorkerSlot* slot = pool.Acquire();
+          const engine::WorldPool::Lease slot = pool.Borrow();
           engine::FlightRequest req;
           req.map = map;
           req.params = defaults;
           req.seed = static_cast<std::uint64_t>(i);
           (void)e.planner.Fly(req, *slot);
-          pool.Release(slot);
         });
       }
     };

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -168,11 +170,15 @@ TEST(WorldPool, MovedLeaseReturnsItsSlotOnce) {
 
 TEST(WorldPool, ReusesReleasedSlots) {
   WorldPool pool;
-  WorkerSlot* a = pool.Acquire();
-  WorkerSlot* b = pool.Acquire();
-  EXPECT_NE(a, b);
-  pool.Release(a);
-  EXPECT_EQ(pool.Acquire(), a);
+  std::set<WorkerSlot*> lent;
+  {
+    const WorldPool::Lease a = pool.Borrow();
+    const WorldPool::Lease b = pool.Borrow();
+    EXPECT_NE(a.get(), b.get());
+    lent = {a.get(), b.get()};
+  }
+  const WorldPool::Lease again = pool.Borrow();
+  EXPECT_EQ(lent.count(again.get()), 1u);  // a returned slot, not a new one
   EXPECT_EQ(pool.Size(), 2);
 }
 

@@ -125,15 +125,14 @@ class WorldPool {
 
   /// Lends a free slot (a new one when none is free) until the lease ends.
   [[nodiscard]] Lease Borrow();
-  /// The manual form of Borrow(): a slot owned by the caller until it calls Release(slot).
-  WorkerSlot* Acquire();
-  void Release(WorkerSlot* slot);
   /// Slots created so far.
   [[nodiscard]] int Size() const;
   /// Σ uses over all slots (flights flown).
   [[nodiscard]] int Uses() const;
 
  private:
+  WorkerSlot* Acquire();             // Borrow's two halves; only a Lease gives a slot back
+  void Release(WorkerSlot* slot);
   mutable std::mutex mutex_;
   std::vector<std::unique_ptr<WorkerSlot>> slots_;
   std::vector<WorkerSlot*> free_;
