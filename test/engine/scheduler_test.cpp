@@ -1,12 +1,11 @@
 #include <gtest/gtest.h>
 
-#include <set>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <mutex>
+#include <set>
 #include <stdexcept>
 #include <vector>
 
