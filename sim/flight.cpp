@@ -1,4 +1,4 @@
-#include "quadtune/planning/flight.hpp"
+#include "quadtune/sim/flight.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -11,7 +11,21 @@
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/yaml.hpp"
 
-namespace quadtune::planning {
+namespace quadtune::sim {
+
+using planning::IpoptBackend;
+using planning::LocalMap;
+using planning::LocalMapOptions;
+using planning::LocalPlannerOptions;
+using planning::PlannerParams;
+using planning::PlanningQuery;
+using planning::PlanOutcome;
+using planning::PlanResult;
+using planning::PlanStatus;
+using planning::Trajectory;
+using planning::TrajectoryBackend;
+using planning::TrajectoryOptimizer;
+
 
 Mission Mission::GoAndReturn(const Eigen::Vector3d& start_W, const Eigen::Vector3d& goal_W) {
   return Mission{start_W, {goal_W, start_W}, std::atan2(goal_W.y() - start_W.y(), goal_W.x() - start_W.x())};
@@ -341,4 +355,4 @@ void WriteFlightFiles(const std::string& directory, const FlightResult& result,
   }
 }
 
-}  // namespace quadtune::planning
+}  // namespace quadtune::sim

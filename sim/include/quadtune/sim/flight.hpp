@@ -25,9 +25,9 @@
 #include "quadtune/planning/local_map.hpp"
 #include "quadtune/planning/local_planner.hpp"
 #include "quadtune/planning/parameters.hpp"
-#include "quadtune/planning/replanner.hpp"
+#include "quadtune/sim/replanner.hpp"
 
-namespace quadtune::planning {
+namespace quadtune::sim {
 
 /// Where to fly: from rest at start_W through the waypoints in order.
 struct Mission {
@@ -58,8 +58,8 @@ const char* ToString(FlightStatus status);
 /// Settings of a flight (not tuned by the experiments).
 struct FlightOptions {
   physics::DepthSensorOptions sensor = DefaultSensor();
-  LocalMapOptions map;            ///< resolution and inflation are taken from the parameters
-  LocalPlannerOptions planner;
+  planning::LocalMapOptions map;            ///< resolution and inflation are taken from the parameters
+  planning::LocalPlannerOptions planner;
   ReplannerOptions replanner;
   double tick_rate_hz = 100.0;    ///< FSM and metric rate (Hz), must divide the physics rate
   double max_time = 120.0;        ///< flight time limit (s), > 0
@@ -123,9 +123,9 @@ struct FlightResult {
 /// Optional hooks into a flight.
 struct FlightHooks {
   /// See Replanner::SetParamsProvider.
-  std::function<void(double time, PlannerParams& params)> params_provider;
+  std::function<void(double time, planning::PlannerParams& params)> params_provider;
   /// See Replanner::SetQueryObserver.
-  std::function<void(const PlanningQuery&, const PlanOutcome&)> on_plan;
+  std::function<void(const planning::PlanningQuery&, const planning::PlanOutcome&)> on_plan;
   /// Polled every tick; true stops the flight (kCancelled).
   std::function<bool()> cancelled;
   /// See Replanner::SetAdapter (not owned; must outlive Fly). nullptr: plain replanning.
@@ -156,13 +156,13 @@ class StallDetector {
 /// obstacles are kept) with `params`. Invalid arguments throw ConfigError; everything that goes
 /// wrong during the flight is reported in the metrics (status, message), never thrown.
 [[nodiscard]] FlightResult Fly(physics::World& world, const Mission& mission,
-                               const PlannerParams& params, const FlightOptions& options,
-                               const TrajectoryOptimizer& optimizer, const FlightHooks& hooks = {});
+                               const planning::PlannerParams& params, const FlightOptions& options,
+                               const planning::TrajectoryOptimizer& optimizer, const FlightHooks& hooks = {});
 /// The same flight with any trajectory back end (same sensing, map, FSM and physics; see
 /// Replanner's back-end constructor).
 [[nodiscard]] FlightResult Fly(physics::World& world, const Mission& mission,
-                               const PlannerParams& params, const FlightOptions& options,
-                               const TrajectoryBackend& backend, const FlightHooks& hooks = {});
+                               const planning::PlannerParams& params, const FlightOptions& options,
+                               const planning::TrajectoryBackend& backend, const FlightHooks& hooks = {});
 
 /// Writes a flight for people and plots into `directory` (created): flight.csv (state log),
 /// plans.csv (planned trajectories sampled at 0.05 s), plan_steps.csv (every planning step:
@@ -171,4 +171,4 @@ class StallDetector {
 void WriteFlightFiles(const std::string& directory, const FlightResult& result,
                       const physics::ObstacleSet& obstacles, const Mission& mission);
 
-}  // namespace quadtune::planning
+}  // namespace quadtune::sim

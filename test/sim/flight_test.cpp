@@ -1,4 +1,4 @@
-#include "quadtune/planning/flight.hpp"
+#include "quadtune/sim/flight.hpp"
 
 #include <gtest/gtest.h>
 
@@ -14,8 +14,14 @@
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
 
-namespace quadtune::planning {
+namespace quadtune::sim {
 namespace {
+
+using planning::PlannerParams;
+using planning::PlanningQuery;
+using planning::PlanOutcome;
+using planning::TrajectoryOptimizer;
+using planning::TrajectoryOptimizerOptions;
 
 using quadtune::test::ThrowsConfigError;
 
@@ -270,4 +276,4 @@ TEST(Flight, BadArgumentsThrowConfigError) {
 }
 
 }  // namespace
-}  // namespace quadtune::planning
+}  // namespace quadtune::sim
