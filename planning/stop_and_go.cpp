@@ -59,8 +59,8 @@ PlanResult StopAndGoAlongPath(const TrajectoryOptimizer& optimizer, const Planni
   for (std::size_t i = 1; i < path.size(); ++i) {
     const double length = (path[i] - p).norm();
     if (length < 1e-6) continue;
-    const double T = std::max({1.875 * length / v_peak,
-                               std::sqrt(10.0 / std::sqrt(3.0) * length / params.a_max), 0.1});
+    const double T = std::max(
+        {1.875 * length / v_peak, std::sqrt(10.0 / std::sqrt(3.0) * length / params.a_max), 0.1});
     pieces.push_back(QuinticBoundaryValue(p, v, a, path[i], zero, zero, T));
     durations.push_back(T);
     p = path[i];

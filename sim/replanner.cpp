@@ -24,14 +24,18 @@ using planning::Trajectory;
 using planning::TrajectoryBackend;
 using planning::TrajectoryOptimizer;
 
-
 const char* ToString(ReplanState state) {
   switch (state) {
-    case ReplanState::kWaitMission: return "wait_mission";
-    case ReplanState::kGenNewTraj: return "gen_new_traj";
-    case ReplanState::kExecTraj: return "exec_traj";
-    case ReplanState::kEmergencyStop: return "emergency_stop";
-    case ReplanState::kDone: return "done";
+    case ReplanState::kWaitMission:
+      return "wait_mission";
+    case ReplanState::kGenNewTraj:
+      return "gen_new_traj";
+    case ReplanState::kExecTraj:
+      return "exec_traj";
+    case ReplanState::kEmergencyStop:
+      return "emergency_stop";
+    case ReplanState::kDone:
+      return "done";
   }
   return "?";
 }
@@ -199,8 +203,8 @@ bool Replanner::PlanFrom(double t, const Eigen::Vector3d& p0, const Eigen::Vecto
       rec.ok = true;
       rec.fallback = true;
       rec.status = fallback->status;
-      rec.message = "stop-and-go fallback (the back end's last attempt: " +
-                    outcome.result.message + ")";
+      rec.message =
+          "stop-and-go fallback (the back end's last attempt: " + outcome.result.message + ")";
       rec.min_clearance = fallback->min_clearance;
       rec.jerk = fallback->cost.jerk;
       rec.duration = fallback->duration;
@@ -286,8 +290,7 @@ void Replanner::Tick(double t, const Eigen::Vector3d& p_W, const Eigen::Vector3d
       const double tau = t - traj_t0_;
       const Eigen::Vector3d& waypoint = waypoints_[waypoint_];
       const bool finished = tau >= traj_.Duration();
-      if (traj_reaches_waypoint_ && finished &&
-          (p_W - waypoint).norm() <= params_.goal_tolerance) {
+      if (traj_reaches_waypoint_ && finished && (p_W - waypoint).norm() <= params_.goal_tolerance) {
         ++waypoint_;
         if (waypoint_ >= waypoints_.size()) {
           end_time_ = t;

@@ -8,8 +8,10 @@ namespace quadtune::sim {
 
 const char* ToString(MissionKind kind) {
   switch (kind) {
-    case MissionKind::kGoAndReturn: return "go_and_return";
-    case MissionKind::kGoTo: return "go_to";
+    case MissionKind::kGoAndReturn:
+      return "go_and_return";
+    case MissionKind::kGoTo:
+      return "go_to";
   }
   return "?";
 }
@@ -30,7 +32,8 @@ Scenario Scenario::OverLayout(const layout::Layout& layout, MissionKind mission,
   world.Validate();
   Scenario s;
   s.drone = drone;
-  s.obstacles = geometry ? std::move(geometry) : physics::ObstacleGeometry::Make(layout.obstacles, world);
+  s.obstacles =
+      geometry ? std::move(geometry) : physics::ObstacleGeometry::Make(layout.obstacles, world);
   s.mission = mission == MissionKind::kGoAndReturn
                   ? Mission::GoAndReturn(layout.start_W(), layout.goal_W())
                   : Mission::GoTo(layout.start_W(), layout.goal_W());
@@ -50,8 +53,8 @@ physics::World& MakeWorld(const Scenario& scenario, std::shared_ptr<physics::Wor
   if (world) {
     world->Reset(scenario.obstacles, scenario.drone, scenario.world, start);
   } else {
-    world = std::make_shared<physics::World>(scenario.obstacles, scenario.drone, scenario.world,
-                                             start);
+    world =
+        std::make_shared<physics::World>(scenario.obstacles, scenario.drone, scenario.world, start);
   }
   return *world;
 }

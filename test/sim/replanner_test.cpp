@@ -232,15 +232,15 @@ TEST(StopAndGoAlongPath, FliesEverySegmentFromRestToRestWithinTheLimits) {
 
 TEST(StopAndGoAlongPath, FailsTheBackEndsCheckWhereThePathMeetsAnObstacle) {
   const TrajectoryOptimizer optimizer;
-  const PlanResult r =
-      StopAndGoAlongPath(optimizer, ColumnQuery({{0, 0, 1.2}, {2.5, 0, 1.2}}), PlannerParams{}, 0.5);
+  const PlanResult r = StopAndGoAlongPath(optimizer, ColumnQuery({{0, 0, 1.2}, {2.5, 0, 1.2}}),
+                                          PlannerParams{}, 0.5);
   EXPECT_EQ(r.status, PlanStatus::kCollision) << r.message;
   EXPECT_LT(r.min_clearance, 0.2);
   // A path without length is no plan.
-  EXPECT_EQ(StopAndGoAlongPath(optimizer, ColumnQuery({{0, 0, 1.2}, {0, 0, 1.2}}), PlannerParams{},
-                               0.5)
-                .status,
-            PlanStatus::kInvalidInput);
+  EXPECT_EQ(
+      StopAndGoAlongPath(optimizer, ColumnQuery({{0, 0, 1.2}, {0, 0, 1.2}}), PlannerParams{}, 0.5)
+          .status,
+      PlanStatus::kInvalidInput);
 }
 
 TEST(Replanner, FliesTheFrontEndsPathStopAndGoWhenEveryAttemptFromRestFails) {

@@ -31,8 +31,8 @@ namespace quadtune::planning {
 /// trajectory in. The result carries optimizer.Check's verdict and the trajectory's ∫|jerk|² dt
 /// (cost.jerk, Trajectory::JerkEnergy); iterations and evaluations are 0.
 [[nodiscard]] PlanResult StopAndGoAlongPath(const TrajectoryOptimizer& optimizer,
-                                            const PlanningQuery& query,
-                                            const PlannerParams& params, double speed);
+                                            const PlanningQuery& query, const PlannerParams& params,
+                                            double speed);
 
 /// The quintic of duration T (s) matching position, velocity and acceleration at both ends.
 [[nodiscard]] Trajectory::Coefficients QuinticBoundaryValue(
