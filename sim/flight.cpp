@@ -13,19 +13,6 @@
 
 namespace quadtune::sim {
 
-using planning::IpoptBackend;
-using planning::LocalMap;
-using planning::LocalMapOptions;
-using planning::LocalPlannerOptions;
-using planning::PlannerParams;
-using planning::PlanningQuery;
-using planning::PlanOutcome;
-using planning::PlanResult;
-using planning::PlanStatus;
-using planning::Trajectory;
-using planning::TrajectoryBackend;
-using planning::TrajectoryOptimizer;
-
 Mission Mission::GoAndReturn(const Eigen::Vector3d& start_W, const Eigen::Vector3d& goal_W) {
   return Mission{
       start_W, {goal_W, start_W}, std::atan2(goal_W.y() - start_W.y(), goal_W.x() - start_W.x())};
@@ -111,15 +98,15 @@ std::optional<double> StallDetector::Update(double t, const Eigen::Vector3d& p_W
   return std::nullopt;
 }
 
-FlightResult Fly(physics::World& world, const Mission& mission, const PlannerParams& params,
-                 const FlightOptions& options, const TrajectoryOptimizer& optimizer,
-                 const FlightHooks& hooks) {
-  return Fly(world, mission, params, options, IpoptBackend(optimizer), hooks);
+FlightResult Fly(physics::World& world, const Mission& mission,
+                 const planning::PlannerParams& params, const FlightOptions& options,
+                 const planning::TrajectoryOptimizer& optimizer, const FlightHooks& hooks) {
+  return Fly(world, mission, params, options, planning::IpoptBackend(optimizer), hooks);
 }
 
-FlightResult Fly(physics::World& world, const Mission& mission, const PlannerParams& params,
-                 const FlightOptions& options, const TrajectoryBackend& backend,
-                 const FlightHooks& hooks) {
+FlightResult Fly(physics::World& world, const Mission& mission,
+                 const planning::PlannerParams& params, const FlightOptions& options,
+                 const planning::TrajectoryBackend& backend, const FlightHooks& hooks) {
   mission.Validate();
   params.Validate();
   options.Validate();
@@ -138,10 +125,10 @@ FlightResult Fly(physics::World& world, const Mission& mission, const PlannerPar
   world.Reset(physics::DroneState::Hover(world.drone(), mission.start_W, mission.start_yaw,
                                          world.options().gravity));
   physics::DepthSensor sensor(options.sensor, DeriveSeed(world.options().seed, {0x5e7501}));
-  LocalMapOptions map_options = options.map;
+  planning::LocalMapOptions map_options = options.map;
   map_options.resolution = params.map_resolution;
   map_options.inflation = params.inflation;
-  LocalMap map(map_options, mission.start_W);
+  planning::LocalMap map(map_options, mission.start_W);
   Replanner replanner(backend, params, options.replanner, options.planner);
   if (hooks.params_provider) replanner.SetParamsProvider(hooks.params_provider);
   if (hooks.on_plan) replanner.SetQueryObserver(hooks.on_plan);

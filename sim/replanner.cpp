@@ -19,7 +19,6 @@ using planning::PlannerParams;
 using planning::PlanningQuery;
 using planning::PlanOutcome;
 using planning::PlanResult;
-using planning::PlanStatus;
 using planning::Trajectory;
 using planning::TrajectoryBackend;
 using planning::TrajectoryOptimizer;
