@@ -1,8 +1,9 @@
 # `cmake --install build --prefix P`: the module libraries, their public headers, the assets
 # (drones, layouts) and a package config, so that another project's
 #   find_package(quadtune CONFIG REQUIRED)
-# gives quadtune::engine, quadtune::planning, quadtune::layout, quadtune::optimizers,
-# quadtune::physics and quadtune::common (quadtuneConfig.cmake.in finds their dependencies).
+# gives quadtune::engine, quadtune::sim, quadtune::planning, quadtune::layout,
+# quadtune::optimizers, quadtune::physics and quadtune::common (quadtuneConfig.cmake.in finds
+# their dependencies).
 # quadtune_add_module() installs each library and its headers; this file adds the rest.
 include(CMakePackageConfigHelpers)
 

@@ -15,6 +15,7 @@
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/text_file.hpp"
 #include "quadtune/engine/experiment.hpp"
+#include "quadtune/sim/scenario.hpp"
 
 namespace quadtune::engine {
 
@@ -298,7 +299,7 @@ void OnlineAdapter::RunTrial(double t, const planning::LocalMap& map,
   trials_.push_back(std::move(trial));
 }
 
-std::optional<planning::AdaptedPlan> OnlineAdapter::OnTick(double t, const planning::LocalMap& map,
+std::optional<sim::AdaptedPlan> OnlineAdapter::OnTick(double t, const planning::LocalMap& map,
                                                            const Eigen::Vector3d& waypoint_W) {
   if (!pending_) return std::nullopt;
   const int n = options_.trials_per_segment;
@@ -318,7 +319,7 @@ std::optional<planning::AdaptedPlan> OnlineAdapter::OnTick(double t, const plann
   }
   AdaptationTrial& best = trials_[p.first_trial + static_cast<std::size_t>(p.segment.best_trial)];
   best.chosen = true;
-  planning::AdaptedPlan plan;
+  sim::AdaptedPlan plan;
   plan.start_time = ts;
   plan.outcome = std::move(*p.best);
   plan.reaches_waypoint = p.best_reaches_waypoint;
@@ -373,7 +374,7 @@ AdaptExperiment AdaptExperiment::FromString(const std::string& text, const std::
   e.max_time = map.Number("max_time", e.max_time, Range::Positive());
   if (map.Has("planner")) e.params = planning::PlannerParams::FromYaml(map.Map("planner"));
   e.params.Validate(origin);
-  planning::FlightOptions{}.planner.CheckParams(e.params, origin);  // as the flights plan
+  sim::FlightOptions{}.planner.CheckParams(e.params, origin);  // as the flights plan
   if (map.Has("baselines")) {
     e.baselines = map.Numbers("baselines");
     for (double v : e.baselines) {
@@ -412,21 +413,21 @@ AdaptFlight RunAdaptFlight(const AdaptExperiment& e, const layout::Layout& layou
     out.label = label.str();
   }
 
-  const planning::Mission mission = planning::Mission::GoTo(layout.start_W(), layout.goal_W());
-  planning::FlightOptions options;
+  const sim::Scenario scenario =
+      sim::Scenario::OverLayout(layout, sim::MissionKind::kGoTo, e.drone, e.world, e.world.seed);
+  std::shared_ptr<physics::World> world;
+  sim::MakeWorld(scenario, world);
+  sim::FlightOptions options;
   options.max_time = e.max_time;
   const planning::TrajectoryOptimizer optimizer(options.planner.optimizer);
-  physics::World world(layout.obstacles, e.drone, e.world,
-                       physics::DroneState::Hover(e.drone, mission.start_W, mission.start_yaw,
-                                                  e.world.gravity));
-  planning::FlightHooks hooks;
+  sim::FlightHooks hooks;
   std::unique_ptr<OnlineAdapter> adapter;
   if (out.adapted) {
     adapter = std::make_unique<OnlineAdapter>(optimizer, options.planner, e.adaptation);
     if (on_segment) adapter->SetSegmentObserver(on_segment);
     hooks.adapter = adapter.get();
   }
-  out.result = planning::Fly(world, mission, params, options, optimizer, hooks);
+  out.result = sim::Fly(*world, scenario.mission, params, options, optimizer, hooks);
   if (adapter) {
     out.trials = adapter->trials();
     out.segments = adapter->segments();

@@ -32,11 +32,13 @@ bool ValidName(const std::string& name) {
 class Registry {
  public:
   Registry() {
-    Add("ipopt", BuildIpopt, BackendPlanner::Schema());
-    Add("ego", BuildEgo, BackendPlanner::Schema());
+    Add("ipopt", BuildIpopt, BackendPlanner::Schema(), [] { return MakeIpoptBackend(); });
+    Add("ego", BuildEgo, BackendPlanner::Schema(),
+        [] { return std::make_shared<const planning::EgoBackend>(planning::EgoOptions{}); });
   }
 
-  void Add(const std::string& name, PlannerFactory factory, PlannerSchema schema) {
+  void Add(const std::string& name, PlannerFactory factory, PlannerSchema schema,
+           BackendFactory backend = {}) {
     if (!ValidName(name)) {
       throw std::invalid_argument("RegisterPlanner: name '" + name +
                                   "' must be non-empty lower-case letters, digits and '_'");
@@ -56,7 +58,8 @@ class Registry {
       throw std::invalid_argument("RegisterPlanner: planner type '" + name +
                                   "' is already registered");
     }
-    types_.emplace(name, PlannerType{name, std::move(factory), std::move(schema)});
+    types_.emplace(name,
+                   PlannerType{name, std::move(factory), std::move(schema), std::move(backend)});
   }
 
   std::vector<std::string> Names() const {
@@ -108,8 +111,9 @@ PlannerSchema PlannerSchema::Of(const Planner& planner) {
   return {planner.ShortTermParameters(), planner.LongTermParameters()};
 }
 
-void RegisterPlanner(const std::string& name, PlannerFactory factory, PlannerSchema schema) {
-  TheRegistry().Add(name, std::move(factory), std::move(schema));
+void RegisterPlanner(const std::string& name, PlannerFactory factory, PlannerSchema schema,
+                     BackendFactory backend) {
+  TheRegistry().Add(name, std::move(factory), std::move(schema), std::move(backend));
 }
 
 std::vector<std::string> RegisteredPlanners() { return TheRegistry().Names(); }

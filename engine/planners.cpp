@@ -69,8 +69,9 @@ IpoptPlannerOptions IpoptPlannerOptions::FromYaml(const YamlMap& p, const std::s
   }
   if (p.Has("world")) o.world = physics::WorldOptions::FromYaml(p.Map("world"));
   o.world.collision_response = physics::CollisionResponse::kPassThrough;
-  o.go_and_return = p.String("mission", std::string("go_and_return"), {"go_and_return", "go_to"}) ==
-                    "go_and_return";
+  o.mission = sim::MissionKindFromString(
+      p.String("mission", std::string("go_and_return"), {"go_and_return", "go_to"}), p.file(),
+      "planner.mission");
   o.flight.max_time = p.Number("max_time", 60.0, Range::Positive());
   if (p.Has("fixed")) o.base = planning::PlannerParams::FromYaml(p.Map("fixed"));
   if (!p.Bool("safety_nets", true)) {
@@ -102,32 +103,26 @@ Opaque PrepareLayoutMap(const IpoptPlannerOptions& o, std::uint64_t map_seed) {
   return Opaque::Make(std::move(map));
 }
 
-// One closed-loop flight of a planner built on planning::Fly with `backend`.
+// One closed-loop flight of a planner built on sim::Fly with `backend`.
 FlightRecord FlyWithBackend(const IpoptPlannerOptions& o, const planning::TrajectoryBackend& backend,
                             const FlightRequest& request, WorkerSlot& slot) {
   const IpoptMap& map = request.map.As<IpoptMap>();
   planning::PlannerParams params = o.base;
   for (const auto& [name, value] : request.params) params.Set(name, value);
   params.Validate("flight parameters");
-  const planning::Mission mission =
-      o.go_and_return ? planning::Mission::GoAndReturn(map.layout.start_W(), map.layout.goal_W())
-                      : planning::Mission::GoTo(map.layout.start_W(), map.layout.goal_W());
-  physics::WorldOptions world_options = o.world;
-  world_options.seed = request.seed;
-  const physics::DroneState initial =
-      physics::DroneState::Hover(o.drone, mission.start_W, mission.start_yaw, world_options.gravity);
-  // World pool: the slot keeps its World; Reset re-uses it (static objects rebuilt only when the
-  // geometry differs).
+  const sim::Scenario scenario =
+      sim::Scenario::OverLayout(map.layout, o.mission, o.drone, o.world, request.seed, map.geometry);
+  // World pool: the slot keeps its World; MakeWorld re-uses it (static objects rebuilt only when
+  // the geometry differs).
   auto* world = std::any_cast<std::shared_ptr<physics::World>>(&slot.state);
-  if (world == nullptr || !*world) {
-    slot.state = std::make_shared<physics::World>(map.geometry, o.drone, world_options, initial);
+  if (world == nullptr) {
+    slot.state = std::shared_ptr<physics::World>();
     world = std::any_cast<std::shared_ptr<physics::World>>(&slot.state);
-  } else {
-    (*world)->Reset(map.geometry, o.drone, world_options, initial);
   }
+  sim::MakeWorld(scenario, *world);
   ++slot.uses;
 
-  planning::FlightHooks hooks;
+  sim::FlightHooks hooks;
   int queries = 0;
   if (request.short_params_provider) {
     hooks.params_provider = [&](double t, planning::PlannerParams& p) {
@@ -144,18 +139,18 @@ FlightRecord FlyWithBackend(const IpoptPlannerOptions& o, const planning::Trajec
     };
   }
   hooks.cancelled = request.cancelled;
-  planning::FlightOptions flight = o.flight;
+  sim::FlightOptions flight = o.flight;
   flight.log_rate_hz = 0.0;
-  const planning::FlightResult result =
-      planning::Fly(**world, mission, params, flight, backend, hooks);
+  const sim::FlightResult result =
+      sim::Fly(**world, scenario.mission, params, flight, backend, hooks);
   const auto& m = result.metrics;
   FlightRecord r;
-  r.status = m.status == planning::FlightStatus::kError || m.status == planning::FlightStatus::kDiverged
+  r.status = m.status == sim::FlightStatus::kError || m.status == sim::FlightStatus::kDiverged
                  ? EvalStatus::kFailed
-                 : (m.status == planning::FlightStatus::kCancelled ? EvalStatus::kCancelled
+                 : (m.status == sim::FlightStatus::kCancelled ? EvalStatus::kCancelled
                                                                    : EvalStatus::kOk);
-  r.message = std::string(planning::ToString(m.status)) + (m.message.empty() ? "" : ": " + m.message);
-  r.completed = m.status == planning::FlightStatus::kCompleted;
+  r.message = std::string(sim::ToString(m.status)) + (m.message.empty() ? "" : ": " + m.message);
+  r.completed = m.status == sim::FlightStatus::kCompleted;
   r.flight_time = m.flight_time;
   r.collisions = m.collisions;
   r.emergency_stops = m.emergency_stops;
@@ -260,9 +255,13 @@ class OwningIpoptBackend final : public planning::TrajectoryBackend {
 
 }  // namespace
 
+std::shared_ptr<const planning::TrajectoryBackend> MakeIpoptBackend(
+    const planning::TrajectoryOptimizerOptions& options) {
+  return std::make_shared<const OwningIpoptBackend>(options);
+}
+
 IpoptPlanner::IpoptPlanner(IpoptPlannerOptions options)
-    : BackendPlanner("ipopt", options,
-                     std::make_shared<const OwningIpoptBackend>(options.flight.planner.optimizer)) {}
+    : BackendPlanner("ipopt", options, MakeIpoptBackend(options.flight.planner.optimizer)) {}
 
 EgoPlanner::EgoPlanner(EgoPlannerOptions options)
     : BackendPlanner("ego", std::move(options.common),

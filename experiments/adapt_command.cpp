@@ -26,7 +26,7 @@
 #include "quadtune/engine/distributed.hpp"
 #include "quadtune/engine/online_adaptation.hpp"
 #include "quadtune/layout/layout.hpp"
-#include "quadtune/planning/flight.hpp"
+#include "quadtune/sim/flight.hpp"
 
 namespace quadtune::cli {
 namespace {
@@ -228,8 +228,8 @@ int RunAdapt(const AdaptArgs& a) {
     const double fly_wall = walls[run];
     const auto& m = f.result.metrics;
     const std::string dir = (fs::path(a.out) / f.label).string();
-    planning::WriteFlightFiles(dir, f.result, layout.obstacles,
-                               planning::Mission::GoTo(layout.start_W(), layout.goal_W()));
+    sim::WriteFlightFiles(dir, f.result, layout.obstacles,
+                               sim::Mission::GoTo(layout.start_W(), layout.goal_W()));
     std::vector<ZoneSummary> zones =
         WritePathCsv((fs::path(dir) / "path.csv").string(), f, layout.options);
     if (f.adapted) {
@@ -238,12 +238,12 @@ int RunAdapt(const AdaptArgs& a) {
     }
     spdlog::info("{}: {}, t_f {:.2f} s, collisions {}, emergency stops {}, mean speed {:.2f} "
                  "m/s, {} segments, {} trials ({:.1f} s wall)",
-                 f.label, planning::ToString(m.status), m.flight_time, m.collisions,
+                 f.label, sim::ToString(m.status), m.flight_time, m.collisions,
                  m.emergency_stops, m.mean_speed, f.segments.size(), f.trials.size(), fly_wall);
     nlohmann::json fj = {{"label", f.label},
                          {"adapted", f.adapted},
                          {"v_des", f.v_des},
-                         {"status", planning::ToString(m.status)},
+                         {"status", sim::ToString(m.status)},
                          {"message", m.message},
                          {"flight_time", m.flight_time},
                          {"collisions", m.collisions},
@@ -318,7 +318,7 @@ int RunAdapt(const AdaptArgs& a) {
     for (std::size_t k = 0; k < flights.size(); ++k) {
       const auto& m = flights[k].result.metrics;
       md << fmt::format("| {} | {} | {:.2f} | {} | {} |", flights[k].label,
-                        planning::ToString(m.status), m.flight_time, m.collisions,
+                        sim::ToString(m.status), m.flight_time, m.collisions,
                         m.emergency_stops);
       for (const auto& z : zone_tables[k]) {
         md << fmt::format(" {:.2f} / {:.2f} |", Ratio(z.v_des_sum, z.time),

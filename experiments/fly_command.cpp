@@ -4,7 +4,9 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -13,12 +15,14 @@
 #include "result_dir.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/yaml.hpp"
+#include "quadtune/engine/planner_registry.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/physics/world.hpp"
-#include "quadtune/planning/ego_optimizer.hpp"
-#include "quadtune/planning/flight.hpp"
 #include "quadtune/planning/parameters.hpp"
+#include "quadtune/planning/trajectory_backend.hpp"
+#include "quadtune/sim/flight.hpp"
+#include "quadtune/sim/scenario.hpp"
 
 namespace quadtune::cli {
 namespace {
@@ -67,6 +71,29 @@ planning::PlannerParams ParseOverrides(const std::vector<std::string>& items) {
   return params;
 }
 
+/// The registered planner types flown in the closed loop (those with a trajectory back end),
+/// comma-separated.
+std::string ClosedLoopPlanners() {
+  std::string names;
+  for (const std::string& name : engine::RegisteredPlanners()) {
+    const std::optional<engine::PlannerType> type = engine::FindPlanner(name);
+    if (type && type->backend) names += (names.empty() ? "" : ", ") + name;
+  }
+  return names;
+}
+
+/// The trajectory back end of the registered planner type `name`; throws ConfigError for a name
+/// that is not registered or whose planner has no back end to fly in the closed loop.
+std::shared_ptr<const planning::TrajectoryBackend> RegisteredBackend(const std::string& name) {
+  const std::optional<engine::PlannerType> type = engine::FindPlanner(name);
+  if (!type || !type->backend) {
+    throw ConfigError("", "--planner",
+                      "'" + name + "' is not a registered planner flown in the closed loop; " +
+                          "registered: " + ClosedLoopPlanners());
+  }
+  return type->backend();
+}
+
 int RunFly(const FlyArgs& a) {
   if (!a.from.empty() || a.evaluation >= 0) {
     if (a.from.empty() || a.evaluation < 0) {
@@ -77,6 +104,7 @@ int RunFly(const FlyArgs& a) {
     if (a.plot && RunPlotScript("flight '" + a.out + "'") != 0) return 1;
     return status;
   }
+  const std::shared_ptr<const planning::TrajectoryBackend> backend = RegisteredBackend(a.planner);
   CheckOutputDir(a.out, "--out");
   const planning::PlannerParams params = ParseOverrides(a.set);
   const physics::DroneDescription drone = physics::LoadDroneDescription(AssetPath(a.drone));
@@ -96,31 +124,23 @@ int RunFly(const FlyArgs& a) {
   if (!a.world_file.empty()) {
     world_options = physics::WorldOptions::FromYaml(YamlMap::LoadFile(a.world_file));
   }
-  world_options.seed = a.seed;
   world_options.collision_response = physics::CollisionResponse::kPassThrough;
-
-  const planning::Mission mission =
-      a.mission == "go_to" ? planning::Mission::GoTo(layout.start_W(), layout.goal_W())
-                           : planning::Mission::GoAndReturn(layout.start_W(), layout.goal_W());
-  planning::FlightOptions options;
+  const sim::Scenario scenario = sim::Scenario::OverLayout(
+      layout, sim::MissionKindFromString(a.mission, "", "--mission"), drone, world_options, a.seed);
+  sim::FlightOptions options;
   options.max_time = a.max_time;
-  const planning::TrajectoryOptimizer optimizer;
-  const planning::IpoptBackend ipopt(optimizer);
-  const planning::EgoBackend ego;
-  const planning::TrajectoryBackend& backend =
-      a.planner == "ego" ? static_cast<const planning::TrajectoryBackend&>(ego) : ipopt;
 
   spdlog::info("flying {} with {} obstacles (spacing {:.2f} m achieved {:.2f} m), drone {}",
                a.mission, layout.obstacles.size(), layout.options.spacing,
                layout.stats.overall.mean, drone.name);
-  physics::World world(layout.obstacles, drone, world_options,
-                       physics::DroneState::Hover(drone, mission.start_W, mission.start_yaw,
-                                                  world_options.gravity));
-  const planning::FlightResult result = planning::Fly(world, mission, params, options, backend);
+  std::shared_ptr<physics::World> world;
+  sim::MakeWorld(scenario, world);
+  const sim::Mission& mission = scenario.mission;
+  const sim::FlightResult result = sim::Fly(*world, mission, params, options, *backend);
   const auto& m = result.metrics;
 
   std::filesystem::create_directories(a.out);
-  planning::WriteFlightFiles(a.out, result, layout.obstacles, mission);
+  sim::WriteFlightFiles(a.out, result, layout.obstacles, mission);
   layout.Save((std::filesystem::path(a.out) / "layout.yaml").string());
   {  // Record the layout's density beside the metrics, for summaries across densities.
     const auto path = std::filesystem::path(a.out) / "summary.json";
@@ -135,7 +155,7 @@ int RunFly(const FlyArgs& a) {
   }
 
   spdlog::info("status {} ({}), flight time t_f {:.2f} s, collisions n_c {}, emergency stops n_e {}",
-               planning::ToString(m.status), m.message.empty() ? "ok" : m.message, m.flight_time,
+               sim::ToString(m.status), m.message.empty() ? "ok" : m.message, m.flight_time,
                m.collisions, m.emergency_stops);
   spdlog::info("plans {} (failed {}, stop-and-go fallbacks {}, failed attempts n_s {}), solve time "
                "t_c mean {:.2f} ms max {:.2f} ms, max tracking error {:.3f} m, min clearance "
@@ -149,7 +169,7 @@ int RunFly(const FlyArgs& a) {
     if (RunPlotScript("flight '" + a.out + "'") != 0) return 1;
     spdlog::info("figure: {}/flight_topdown.png", a.out);
   }
-  return m.status == planning::FlightStatus::kCompleted ? 0 : 3;
+  return m.status == sim::FlightStatus::kCompleted ? 0 : 3;
 }
 
 }  // namespace
@@ -198,8 +218,9 @@ void RegisterFly(CLI::App& app, int& exit_code) {
       }, "", "")
       ->check(CLI::IsMember({"go_and_return", "go_to"}))
       ->capture_default_str();
-  cmd->add_option("--planner", args.planner, "trajectory back end: ipopt or ego (EGO-Planner)")
-      ->check(CLI::IsMember({"ipopt", "ego"}))
+  cmd->add_option("--planner", args.planner,
+                  "planner type from the planner registry, flown in the closed loop (registered: " +
+                      ClosedLoopPlanners() + "; ego is EGO-Planner's back end)")
       ->capture_default_str();
   cmd->add_option("--max-time", args.max_time, "flight time limit (s)")->capture_default_str();
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();

@@ -16,7 +16,8 @@
 #include "quadtune/engine/planners.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/world.hpp"
-#include "quadtune/planning/flight.hpp"
+#include "quadtune/sim/flight.hpp"
+#include "quadtune/sim/scenario.hpp"
 
 namespace quadtune::cli {
 namespace {
@@ -155,29 +156,26 @@ int FlyStored(const std::string& store, std::int64_t id, const std::string& out)
   const engine::IpoptPlannerOptions& o = planner->options();
   // The map and world exactly as IpoptPlanner::PrepareMap and ::Fly build them.
   const layout::Layout layout = layout::GenerateLayout(o.layout, f.map_seed);
-  const auto geometry = physics::ObstacleGeometry::Make(layout.obstacles, o.world);
   planning::PlannerParams params = o.base;
   const nlohmann::json stored_params = nlohmann::json::parse(f.params);
   for (auto it = stored_params.begin(); it != stored_params.end(); ++it) {
     params.Set(it.key(), it.value().get<double>());
   }
   params.Validate(store + " evaluation " + std::to_string(id));
-  const planning::Mission mission =
-      o.go_and_return ? planning::Mission::GoAndReturn(layout.start_W(), layout.goal_W())
-                      : planning::Mission::GoTo(layout.start_W(), layout.goal_W());
-  physics::WorldOptions world_options = o.world;
-  world_options.seed = f.flight_seed;
-  physics::World world(geometry, o.drone, world_options,
-                       physics::DroneState::Hover(o.drone, mission.start_W, mission.start_yaw));
-  planning::FlightOptions flight = o.flight;
-  flight.log_rate_hz = planning::FlightOptions{}.log_rate_hz;
+  const sim::Scenario scenario =
+      sim::Scenario::OverLayout(layout, o.mission, o.drone, o.world, f.flight_seed);
+  std::shared_ptr<physics::World> world;
+  sim::MakeWorld(scenario, world);
+  const sim::Mission& mission = scenario.mission;
+  sim::FlightOptions flight = o.flight;
+  flight.log_rate_hz = sim::FlightOptions{}.log_rate_hz;
   const planning::TrajectoryOptimizer optimizer(o.flight.planner.optimizer);
   spdlog::info("flying evaluation {} of {} again ({}, map seed {}, flight seed {})", id, store,
                f.method, f.map_seed, f.flight_seed);
-  const planning::FlightResult result = planning::Fly(world, mission, params, flight, optimizer);
+  const sim::FlightResult result = sim::Fly(*world, mission, params, flight, optimizer);
 
   std::filesystem::create_directories(out);
-  planning::WriteFlightFiles(out, result, layout.obstacles, mission);
+  sim::WriteFlightFiles(out, result, layout.obstacles, mission);
   layout.Save((std::filesystem::path(out) / "layout.yaml").string());
   const auto path = std::filesystem::path(out) / "summary.json";
   nlohmann::json summary = nlohmann::json::parse(std::ifstream(path));

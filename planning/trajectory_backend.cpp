@@ -1,6 +1,6 @@
 #include "quadtune/planning/trajectory_backend.hpp"
 
-#include "quadtune/planning/replanner.hpp"
+#include "quadtune/planning/stop_and_go.hpp"
 
 namespace quadtune::planning {
 

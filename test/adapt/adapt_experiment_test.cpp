@@ -31,7 +31,7 @@ TEST(AdaptFlight, SameSeedGivesTheSameChosenVdesSequence) {
   const layout::Layout layout = layout::GenerateLayout(e.layout, e.seed);
   const AdaptFlight a = RunAdaptFlight(e, layout, std::nullopt);
   const AdaptFlight b = RunAdaptFlight(e, layout, std::nullopt);
-  EXPECT_EQ(a.result.metrics.status, planning::FlightStatus::kCompleted)
+  EXPECT_EQ(a.result.metrics.status, sim::FlightStatus::kCompleted)
       << a.result.metrics.message;
   ASSERT_FALSE(a.segments.empty());
   std::vector<double> va, vb;

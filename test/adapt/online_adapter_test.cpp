@@ -50,7 +50,7 @@ struct AdaptedKinematicFlight {
   }
 
   planning::TrajectoryOptimizer optimizer;
-  planning::Replanner replanner;
+  sim::Replanner replanner;
   OnlineAdapter adapter;
   planning::LocalMap map;
   double t = 0.0;
@@ -63,7 +63,7 @@ const Eigen::Vector3d kGoal(9.0, 0.0, 1.2);
 TEST(OnlineAdapter, AdaptsSegmentsAndReachesTheGoal) {
   AdaptedKinematicFlight f(SmallOptions());
   f.Fly(kGoal, 40.0);
-  ASSERT_TRUE(f.replanner.Done()) << planning::ToString(f.replanner.state());
+  ASSERT_TRUE(f.replanner.Done()) << sim::ToString(f.replanner.state());
   EXPECT_FALSE(f.adapter.HoldsPeriodicReplan());
   int adopted = 0;
   for (const auto& s : f.adapter.segments()) {

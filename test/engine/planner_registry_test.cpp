@@ -126,6 +126,23 @@ TEST(PlannerRegistry, SchemaBoundsTheTuningBox) {
                                       {"registry_test_static", "gain", "(0, 2]"}));
 }
 
+// The types flown in the closed loop give the trajectory back end `quadtune fly --planner` flies;
+// planners with a loop of their own give none.
+TEST(PlannerRegistry, ClosedLoopTypesGiveTheirBackEnd) {
+  for (const char* name : {"ipopt", "ego"}) {
+    const auto type = FindPlanner(name);
+    ASSERT_TRUE(type.has_value() && type->backend) << name;
+    const auto backend = type->backend();
+    ASSERT_NE(backend, nullptr) << name;
+    EXPECT_EQ(backend->Name(), name);
+  }
+  for (const char* name : {"toy", "sleep", "registry_test_static"}) {
+    const auto type = FindPlanner(name);
+    ASSERT_TRUE(type.has_value()) << name;
+    EXPECT_FALSE(type->backend) << name;
+  }
+}
+
 TEST(PlannerRegistry, BadRegistrationsThrow) {
   const PlannerSchema schema = PlannerSchema::Of(test::ToyPlanner{});
   EXPECT_THROW(RegisterPlanner("toy", BuildToyAgain, schema), std::invalid_argument);

@@ -221,7 +221,7 @@ TEST(CliFly, LayoutDroneWorldSetAndGoTo) {
 }
 
 // fly --set: every malformed override is refused before flying, with exit code 2, naming what is
-// wrong; a bad --world file names its key.
+// wrong; a bad --world file names its key; --planner takes the registry's closed-loop types.
 TEST(CliFly, SetAndWorldErrors) {
   const fs::path dir = Fresh("fly_errors");
   struct Case {
@@ -236,6 +236,8 @@ TEST(CliFly, SetAndWorldErrors) {
       {"--set no_such_parameter=1", "no_such_parameter"},
       {"--set v_des=-1", "v_des"},
       {"--world " + (dir / "world.yaml").string(), "windd"},
+      {"--planner toy", "'toy' is not a registered planner flown in the closed loop"},
+      {"--planner rrt", "registered: ego, ipopt"},
   };
   int k = 0;
   for (const auto& c : cases) {

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstddef>
+#include <memory>
 #include <vector>
 
 #include <string>
@@ -10,9 +11,10 @@
 #include "quadtune/common/random.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
-#include "quadtune/planning/flight.hpp"
 #include "quadtune/planning/local_planner.hpp"
 #include "quadtune/planning/trajectory_backend.hpp"
+#include "quadtune/sim/flight.hpp"
+#include "quadtune/sim/scenario.hpp"
 
 namespace quadtune::planning::bench {
 
@@ -36,25 +38,26 @@ inline std::vector<PlannerParams> RandomShortTermParams(const std::vector<Planni
 /// A go-and-return flight (24 m out and back) at default parameters through the CGAL forest of
 /// 1.3 m mean spacing with `seed`, planned by `backend`; `queries` (may be null) receives every
 /// planning query.
-inline FlightResult FlyForest(std::uint64_t seed, const TrajectoryBackend& backend,
-                              std::vector<PlanningQuery>* queries) {
+inline sim::FlightResult FlyForest(std::uint64_t seed, const TrajectoryBackend& backend,
+                                   std::vector<PlanningQuery>* queries) {
   const auto drone = physics::LoadDroneDescription(
       std::string(QUADTUNE_SOURCE_DIR) + "/assets/drones/research_1kg.yaml");
   layout::LayoutOptions options;
   options.spacing = 1.3;
   const layout::Layout forest = layout::GenerateLayout(options, seed);
   physics::WorldOptions world_options;
-  world_options.seed = seed;
   world_options.collision_response = physics::CollisionResponse::kPassThrough;
-  physics::World world(forest.obstacles, drone, world_options);
-  FlightHooks hooks;
+  const sim::Scenario scenario = sim::Scenario::OverLayout(
+      forest, sim::MissionKind::kGoAndReturn, drone, world_options, seed);
+  std::shared_ptr<physics::World> world;
+  sim::MakeWorld(scenario, world);
+  sim::FlightHooks hooks;
   if (queries != nullptr) {
     hooks.on_plan = [&](const PlanningQuery& q, const PlanOutcome&) { queries->push_back(q); };
   }
-  FlightOptions flight;
+  sim::FlightOptions flight;
   flight.log_rate_hz = 0.0;
-  return Fly(world, Mission::GoAndReturn(forest.start_W(), forest.goal_W()), PlannerParams{},
-             flight, backend, hooks);
+  return sim::Fly(*world, scenario.mission, PlannerParams{}, flight, backend, hooks);
 }
 
 }  // namespace quadtune::planning::bench

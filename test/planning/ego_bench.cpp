@@ -21,9 +21,9 @@
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/planning/ego_optimizer.hpp"
-#include "quadtune/planning/flight.hpp"
 #include "quadtune/planning/local_planner.hpp"
 #include "quadtune/planning/trajectory_backend.hpp"
+#include "quadtune/sim/flight.hpp"
 #include "bench_util.hpp"
 
 namespace {
@@ -151,7 +151,7 @@ void BM_ClosedLoop(benchmark::State& state) {
     const auto result = quadtune::planning::bench::FlyForest(1, Backend(which), nullptr);
     cpu += ThreadCpuSeconds() - t0;
     simulated += result.metrics.flight_time;
-    completed += result.metrics.status == quadtune::planning::FlightStatus::kCompleted ? 1 : 0;
+    completed += result.metrics.status == quadtune::sim::FlightStatus::kCompleted ? 1 : 0;
     ++flights;
   }
   state.counters["real_time_factor"] = simulated / cpu;

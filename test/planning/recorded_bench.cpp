@@ -24,8 +24,8 @@
 #include "quadtune/common/random.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
-#include "quadtune/planning/flight.hpp"
 #include "quadtune/planning/local_planner.hpp"
+#include "quadtune/sim/flight.hpp"
 #include "bench_util.hpp"
 
 namespace {

@@ -3,7 +3,7 @@
 /// Online adaptation of the desired velocity v_des in changing environments (paper Sec. IV-B),
 /// and the experiment that flies it (`quadtune adapt`).
 ///
-/// Mechanism (OnlineAdapter, a planning::PlanAdapter installed in the Replanner):
+/// Mechanism (OnlineAdapter, a sim::PlanAdapter installed in the Replanner):
 ///  1. Whenever a trajectory starts executing at t0, the point P_s at arc length R (`lookahead`)
 ///     along it is fixed, with its time t_s and state (p, v, a). A segment starts: a fresh
 ///     BayesOpt over v_des ∈ [v_min, v_max] (state of earlier segments cleared: the environment
@@ -50,9 +50,9 @@
 #include "quadtune/optimizers/bayes_opt.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/physics/world.hpp"
-#include "quadtune/planning/flight.hpp"
 #include "quadtune/planning/local_planner.hpp"
-#include "quadtune/planning/replanner.hpp"
+#include "quadtune/sim/flight.hpp"
+#include "quadtune/sim/replanner.hpp"
 
 namespace quadtune::engine {
 
@@ -124,7 +124,7 @@ struct AdaptationSegment {
 const char* ToString(AdaptationSegment::Outcome outcome);
 
 /// The adapter. See the file comment.
-class OnlineAdapter final : public planning::PlanAdapter {
+class OnlineAdapter final : public sim::PlanAdapter {
  public:
   /// `optimizer` must outlive the adapter. Validates `options`.
   OnlineAdapter(const planning::TrajectoryOptimizer& optimizer,
@@ -135,7 +135,7 @@ class OnlineAdapter final : public planning::PlanAdapter {
 
   void OnTrajectory(double t0, const planning::Trajectory& trajectory, bool reaches_waypoint,
                     const planning::PlannerParams& params) override;
-  std::optional<planning::AdaptedPlan> OnTick(double t, const planning::LocalMap& map,
+  std::optional<sim::AdaptedPlan> OnTick(double t, const planning::LocalMap& map,
                                               const Eigen::Vector3d& waypoint_W) override;
   [[nodiscard]] bool HoldsPeriodicReplan() const override { return pending_ != nullptr; }
 
@@ -203,7 +203,7 @@ struct AdaptFlight {
   std::string label;        ///< "adapted" or "fixed_<v>"
   bool adapted = false;
   double v_des = 0.0;       ///< the fixed v_des, or the adapted flight's start value (m/s)
-  planning::FlightResult result;
+  sim::FlightResult result;
   std::vector<AdaptationTrial> trials;      ///< adapted flight only
   std::vector<AdaptationSegment> segments;  ///< adapted flight only
 };

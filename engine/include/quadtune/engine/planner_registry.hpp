@@ -19,12 +19,14 @@
 /// register before loading experiments that name the planner.
 
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/engine/planner.hpp"
+#include "quadtune/planning/trajectory_backend.hpp"
 
 namespace quadtune::engine {
 
@@ -48,22 +50,29 @@ struct PlannerSchema {
 using PlannerFactory =
     std::function<Planner(const YamlMap& planner, const std::string& base_dir)>;
 
+/// For a planner type flown in quadtune's closed loop (sim::Fly, e.g. a BackendPlanner): builds
+/// its trajectory back end with default settings, the one `quadtune fly --planner NAME` flies.
+using BackendFactory = std::function<std::shared_ptr<const planning::TrajectoryBackend>()>;
+
 /// One registered planner type.
 struct PlannerType {
   std::string name;  ///< the `planner.type` value
   PlannerFactory factory;
   PlannerSchema schema;
+  BackendFactory backend;  ///< empty for planners with a loop of their own (toy, sleep)
 };
 
 /// Adds a planner type. `name` must be non-empty, of lower-case letters, digits and '_', and not
 /// yet registered; `factory` must not be empty; `schema` must name each parameter once. Throws
-/// std::invalid_argument otherwise.
-void RegisterPlanner(const std::string& name, PlannerFactory factory, PlannerSchema schema);
+/// std::invalid_argument otherwise. `backend` may be empty.
+void RegisterPlanner(const std::string& name, PlannerFactory factory, PlannerSchema schema,
+                     BackendFactory backend = {});
 
 /// Registers a planner type when constructed (a namespace-scope object in a program's source).
 struct PlannerRegistration {
-  PlannerRegistration(const std::string& name, PlannerFactory factory, PlannerSchema schema) {
-    RegisterPlanner(name, std::move(factory), std::move(schema));
+  PlannerRegistration(const std::string& name, PlannerFactory factory, PlannerSchema schema,
+                      BackendFactory backend = {}) {
+    RegisterPlanner(name, std::move(factory), std::move(schema), std::move(backend));
   }
 };
 

@@ -2,7 +2,7 @@
 /// \file
 /// The planner plug-ins shipped with the engine:
 ///
-/// - IpoptPlanner: the project's online planner (physics::World + planning::Fly, Ipopt back end,
+/// - IpoptPlanner: the project's online planner (physics::World + sim::Fly, Ipopt back end,
 ///   planning::SolveQuery for re-solves). θ_s = {w_col, w_dyn, n_pol}, θ_l = {v_des, h_pl, t_pl}.
 /// - BackendPlanner: any planning::TrajectoryBackend in IpoptPlanner's closed loop (sensing, local
 ///   map, FSM, physics), with the θ_s and θ_l names of IpoptPlanner; the back end gives them its
@@ -27,10 +27,11 @@
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/physics/world.hpp"
 #include "quadtune/planning/ego_optimizer.hpp"
-#include "quadtune/planning/flight.hpp"
 #include "quadtune/planning/parameters.hpp"
 #include "quadtune/planning/trajectory_backend.hpp"
 #include "quadtune/planning/trajectory_optimizer.hpp"
+#include "quadtune/sim/flight.hpp"
+#include "quadtune/sim/scenario.hpp"
 
 namespace quadtune::engine {
 
@@ -39,8 +40,8 @@ struct IpoptPlannerOptions {
   physics::DroneDescription drone;       ///< the drone flown
   physics::WorldOptions world;           ///< world options (seed replaced per flight)
   layout::LayoutOptions layout;          ///< layout generator options; one map per map seed
-  bool go_and_return = true;             ///< mission: go to the layout's goal and back, or go only
-  planning::FlightOptions flight;        ///< flight settings (max_time, …)
+  sim::MissionKind mission = sim::MissionKind::kGoAndReturn;  ///< over the layout's start and goal
+  sim::FlightOptions flight;        ///< flight settings (max_time, …)
   planning::PlannerParams base;          ///< fixed parameters and defaults of the tunables
 
   /// Reads an experiment's `planner:` map (keys drone, layout | layout_file, world, mission,
@@ -58,7 +59,7 @@ std::vector<ParameterInfo> PlannerParamsInfo(const planning::PlannerParams& valu
 
 /// A trajectory back end flown in the project's closed loop, as a plug-in: PrepareMap generates
 /// the layout with the map seed and builds its shared obstacle geometry; each WorkerSlot holds one
-/// physics::World that is Reset() onto the requested map's geometry; Fly() flies planning::Fly with the back
+/// physics::World that is Reset() onto the requested map's geometry; Fly() flies sim::Fly with the back
 /// end in the slot's physics::World, and Resolve() re-solves a recorded planning::PlanningQuery
 /// with TrajectoryBackend::Solve. θ_s = {w_col, w_dyn, n_pol}, θ_l = {v_des, h_pl, t_pl}
 /// (PlannerParams), defaults from `options.base`. The back end must follow the rules of
@@ -96,6 +97,11 @@ class IpoptPlanner : public BackendPlanner {
  public:
   explicit IpoptPlanner(IpoptPlannerOptions options);
 };
+
+/// A planning::IpoptBackend that owns its TrajectoryOptimizer, built from `options` (the default:
+/// sim::FlightOptions' optimiser settings, as IpoptPlanner flies by default).
+[[nodiscard]] std::shared_ptr<const planning::TrajectoryBackend> MakeIpoptBackend(
+    const planning::TrajectoryOptimizerOptions& options = sim::FlightOptions{}.planner.optimizer);
 
 /// Settings of EgoPlanner: the flight setting of IpoptPlanner (its `flight.planner.optimizer` is
 /// unused) and the EGO back end's.

@@ -2,11 +2,12 @@
 /// \file
 /// The closed loop's plug-in point for trajectory back ends: what turns a recorded planning query
 /// (start state, local goal, front-end path, map snapshot) into a trajectory. The replanning FSM
-/// (Replanner), the closed-loop flight (Fly) and the engine's planner plug-ins take any
-/// TrajectoryBackend; the project ships two:
+/// and the closed-loop flight (sim::Replanner, sim::Fly) and the engine's planner plug-ins take
+/// any TrajectoryBackend; the project ships two:
 ///
 /// - IpoptBackend: the minimum-jerk Ipopt optimiser on the query's distance-field snapshot
-///   (SolveQuery, with its retries), and the stop-and-go fallback (StopAndGoAlongPath);
+///   (SolveQuery, with its retries), and the stop-and-go fallback (StopAndGoAlongPath,
+///   stop_and_go.hpp);
 /// - EgoBackend (ego_optimizer.hpp): EGO-Planner's B-spline optimiser on the query's occupancy
 ///   snapshot, solved by L-BFGS; no fallback.
 ///

@@ -1,4 +1,4 @@
-#include "quadtune/planning/flight.hpp"
+#include "quadtune/sim/flight.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -11,10 +11,11 @@
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/yaml.hpp"
 
-namespace quadtune::planning {
+namespace quadtune::sim {
 
 Mission Mission::GoAndReturn(const Eigen::Vector3d& start_W, const Eigen::Vector3d& goal_W) {
-  return Mission{start_W, {goal_W, start_W}, std::atan2(goal_W.y() - start_W.y(), goal_W.x() - start_W.x())};
+  return Mission{
+      start_W, {goal_W, start_W}, std::atan2(goal_W.y() - start_W.y(), goal_W.x() - start_W.x())};
 }
 
 Mission Mission::GoTo(const Eigen::Vector3d& start_W, const Eigen::Vector3d& goal_W) {
@@ -22,7 +23,8 @@ Mission Mission::GoTo(const Eigen::Vector3d& start_W, const Eigen::Vector3d& goa
 }
 
 void Mission::Validate(const std::string& origin) const {
-  if (waypoints_W.empty()) throw ConfigError(origin, "mission.waypoints", "needs at least one waypoint");
+  if (waypoints_W.empty())
+    throw ConfigError(origin, "mission.waypoints", "needs at least one waypoint");
   for (int k = 0; k < 3; ++k) CheckInRange(start_W[k], Range::Any(), origin, "mission.start");
   for (std::size_t i = 0; i < waypoints_W.size(); ++i) {
     for (int k = 0; k < 3; ++k) {
@@ -35,12 +37,18 @@ void Mission::Validate(const std::string& origin) const {
 
 const char* ToString(FlightStatus status) {
   switch (status) {
-    case FlightStatus::kCompleted: return "completed";
-    case FlightStatus::kTimeout: return "timeout";
-    case FlightStatus::kStalled: return "stalled";
-    case FlightStatus::kDiverged: return "diverged";
-    case FlightStatus::kError: return "error";
-    case FlightStatus::kCancelled: return "cancelled";
+    case FlightStatus::kCompleted:
+      return "completed";
+    case FlightStatus::kTimeout:
+      return "timeout";
+    case FlightStatus::kStalled:
+      return "stalled";
+    case FlightStatus::kDiverged:
+      return "diverged";
+    case FlightStatus::kError:
+      return "error";
+    case FlightStatus::kCancelled:
+      return "cancelled";
   }
   return "?";
 }
@@ -90,23 +98,24 @@ std::optional<double> StallDetector::Update(double t, const Eigen::Vector3d& p_W
   return std::nullopt;
 }
 
-FlightResult Fly(physics::World& world, const Mission& mission, const PlannerParams& params,
-                 const FlightOptions& options, const TrajectoryOptimizer& optimizer,
-                 const FlightHooks& hooks) {
-  return Fly(world, mission, params, options, IpoptBackend(optimizer), hooks);
+FlightResult Fly(physics::World& world, const Mission& mission,
+                 const planning::PlannerParams& params, const FlightOptions& options,
+                 const planning::TrajectoryOptimizer& optimizer, const FlightHooks& hooks) {
+  return Fly(world, mission, params, options, planning::IpoptBackend(optimizer), hooks);
 }
 
-FlightResult Fly(physics::World& world, const Mission& mission, const PlannerParams& params,
-                 const FlightOptions& options, const TrajectoryBackend& backend,
-                 const FlightHooks& hooks) {
+FlightResult Fly(physics::World& world, const Mission& mission,
+                 const planning::PlannerParams& params, const FlightOptions& options,
+                 const planning::TrajectoryBackend& backend, const FlightHooks& hooks) {
   mission.Validate();
   params.Validate();
   options.Validate();
   const double physics_rate = world.options().physics_rate_hz;
   const double ratio = physics_rate / options.tick_rate_hz;
   if (std::abs(ratio - std::round(ratio)) > 1e-9 || ratio < 1.0) {
-    throw ConfigError("", "tick_rate_hz",
-                      "must divide the world's physics rate (" + std::to_string(physics_rate) + " Hz)");
+    throw ConfigError(
+        "", "tick_rate_hz",
+        "must divide the world's physics rate (" + std::to_string(physics_rate) + " Hz)");
   }
 
   const auto wall_start = std::chrono::steady_clock::now();
@@ -114,12 +123,12 @@ FlightResult Fly(physics::World& world, const Mission& mission, const PlannerPar
   FlightMetrics& m = result.metrics;
 
   world.Reset(physics::DroneState::Hover(world.drone(), mission.start_W, mission.start_yaw,
-                                        world.options().gravity));
+                                         world.options().gravity));
   physics::DepthSensor sensor(options.sensor, DeriveSeed(world.options().seed, {0x5e7501}));
-  LocalMapOptions map_options = options.map;
+  planning::LocalMapOptions map_options = options.map;
   map_options.resolution = params.map_resolution;
   map_options.inflation = params.inflation;
-  LocalMap map(map_options, mission.start_W);
+  planning::LocalMap map(map_options, mission.start_W);
   Replanner replanner(backend, params, options.replanner, options.planner);
   if (hooks.params_provider) replanner.SetParamsProvider(hooks.params_provider);
   if (hooks.on_plan) replanner.SetQueryObserver(hooks.on_plan);
@@ -141,8 +150,8 @@ FlightResult Fly(physics::World& world, const Mission& mission, const PlannerPar
   double window_max = 0.0;
   m.min_clearance = std::numeric_limits<double>::infinity();
   Eigen::Vector3d last_p = mission.start_W;
-  StallDetector stall(options.stall_time, options.stall_distance, world.time(),
-                      world.State().p_W, replanner.waypoint_index());
+  StallDetector stall(options.stall_time, options.stall_distance, world.time(), world.State().p_W,
+                      replanner.waypoint_index());
   std::int64_t tick = 0;
   m.status = FlightStatus::kTimeout;
   try {
@@ -221,7 +230,8 @@ FlightResult Fly(physics::World& world, const Mission& mission, const PlannerPar
   }
   if (window_max > 0.0) m.window_tracking_error.push_back(window_max);
 
-  m.flight_time = m.status == FlightStatus::kCompleted ? replanner.mission_end_time() : world.time();
+  m.flight_time =
+      m.status == FlightStatus::kCompleted ? replanner.mission_end_time() : world.time();
   m.collisions = static_cast<int>(world.collisions().Count());
   m.emergency_stops = replanner.emergency_stops();
   m.mean_tracking_error = tick > 0 ? error_sum / static_cast<double>(tick) : 0.0;
@@ -239,7 +249,8 @@ FlightResult Fly(physics::World& world, const Mission& mission, const PlannerPar
   m.mean_solve_time = m.plans > 0 ? solve_sum / m.plans : 0.0;
   m.mean_speed = m.flight_time > 0.0 ? m.distance / m.flight_time : 0.0;
   if (!std::isfinite(m.min_clearance)) m.min_clearance = 0.0;
-  m.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  m.wall_time =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;
 }
 
@@ -273,8 +284,7 @@ void WriteFlightFiles(const std::string& directory, const FlightResult& result,
       if (!p.ok || p.trajectory.Empty()) continue;
       for (const auto& s : p.trajectory.Sample(0.05)) {
         out << id << ',' << p.time << ',' << p.time + s.t << ',' << s.p_W.x() << ',' << s.p_W.y()
-            << ',' << s.p_W.z() << ',' << s.v_W.x() << ',' << s.v_W.y() << ',' << s.v_W.z()
-            << '\n';
+            << ',' << s.p_W.z() << ',' << s.v_W.x() << ',' << s.v_W.y() << ',' << s.v_W.z() << '\n';
       }
       ++id;
     }
@@ -300,13 +310,20 @@ void WriteFlightFiles(const std::string& directory, const FlightResult& result,
     nlohmann::json j;
     j["cylinders"] = nlohmann::json::array();
     for (const auto& c : obstacles.cylinders) {
-      j["cylinders"].push_back({{"x", c.center_W.x()}, {"y", c.center_W.y()},
-                                {"radius", c.radius}, {"z_min", c.z_min}, {"z_max", c.z_max}});
+      j["cylinders"].push_back({{"x", c.center_W.x()},
+                                {"y", c.center_W.y()},
+                                {"radius", c.radius},
+                                {"z_min", c.z_min},
+                                {"z_max", c.z_max}});
     }
     j["rings"] = nlohmann::json::array();
     for (const auto& r : obstacles.rings) {
-      j["rings"].push_back({{"x", r.center_W.x()}, {"y", r.center_W.y()}, {"z", r.center_W.z()},
-                            {"yaw", r.yaw}, {"radius", r.radius}, {"thickness", r.thickness}});
+      j["rings"].push_back({{"x", r.center_W.x()},
+                            {"y", r.center_W.y()},
+                            {"z", r.center_W.z()},
+                            {"yaw", r.yaw},
+                            {"radius", r.radius},
+                            {"thickness", r.thickness}});
     }
     j["ground"] = obstacles.ground;
     std::ofstream(dir / "obstacles.json") << j.dump(1) << '\n';
@@ -341,4 +358,4 @@ void WriteFlightFiles(const std::string& directory, const FlightResult& result,
   }
 }
 
-}  // namespace quadtune::planning
+}  // namespace quadtune::sim

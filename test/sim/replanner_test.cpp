@@ -1,12 +1,26 @@
-#include "quadtune/planning/replanner.hpp"
+#include "quadtune/sim/replanner.hpp"
 
 #include <gtest/gtest.h>
 
 #include "../config_error_util.hpp"
-#include "scene_util.hpp"
+#include "../planning/scene_util.hpp"
+#include "quadtune/planning/stop_and_go.hpp"
 
-namespace quadtune::planning {
+namespace quadtune::sim {
 namespace {
+
+using planning::BrakingTrajectory;
+using planning::LocalMap;
+using planning::LocalMapOptions;
+using planning::PlannerParams;
+using planning::PlanningQuery;
+using planning::PlanResult;
+using planning::PlanStatus;
+using planning::QuinticBoundaryValue;
+using planning::StopAndGoAlongPath;
+using planning::Trajectory;
+using planning::TrajectoryOptimizer;
+using planning::TrajectoryOptimizerOptions;
 
 using quadtune::test::ThrowsWithMessage;
 
@@ -102,8 +116,8 @@ TEST(Replanner, ReplansPeriodically) {
 
 TEST(Replanner, AvoidsObstaclesInTheMap) {
   KinematicFlight f{PlannerParams{}};
-  const physics::ObstacleSet forest = testing::SmallForest();
-  const auto points = testing::SurfacePoints(forest);
+  const physics::ObstacleSet forest = planning::testing::SmallForest();
+  const auto points = planning::testing::SurfacePoints(forest);
   f.map.Insert(Eigen::Vector3d(0, 0, 1.2), points);
   f.Start({0, 0, 1.2}, {{9, 0, 1.2}});
   double min_clearance = 1e9;
@@ -126,7 +140,7 @@ TEST(Replanner, EmergencyStopWhenAnObstacleAppearsInsideTheBrakingDistance) {
   ASSERT_EQ(f.replanner.emergency_stops(), 0);
   // A wall appears 0.45 m ahead: stopping from 2 m/s at a_max = 3 m/s² needs 0.67 m.
   const double x_wall = f.p.x() + 0.45;
-  f.map.Insert(f.p, testing::WallPoints(x_wall, 8.0, 4.0));
+  f.map.Insert(f.p, planning::testing::WallPoints(x_wall, 8.0, 4.0));
   for (int i = 0; i < 20 && f.replanner.emergency_stops() == 0; ++i) f.Step();
   EXPECT_EQ(f.replanner.emergency_stops(), 1);
   EXPECT_EQ(f.replanner.state(), ReplanState::kEmergencyStop);
@@ -142,7 +156,7 @@ TEST(Replanner, NoEmergencyStopWhenReplanningSucceeds) {
   // A single pillar 4 m ahead on the path: a re-plan goes around it.
   physics::ObstacleSet pillar;
   pillar.cylinders.push_back({{f.p.x() + 4.0, 0.0}, 0.3, 0.0, 3.0});
-  f.map.Insert(f.p, testing::SurfacePoints(pillar));
+  f.map.Insert(f.p, planning::testing::SurfacePoints(pillar));
   const double pillar_x = pillar.cylinders[0].center_W.x();
   // Closest approach over the whole flight past the pillar (not where the drone ends up).
   double min_distance = pillar.Distance(f.p);
@@ -164,7 +178,7 @@ PlanningQuery ColumnQuery(std::vector<Eigen::Vector3d> path) {
     occupancy[static_cast<std::size_t>(15 + dims.x() * (5 + dims.y() * z))] = 1;
   }
   PlanningQuery q;
-  q.field = Esdf::FromOccupancy(Eigen::Vector3d(-0.5, -0.5, 0.5), 0.1, dims, occupancy);
+  q.field = planning::Esdf::FromOccupancy(Eigen::Vector3d(-0.5, -0.5, 0.5), 0.1, dims, occupancy);
   q.p0_W = path.front();
   q.goal_W = path.back();
   q.initial_path_W = std::move(path);
@@ -218,15 +232,15 @@ TEST(StopAndGoAlongPath, FliesEverySegmentFromRestToRestWithinTheLimits) {
 
 TEST(StopAndGoAlongPath, FailsTheBackEndsCheckWhereThePathMeetsAnObstacle) {
   const TrajectoryOptimizer optimizer;
-  const PlanResult r =
-      StopAndGoAlongPath(optimizer, ColumnQuery({{0, 0, 1.2}, {2.5, 0, 1.2}}), PlannerParams{}, 0.5);
+  const PlanResult r = StopAndGoAlongPath(optimizer, ColumnQuery({{0, 0, 1.2}, {2.5, 0, 1.2}}),
+                                          PlannerParams{}, 0.5);
   EXPECT_EQ(r.status, PlanStatus::kCollision) << r.message;
   EXPECT_LT(r.min_clearance, 0.2);
   // A path without length is no plan.
-  EXPECT_EQ(StopAndGoAlongPath(optimizer, ColumnQuery({{0, 0, 1.2}, {0, 0, 1.2}}), PlannerParams{},
-                               0.5)
-                .status,
-            PlanStatus::kInvalidInput);
+  EXPECT_EQ(
+      StopAndGoAlongPath(optimizer, ColumnQuery({{0, 0, 1.2}, {0, 0, 1.2}}), PlannerParams{}, 0.5)
+          .status,
+      PlanStatus::kInvalidInput);
 }
 
 TEST(Replanner, FliesTheFrontEndsPathStopAndGoWhenEveryAttemptFromRestFails) {
@@ -292,4 +306,4 @@ TEST(Replanner, InvalidOptionsNameTheKey) {
 }
 
 }  // namespace
-}  // namespace quadtune::planning
+}  // namespace quadtune::sim

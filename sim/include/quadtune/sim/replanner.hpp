@@ -14,13 +14,17 @@
 ///   last waypoint reached → kDone
 ///
 /// A re-plan that starts (nearly) at rest and whose every back-end attempt fails flies the front
-/// end's path stop-and-go instead, when that passes the back end's check (StopAndGoAlongPath,
-/// ReplannerOptions::fallback_speed); its failed attempts still count in n_s.
+/// end's path stop-and-go instead, when that passes the back end's check (the back end's
+/// Fallback(), for the Ipopt back end planning::StopAndGoAlongPath; ReplannerOptions::
+/// fallback_speed); its failed attempts still count in n_s.
 ///
 /// Planning is instantaneous in simulated time (the simulation waits for the planner), so flights
 /// are reproducible; the wall-clock solve time t_c is recorded beside the deterministic compute
 /// units. Every plan is recorded (PlanRecord), and every planning query can be handed to an
 /// observer (the engine's short-term optimiser replays them with other θ_s).
+///
+/// The FSM drives the planning library (quadtune::planning: local planner, back ends) and hands
+/// the controller its reference (physics::TrackingReference); Fly (flight.hpp) closes the loop.
 ///
 /// Thread safety: one Replanner per flight; not thread-safe.
 
@@ -39,7 +43,7 @@
 #include "quadtune/planning/trajectory_backend.hpp"
 #include "quadtune/planning/trajectory_optimizer.hpp"
 
-namespace quadtune::planning {
+namespace quadtune::sim {
 
 /// States of the replanning FSM (see the file comment).
 enum class ReplanState { kWaitMission, kGenNewTraj, kExecTraj, kEmergencyStop, kDone };
@@ -48,10 +52,10 @@ const char* ToString(ReplanState state);
 
 /// A plan that a PlanAdapter hands to the Replanner to execute from `start_time` on.
 struct AdaptedPlan {
-  double start_time = 0.0;       ///< flight time at which `outcome`'s trajectory starts (s)
-  PlanOutcome outcome;           ///< the chosen plan (its result must hold a trajectory)
-  bool reaches_waypoint = false; ///< the trajectory ends at the current mission waypoint
-  PlannerParams params;          ///< parameters to keep in force from now on (validated)
+  double start_time = 0.0;         ///< flight time at which `outcome`'s trajectory starts (s)
+  planning::PlanOutcome outcome;   ///< the chosen plan (its result must hold a trajectory)
+  bool reaches_waypoint = false;   ///< the trajectory ends at the current mission waypoint
+  planning::PlannerParams params;  ///< parameters to keep in force from now on (validated)
 };
 
 /// Optional hook that replaces the FSM's periodic re-planning by a plan chosen ahead of time
@@ -64,12 +68,12 @@ class PlanAdapter {
   virtual ~PlanAdapter() = default;
   /// A planned trajectory started executing at t0 (a plan of the FSM or one the adapter handed
   /// over); any earlier trajectory is no longer executed.
-  virtual void OnTrajectory(double t0, const Trajectory& trajectory, bool reaches_waypoint,
-                            const PlannerParams& params) = 0;
+  virtual void OnTrajectory(double t0, const planning::Trajectory& trajectory,
+                            bool reaches_waypoint, const planning::PlannerParams& params) = 0;
   /// Called on every tick while a trajectory executes (after the waypoint check, before the
   /// collision check) with the latest map and the current mission waypoint. A plan returned here
   /// is executed at once.
-  virtual std::optional<AdaptedPlan> OnTick(double t, const LocalMap& map,
+  virtual std::optional<AdaptedPlan> OnTick(double t, const planning::LocalMap& map,
                                             const Eigen::Vector3d& waypoint_W) = 0;
   /// While true, the FSM skips its periodic (every t_pl) re-plans; re-plans triggered by a
   /// predicted collision or a finished trajectory still happen.
@@ -78,15 +82,15 @@ class PlanAdapter {
 
 /// FSM settings (not tuned by the experiments).
 struct ReplannerOptions {
-  double check_interval = 0.05;   ///< collision check of the executing trajectory every (s), > 0
-  double check_dt = 0.05;         ///< sample spacing of that check along the trajectory (s), > 0
-  double retry_interval = 0.1;    ///< wait after a failed plan before trying again (s), >= 0
+  double check_interval = 0.05;  ///< collision check of the executing trajectory every (s), > 0
+  double check_dt = 0.05;        ///< sample spacing of that check along the trajectory (s), > 0
+  double retry_interval = 0.1;   ///< wait after a failed plan before trying again (s), >= 0
   /// Plan from the measured state (not the reference) when the tracking error exceeds this (m).
   double tracking_replan_error = 0.6;
-  double yaw_rate_max = 2.0;      ///< heading rate limit of the reference (rad/s), > 0
-  double brake_factor = 0.8;      ///< emergency braking uses this fraction of a_max, (0, 1]
-  /// Stop-and-go fallback (StopAndGoAlongPath): when every back-end attempt of a plan that
-  /// starts slower than `fallback_start_speed` (m/s, >= 0) fails, the drone flies the front
+  double yaw_rate_max = 2.0;  ///< heading rate limit of the reference (rad/s), > 0
+  double brake_factor = 0.8;  ///< emergency braking uses this fraction of a_max, (0, 1]
+  /// Stop-and-go fallback (planning::StopAndGoAlongPath): when every back-end attempt of a plan
+  /// that starts slower than `fallback_start_speed` (m/s, >= 0) fails, the drone flies the front
   /// end's path instead, at a peak speed of `fallback_speed` (m/s, >= 0, capped at v_des), if
   /// that passes the back end's acceptance check. The failed attempts still count in n_s.
   /// fallback_speed = 0 turns it off.
@@ -99,18 +103,18 @@ struct ReplannerOptions {
 
 /// One planning step as the flight saw it.
 struct PlanRecord {
-  double time = 0.0;             ///< flight time of the step (s)
-  bool ok = false;               ///< a trajectory was produced
+  double time = 0.0;                 ///< flight time of the step (s)
+  bool ok = false;                   ///< a trajectory was produced
   bool collision_triggered = false;  ///< triggered by a predicted collision
-  int failed_attempts = 0;       ///< n_s of the step (front-end failure counts as 1)
-  double solve_time_s = 0.0;     ///< wall-clock t_c over attempts (s)
-  double compute_units = 0.0;    ///< deterministic cost over attempts
-  PlanStatus status = PlanStatus::kInvalidInput;  ///< last back-end status
-  std::string message;           ///< failure detail
-  Trajectory trajectory;         ///< the new trajectory (empty on failure)
-  double min_clearance = 0.0;    ///< of the planned trajectory (m)
-  double jerk = 0.0;             ///< ∫|jerk|² of the planned trajectory
-  double duration = 0.0;         ///< duration of the planned trajectory (s)
+  int failed_attempts = 0;           ///< n_s of the step (front-end failure counts as 1)
+  double solve_time_s = 0.0;         ///< wall-clock t_c over attempts (s)
+  double compute_units = 0.0;        ///< deterministic cost over attempts
+  planning::PlanStatus status = planning::PlanStatus::kInvalidInput;  ///< last back-end status
+  std::string message;                                                ///< failure detail
+  planning::Trajectory trajectory;  ///< the new trajectory (empty on failure)
+  double min_clearance = 0.0;       ///< of the planned trajectory (m)
+  double jerk = 0.0;                ///< ∫|jerk|² of the planned trajectory
+  double duration = 0.0;            ///< duration of the planned trajectory (s)
   /// The trajectory is the stop-and-go fallback (ok; the back end's attempts all failed).
   bool fallback = false;
 };
@@ -120,32 +124,37 @@ class Replanner {
  public:
   /// Plans with the Ipopt back end (IpoptBackend). `optimizer` must outlive the Replanner.
   /// Validates all options and `params`.
-  Replanner(const TrajectoryOptimizer& optimizer, const PlannerParams& params,
-            const ReplannerOptions& options = {}, const LocalPlannerOptions& planner_options = {});
+  Replanner(const planning::TrajectoryOptimizer& optimizer, const planning::PlannerParams& params,
+            const ReplannerOptions& options = {},
+            const planning::LocalPlannerOptions& planner_options = {});
   /// Plans with any back end; its queries record the back end's snapshot (planner_options'
   /// `snapshot` is replaced by backend.Snapshot()); its Fallback() replaces the stop-and-go
   /// fallback. `backend` must outlive the Replanner. Validates all options and `params`.
-  Replanner(const TrajectoryBackend& backend, const PlannerParams& params,
-            const ReplannerOptions& options = {}, const LocalPlannerOptions& planner_options = {});
+  Replanner(const planning::TrajectoryBackend& backend, const planning::PlannerParams& params,
+            const ReplannerOptions& options = {},
+            const planning::LocalPlannerOptions& planner_options = {});
 
   /// Starts a mission through `waypoints_W` from rest at p_W with heading yaw at time t.
   void StartMission(std::vector<Eigen::Vector3d> waypoints_W, const Eigen::Vector3d& p_W,
                     double yaw, double t);
   /// Replaces the parameters used by the following plans (validated).
-  void SetParams(const PlannerParams& params);
-  [[nodiscard]] const PlannerParams& params() const { return params_; }
+  void SetParams(const planning::PlannerParams& params);
+  [[nodiscard]] const planning::PlannerParams& params() const { return params_; }
 
   /// Called before each plan with the time and the parameters, which it may change (the engine
   /// injects the short-term optimiser's current best θ_s this way).
-  void SetParamsProvider(std::function<void(double time, PlannerParams& params)> provider);
+  void SetParamsProvider(
+      std::function<void(double time, planning::PlannerParams& params)> provider);
   /// Called after each plan that reached the back end, with its query and outcome.
-  void SetQueryObserver(std::function<void(const PlanningQuery&, const PlanOutcome&)> observer);
+  void SetQueryObserver(
+      std::function<void(const planning::PlanningQuery&, const planning::PlanOutcome&)> observer);
   /// Installs an adapter (not owned; nullptr removes it). It must outlive the flight.
   void SetAdapter(PlanAdapter* adapter) { adapter_ = adapter; }
 
   /// Advances the FSM at time t (s) given the measured position and velocity; `map` must hold the
   /// latest scans.
-  void Tick(double t, const Eigen::Vector3d& p_W, const Eigen::Vector3d& v_W, const LocalMap& map);
+  void Tick(double t, const Eigen::Vector3d& p_W, const Eigen::Vector3d& v_W,
+            const planning::LocalMap& map);
 
   /// The tracking reference at time t (for the controller). Heading follows the direction of
   /// motion with a rate limit, so calls must come with non-decreasing t.
@@ -163,36 +172,37 @@ class Replanner {
   /// Index of the waypoint being approached.
   [[nodiscard]] std::size_t waypoint_index() const { return waypoint_; }
   [[nodiscard]] const std::vector<PlanRecord>& records() const { return records_; }
-  [[nodiscard]] const Trajectory& trajectory() const { return traj_; }
+  [[nodiscard]] const planning::Trajectory& trajectory() const { return traj_; }
   [[nodiscard]] double trajectory_start() const { return traj_t0_; }
 
  private:
-  Replanner(std::unique_ptr<const TrajectoryBackend> owned, const TrajectoryBackend* backend,
-            const PlannerParams& params, const ReplannerOptions& options,
-            const LocalPlannerOptions& planner_options);
+  Replanner(std::unique_ptr<const planning::TrajectoryBackend> owned,
+            const planning::TrajectoryBackend* backend, const planning::PlannerParams& params,
+            const ReplannerOptions& options, const planning::LocalPlannerOptions& planner_options);
   bool PlanFrom(double t, const Eigen::Vector3d& p0, const Eigen::Vector3d& v0,
-                const Eigen::Vector3d& a0, const LocalMap& map, bool from_trajectory,
+                const Eigen::Vector3d& a0, const planning::LocalMap& map, bool from_trajectory,
                 bool collision_triggered);
-  std::optional<double> TimeToCollision(const LocalMap& map, double tau) const;
+  std::optional<double> TimeToCollision(const planning::LocalMap& map, double tau) const;
   void EmergencyStop(double t, const Eigen::Vector3d& p, const Eigen::Vector3d& v,
                      const Eigen::Vector3d& a);
   // Executes a plan handed over by the adapter.
   void Adopt(double t, AdaptedPlan plan);
 
-  std::unique_ptr<const TrajectoryBackend> owned_backend_;  // the IpoptBackend of the first ctor
-  const TrajectoryBackend& backend_;
-  PlannerParams params_;
+  std::unique_ptr<const planning::TrajectoryBackend>
+      owned_backend_;  // the planning::IpoptBackend of the first ctor
+  const planning::TrajectoryBackend& backend_;
+  planning::PlannerParams params_;
   ReplannerOptions options_;
-  LocalPlanner planner_;
-  std::function<void(double, PlannerParams&)> provider_;
-  std::function<void(const PlanningQuery&, const PlanOutcome&)> observer_;
+  planning::LocalPlanner planner_;
+  std::function<void(double, planning::PlannerParams&)> provider_;
+  std::function<void(const planning::PlanningQuery&, const planning::PlanOutcome&)> observer_;
   PlanAdapter* adapter_ = nullptr;
 
   ReplanState state_ = ReplanState::kWaitMission;
   std::vector<Eigen::Vector3d> waypoints_;
   std::size_t waypoint_ = 0;
-  Trajectory traj_;          // executing trajectory (empty: hold hold_p_)
-  double traj_t0_ = 0.0;     // its start time (s)
+  planning::Trajectory traj_;  // executing trajectory (empty: hold hold_p_)
+  double traj_t0_ = 0.0;       // its start time (s)
   bool traj_reaches_waypoint_ = false;
   Eigen::Vector3d hold_p_ = Eigen::Vector3d::Zero();
   double last_plan_time_ = 0.0;
@@ -202,30 +212,8 @@ class Replanner {
   int emergency_stops_ = 0;
   std::uint64_t sequence_ = 0;
   std::vector<PlanRecord> records_;
-  double yaw_ = 0.0;         // heading of the reference (rad)
-  double yaw_time_ = 0.0;    // time of the last Reference() call (s)
+  double yaw_ = 0.0;       // heading of the reference (rad)
+  double yaw_time_ = 0.0;  // time of the last Reference() call (s)
 };
 
-/// A quintic from (p0, v0, a0) to rest at a point chosen so that the average deceleration is
-/// `decel` (m/s², > 0): duration T = max(2|v0|/decel, 0.2 s). Used for emergency braking.
-[[nodiscard]] Trajectory BrakingTrajectory(const Eigen::Vector3d& p0, const Eigen::Vector3d& v0,
-                                           const Eigen::Vector3d& a0, double decel);
-
-/// The front end's path of `query` flown stop-and-go: one quintic per straight segment of
-/// query.initial_path_W, from (p0, v0, a0) for the first and from rest for the others, to rest at
-/// the segment's end, each as slow as the peak speed `speed` (m/s, > 0) and a_max require
-/// (a rest-to-rest quintic over L peaks at 1.875 L/T and 5.77 L/T²). From rest every piece stays
-/// on its segment, and the segments are free in the inflated map, so the path can be flown even
-/// where the back end's optimum is not: a passage that the collision penalty cannot centre the
-/// trajectory in. The result carries optimizer.Check's verdict and the trajectory's ∫|jerk|² dt
-/// (cost.jerk, Trajectory::JerkEnergy); iterations and evaluations are 0.
-[[nodiscard]] PlanResult StopAndGoAlongPath(const TrajectoryOptimizer& optimizer,
-                                            const PlanningQuery& query,
-                                            const PlannerParams& params, double speed);
-
-/// The quintic of duration T (s) matching position, velocity and acceleration at both ends.
-[[nodiscard]] Trajectory::Coefficients QuinticBoundaryValue(
-    const Eigen::Vector3d& p0, const Eigen::Vector3d& v0, const Eigen::Vector3d& a0,
-    const Eigen::Vector3d& p1, const Eigen::Vector3d& v1, const Eigen::Vector3d& a1, double T);
-
-}  // namespace quadtune::planning
+}  // namespace quadtune::sim

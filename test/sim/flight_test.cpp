@@ -1,4 +1,4 @@
-#include "quadtune/planning/flight.hpp"
+#include "quadtune/sim/flight.hpp"
 
 #include <gtest/gtest.h>
 
@@ -14,8 +14,14 @@
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
 
-namespace quadtune::planning {
+namespace quadtune::sim {
 namespace {
+
+using planning::PlannerParams;
+using planning::PlanningQuery;
+using planning::PlanOutcome;
+using planning::TrajectoryOptimizer;
+using planning::TrajectoryOptimizerOptions;
 
 using quadtune::test::ThrowsConfigError;
 
@@ -47,9 +53,7 @@ struct ForestFlight {
 // A drone that flies 4 m out at 1 m/s and straight back, checked every 8 s: the check at 8 s
 // finds it where it started. That is a stall only if no waypoint was reached in between.
 TEST(StallDetector, ATurnRoundWithinTheWindowIsProgress) {
-  const auto position = [](double t) {
-    return Eigen::Vector3d(t <= 4.0 ? t : 8.0 - t, 0.0, 1.0);
-  };
+  const auto position = [](double t) { return Eigen::Vector3d(t <= 4.0 ? t : 8.0 - t, 0.0, 1.0); };
   for (bool waypoint_reached : {false, true}) {
     StallDetector stall(8.0, 1.0, 0.0, position(0.0), 0);
     std::optional<double> stalled;
@@ -148,7 +152,8 @@ TEST(Flight, ParamsProviderAndQueryObserverSeeEveryPlan) {
     ++observed;
     EXPECT_EQ(q.params.w_col, 0.7);
   };
-  const FlightResult r = Fly(world, f.mission, PlannerParams{}, FlightOptions{}, f.optimizer, hooks);
+  const FlightResult r =
+      Fly(world, f.mission, PlannerParams{}, FlightOptions{}, f.optimizer, hooks);
   EXPECT_EQ(r.metrics.status, FlightStatus::kCompleted);
   EXPECT_EQ(provided, r.metrics.plans);
   EXPECT_EQ(observed, r.metrics.plans);  // no front-end failures in a sparse forest
@@ -184,7 +189,8 @@ TEST(Flight, StuckDroneEndsAsStalled) {
   options.stall_time = 5.0;
   PlannerParams params;
   params.inflation = 1.3;
-  const Mission mission = Mission::GoTo(Eigen::Vector3d(0.0, 0.0, 1.2), Eigen::Vector3d(6.0, 0.0, 1.2));
+  const Mission mission =
+      Mission::GoTo(Eigen::Vector3d(0.0, 0.0, 1.2), Eigen::Vector3d(6.0, 0.0, 1.2));
   const FlightResult r = Fly(world, mission, params, options, f.optimizer);
   EXPECT_EQ(r.metrics.status, FlightStatus::kStalled)
       << r.metrics.message << " t_f " << r.metrics.flight_time << " n_c " << r.metrics.collisions
@@ -235,8 +241,10 @@ TEST(Flight, CountsStopAndGoFallbacks) {
   std::filesystem::remove_all(dir);
   WriteFlightFiles(dir.string(), r, f.forest.obstacles, f.mission);
   std::ifstream summary(dir / "summary.json");
-  const std::string text((std::istreambuf_iterator<char>(summary)), std::istreambuf_iterator<char>());
-  EXPECT_NE(text.find("\"fallback_plans\": " + std::to_string(fallbacks)), std::string::npos) << text;
+  const std::string text((std::istreambuf_iterator<char>(summary)),
+                         std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("\"fallback_plans\": " + std::to_string(fallbacks)), std::string::npos)
+      << text;
 }
 
 TEST(Flight, BadArgumentsThrowConfigError) {
@@ -270,4 +278,4 @@ TEST(Flight, BadArgumentsThrowConfigError) {
 }
 
 }  // namespace
-}  // namespace quadtune::planning
+}  // namespace quadtune::sim

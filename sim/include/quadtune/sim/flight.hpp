@@ -25,15 +25,15 @@
 #include "quadtune/planning/local_map.hpp"
 #include "quadtune/planning/local_planner.hpp"
 #include "quadtune/planning/parameters.hpp"
-#include "quadtune/planning/replanner.hpp"
+#include "quadtune/sim/replanner.hpp"
 
-namespace quadtune::planning {
+namespace quadtune::sim {
 
 /// Where to fly: from rest at start_W through the waypoints in order.
 struct Mission {
   Eigen::Vector3d start_W = Eigen::Vector3d(0.0, 0.0, 1.0);  ///< (m)
-  std::vector<Eigen::Vector3d> waypoints_W;                   ///< (m), at least one
-  double start_yaw = 0.0;                                     ///< (rad)
+  std::vector<Eigen::Vector3d> waypoints_W;                  ///< (m), at least one
+  double start_yaw = 0.0;                                    ///< (rad)
 
   /// The paper's benchmark mission: to `goal_W` and back to `start_W`.
   static Mission GoAndReturn(const Eigen::Vector3d& start_W, const Eigen::Vector3d& goal_W);
@@ -58,13 +58,13 @@ const char* ToString(FlightStatus status);
 /// Settings of a flight (not tuned by the experiments).
 struct FlightOptions {
   physics::DepthSensorOptions sensor = DefaultSensor();
-  LocalMapOptions map;            ///< resolution and inflation are taken from the parameters
-  LocalPlannerOptions planner;
+  planning::LocalMapOptions map;  ///< resolution and inflation are taken from the parameters
+  planning::LocalPlannerOptions planner;
   ReplannerOptions replanner;
-  double tick_rate_hz = 100.0;    ///< FSM and metric rate (Hz), must divide the physics rate
-  double max_time = 120.0;        ///< flight time limit (s), > 0
-  double log_rate_hz = 20.0;      ///< state log rate (Hz); 0: no state log
-  double tracking_window = 1.0;   ///< window of the windowed tracking error J_p (s), > 0
+  double tick_rate_hz = 100.0;   ///< FSM and metric rate (Hz), must divide the physics rate
+  double max_time = 120.0;       ///< flight time limit (s), > 0
+  double log_rate_hz = 20.0;     ///< state log rate (Hz); 0: no state log
+  double tracking_window = 1.0;  ///< window of the windowed tracking error J_p (s), > 0
   /// A flight whose drone moved less than stall_distance (m) in the last stall_time (s) ends as
   /// kStalled: stuck hovering (every plan failing) it would only burn compute until max_time.
   /// The window restarts whenever a mission waypoint is reached (StallDetector).
@@ -82,25 +82,25 @@ struct FlightOptions {
 struct FlightMetrics {
   FlightStatus status = FlightStatus::kError;
   std::string message;
-  double flight_time = 0.0;        ///< t_f: mission time, or time flown when not completed (s)
-  int collisions = 0;              ///< n_c: contact episodes (obstacles and ground)
-  int emergency_stops = 0;         ///< n_e
-  double max_tracking_error = 0.0; ///< max ‖p − p_ref‖ over the flight (m)
-  double mean_tracking_error = 0.0;///< mean ‖p − p_ref‖ (m)
+  double flight_time = 0.0;          ///< t_f: mission time, or time flown when not completed (s)
+  int collisions = 0;                ///< n_c: contact episodes (obstacles and ground)
+  int emergency_stops = 0;           ///< n_e
+  double max_tracking_error = 0.0;   ///< max ‖p − p_ref‖ over the flight (m)
+  double mean_tracking_error = 0.0;  ///< mean ‖p − p_ref‖ (m)
   std::vector<double> window_tracking_error;  ///< J_p per tracking_window (m)
-  int plans = 0;                   ///< planning steps
-  int failed_plans = 0;            ///< planning steps that produced no trajectory
-  int failed_attempts = 0;         ///< Σ n_s over the steps
-  int fallback_plans = 0;          ///< steps that flew the stop-and-go fallback (PlanRecord)
-  double mean_solve_time = 0.0;    ///< mean t_c per step (s)
-  double max_solve_time = 0.0;     ///< max t_c (s)
-  double compute_units = 0.0;      ///< Σ deterministic compute units
-  double jerk_integral = 0.0;      ///< ∫‖jerk of the executed reference‖² dt (m²/s⁵)
-  double min_clearance = 0.0;      ///< smallest obstacle distance of the drone's surface (m)
-  double distance = 0.0;           ///< path length flown (m)
-  double mean_speed = 0.0;         ///< distance / flight_time (m/s)
-  double max_speed = 0.0;          ///< (m/s)
-  double wall_time = 0.0;          ///< wall-clock duration of Fly() (s)
+  int plans = 0;                              ///< planning steps
+  int failed_plans = 0;                       ///< planning steps that produced no trajectory
+  int failed_attempts = 0;                    ///< Σ n_s over the steps
+  int fallback_plans = 0;        ///< steps that flew the stop-and-go fallback (PlanRecord)
+  double mean_solve_time = 0.0;  ///< mean t_c per step (s)
+  double max_solve_time = 0.0;   ///< max t_c (s)
+  double compute_units = 0.0;    ///< Σ deterministic compute units
+  double jerk_integral = 0.0;    ///< ∫‖jerk of the executed reference‖² dt (m²/s⁵)
+  double min_clearance = 0.0;    ///< smallest obstacle distance of the drone's surface (m)
+  double distance = 0.0;         ///< path length flown (m)
+  double mean_speed = 0.0;       ///< distance / flight_time (m/s)
+  double max_speed = 0.0;        ///< (m/s)
+  double wall_time = 0.0;        ///< wall-clock duration of Fly() (s)
 };
 
 /// One row of the state log.
@@ -116,16 +116,16 @@ struct FlightLogRow {
 /// Everything a flight produced.
 struct FlightResult {
   FlightMetrics metrics;
-  std::vector<FlightLogRow> log;   ///< at log_rate_hz
-  std::vector<PlanRecord> plans;   ///< every planning step
+  std::vector<FlightLogRow> log;  ///< at log_rate_hz
+  std::vector<PlanRecord> plans;  ///< every planning step
 };
 
 /// Optional hooks into a flight.
 struct FlightHooks {
   /// See Replanner::SetParamsProvider.
-  std::function<void(double time, PlannerParams& params)> params_provider;
+  std::function<void(double time, planning::PlannerParams& params)> params_provider;
   /// See Replanner::SetQueryObserver.
-  std::function<void(const PlanningQuery&, const PlanOutcome&)> on_plan;
+  std::function<void(const planning::PlanningQuery&, const planning::PlanOutcome&)> on_plan;
   /// Polled every tick; true stops the flight (kCancelled).
   std::function<bool()> cancelled;
   /// See Replanner::SetAdapter (not owned; must outlive Fly). nullptr: plain replanning.
@@ -156,13 +156,15 @@ class StallDetector {
 /// obstacles are kept) with `params`. Invalid arguments throw ConfigError; everything that goes
 /// wrong during the flight is reported in the metrics (status, message), never thrown.
 [[nodiscard]] FlightResult Fly(physics::World& world, const Mission& mission,
-                               const PlannerParams& params, const FlightOptions& options,
-                               const TrajectoryOptimizer& optimizer, const FlightHooks& hooks = {});
+                               const planning::PlannerParams& params, const FlightOptions& options,
+                               const planning::TrajectoryOptimizer& optimizer,
+                               const FlightHooks& hooks = {});
 /// The same flight with any trajectory back end (same sensing, map, FSM and physics; see
 /// Replanner's back-end constructor).
 [[nodiscard]] FlightResult Fly(physics::World& world, const Mission& mission,
-                               const PlannerParams& params, const FlightOptions& options,
-                               const TrajectoryBackend& backend, const FlightHooks& hooks = {});
+                               const planning::PlannerParams& params, const FlightOptions& options,
+                               const planning::TrajectoryBackend& backend,
+                               const FlightHooks& hooks = {});
 
 /// Writes a flight for people and plots into `directory` (created): flight.csv (state log),
 /// plans.csv (planned trajectories sampled at 0.05 s), plan_steps.csv (every planning step:
@@ -171,4 +173,4 @@ class StallDetector {
 void WriteFlightFiles(const std::string& directory, const FlightResult& result,
                       const physics::ObstacleSet& obstacles, const Mission& mission);
 
-}  // namespace quadtune::planning
+}  // namespace quadtune::sim
