@@ -5,6 +5,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <optional>
 #include <nlohmann/json.hpp>
 
 #include "quadtune/common/error.hpp"
@@ -104,12 +106,10 @@ FlightResult Fly(physics::World& world, const Mission& mission,
   return Fly(world, mission, params, options, planning::IpoptBackend(optimizer), hooks);
 }
 
-FlightResult Fly(physics::World& world, const Mission& mission,
-                 const planning::PlannerParams& params, const FlightOptions& options,
-                 const planning::TrajectoryBackend& backend, const FlightHooks& hooks) {
-  mission.Validate();
-  params.Validate();
-  options.Validate();
+namespace {
+
+// The FSM and metric tick must divide the world's physics rate.
+void CheckTickRate(const physics::World& world, const FlightOptions& options) {
   const double physics_rate = world.options().physics_rate_hz;
   const double ratio = physics_rate / options.tick_rate_hz;
   if (std::abs(ratio - std::round(ratio)) > 1e-9 || ratio < 1.0) {
@@ -117,6 +117,143 @@ FlightResult Fly(physics::World& world, const Mission& mission,
         "", "tick_rate_hz",
         "must divide the world's physics rate (" + std::to_string(physics_rate) + " Hz)");
   }
+}
+
+// Why the flight ends before this tick's physics step (sets status and message), or false.
+// Checked in order: mission done, cancelled, max_time, stalled.
+bool EndsHere(double t, const physics::World& world, const Replanner& replanner,
+              const FlightOptions& options, const FlightHooks& hooks, StallDetector& stall,
+              FlightMetrics& m) {
+  if (replanner.Done()) {
+    m.status = FlightStatus::kCompleted;
+    return true;
+  }
+  if (hooks.cancelled && hooks.cancelled()) {
+    m.status = FlightStatus::kCancelled;
+    m.message = "cancelled";
+    return true;
+  }
+  if (t >= options.max_time) {
+    m.status = FlightStatus::kTimeout;
+    m.message = "mission not finished within max_time";
+    return true;
+  }
+  if (const std::optional<double> moved =
+          stall.Update(t, world.State().p_W, replanner.waypoint_index())) {
+    m.status = FlightStatus::kStalled;
+    m.message = "no progress: moved " + std::to_string(*moved) + " m in the last " +
+                std::to_string(options.stall_time) + " s";
+    return true;
+  }
+  return false;
+}
+
+// Tracking, smoothness, distance, speed and clearance metrics after each physics step, and the
+// flight log at options.log_rate_hz.
+class FlightRecorder {
+ public:
+  FlightRecorder(const FlightOptions& options, const physics::World& world,
+                 const Mission& mission, FlightResult* result)
+      : result_(result),
+        dt_(1.0 / options.tick_rate_hz),
+        log_every_(options.log_rate_hz > 0.0
+                       ? std::max<std::int64_t>(
+                             1, std::llround(options.tick_rate_hz / options.log_rate_hz))
+                       : 0),
+        window_ticks_(std::max<std::int64_t>(
+            1, std::llround(options.tracking_window * options.tick_rate_hz))),
+        drone_radius_(world.drone().BoundingRadius()),
+        last_p_(mission.start_W) {
+    result_->metrics.min_clearance = std::numeric_limits<double>::infinity();
+  }
+
+  [[nodiscard]] double dt() const { return dt_; }
+
+  void AfterStep(std::int64_t tick, const physics::World& world, const Replanner& replanner) {
+    FlightMetrics& m = result_->metrics;
+    const double t1 = world.time();
+    const physics::DroneState s = world.State();
+    const Eigen::Vector3d p_ref = replanner.ReferencePosition(t1);
+    const double err = (s.p_W - p_ref).norm();
+    error_sum_ += err;
+    m.max_tracking_error = std::max(m.max_tracking_error, err);
+    window_max_ = std::max(window_max_, err);
+    if ((tick + 1) % window_ticks_ == 0) {
+      m.window_tracking_error.push_back(window_max_);
+      window_max_ = 0.0;
+    }
+    m.jerk_integral += replanner.ReferenceJerk(t1).squaredNorm() * dt_;
+    m.distance += (s.p_W - last_p_).norm();
+    last_p_ = s.p_W;
+    m.max_speed = std::max(m.max_speed, s.v_W.norm());
+    m.min_clearance =
+        std::min(m.min_clearance, world.obstacles().Distance(s.p_W) - drone_radius_);
+    if (log_every_ > 0 && tick % log_every_ == 0) Log(t1, s, p_ref, world, replanner);
+  }
+
+  // The metrics that need the whole flight: flight time, counts, means, plan statistics.
+  void Finish(std::int64_t ticks, const physics::World& world, const Replanner& replanner) {
+    FlightMetrics& m = result_->metrics;
+    if (window_max_ > 0.0) m.window_tracking_error.push_back(window_max_);
+    m.flight_time =
+        m.status == FlightStatus::kCompleted ? replanner.mission_end_time() : world.time();
+    m.collisions = static_cast<int>(world.collisions().Count());
+    m.emergency_stops = replanner.emergency_stops();
+    m.mean_tracking_error = ticks > 0 ? error_sum_ / static_cast<double>(ticks) : 0.0;
+    result_->plans = replanner.records();
+    double solve_sum = 0.0;
+    for (const auto& r : result_->plans) {
+      ++m.plans;
+      if (!r.ok) ++m.failed_plans;
+      if (r.fallback) ++m.fallback_plans;
+      m.failed_attempts += r.failed_attempts;
+      solve_sum += r.solve_time_s;
+      m.max_solve_time = std::max(m.max_solve_time, r.solve_time_s);
+      m.compute_units += r.compute_units;
+    }
+    m.mean_solve_time = m.plans > 0 ? solve_sum / m.plans : 0.0;
+    m.mean_speed = m.flight_time > 0.0 ? m.distance / m.flight_time : 0.0;
+    if (!std::isfinite(m.min_clearance)) m.min_clearance = 0.0;
+  }
+
+ private:
+  void Log(double t1, const physics::DroneState& s, const Eigen::Vector3d& p_ref,
+           const physics::World& world, const Replanner& replanner) {
+    FlightLogRow row;
+    row.t = t1;
+    row.p_W = s.p_W;
+    row.v_W = s.v_W;
+    row.p_ref_W = p_ref;
+    const double tau = t1 - replanner.trajectory_start();
+    row.v_ref_W = replanner.trajectory().Empty() || tau >= replanner.trajectory().Duration()
+                      ? Eigen::Vector3d::Zero()
+                      : replanner.trajectory().Velocity(tau);
+    row.yaw = s.Yaw();
+    row.state = replanner.state();
+    row.collisions = static_cast<int>(world.collisions().Count());
+    row.v_des = replanner.params().v_des;
+    result_->log.push_back(row);
+  }
+
+  FlightResult* result_;
+  double dt_;
+  std::int64_t log_every_;
+  std::int64_t window_ticks_;
+  double drone_radius_;
+  double error_sum_ = 0.0;
+  double window_max_ = 0.0;
+  Eigen::Vector3d last_p_;
+};
+
+}  // namespace
+
+FlightResult Fly(physics::World& world, const Mission& mission,
+                 const planning::PlannerParams& params, const FlightOptions& options,
+                 const planning::TrajectoryBackend& backend, const FlightHooks& hooks) {
+  mission.Validate();
+  params.Validate();
+  options.Validate();
+  CheckTickRate(world, options);
 
   const auto wall_start = std::chrono::steady_clock::now();
   FlightResult result;
@@ -136,20 +273,8 @@ FlightResult Fly(physics::World& world, const Mission& mission,
   replanner.StartMission(mission.waypoints_W, mission.start_W, mission.start_yaw, world.time());
   world.SetReference([&replanner](double t) { return replanner.Reference(t); });
 
-  const double dt = 1.0 / options.tick_rate_hz;
-  const std::int64_t log_every =
-      options.log_rate_hz > 0.0
-          ? std::max<std::int64_t>(1, std::llround(options.tick_rate_hz / options.log_rate_hz))
-          : 0;
-  const std::int64_t window_ticks =
-      std::max<std::int64_t>(1, std::llround(options.tracking_window * options.tick_rate_hz));
-  const double drone_radius = world.drone().BoundingRadius();
-
+  FlightRecorder recorder(options, world, mission, &result);
   physics::DepthScan scan;
-  double error_sum = 0.0;
-  double window_max = 0.0;
-  m.min_clearance = std::numeric_limits<double>::infinity();
-  Eigen::Vector3d last_p = mission.start_W;
   StallDetector stall(options.stall_time, options.stall_distance, world.time(), world.State().p_W,
                       replanner.waypoint_index());
   std::int64_t tick = 0;
@@ -163,92 +288,20 @@ FlightResult Fly(physics::World& world, const Mission& mission,
       }
       const physics::DroneState& measured = world.MeasuredState();
       replanner.Tick(t, measured.p_W, measured.v_W, map);
-      if (replanner.Done()) {
-        m.status = FlightStatus::kCompleted;
-        break;
-      }
-      if (hooks.cancelled && hooks.cancelled()) {
-        m.status = FlightStatus::kCancelled;
-        m.message = "cancelled";
-        break;
-      }
-      if (t >= options.max_time) {
-        m.status = FlightStatus::kTimeout;
-        m.message = "mission not finished within max_time";
-        break;
-      }
-      if (const std::optional<double> moved =
-              stall.Update(t, world.State().p_W, replanner.waypoint_index())) {
-        m.status = FlightStatus::kStalled;
-        m.message = "no progress: moved " + std::to_string(*moved) + " m in the last " +
-                    std::to_string(options.stall_time) + " s";
-        break;
-      }
-      world.Advance(dt);
+      if (EndsHere(t, world, replanner, options, hooks, stall, m)) break;
+      world.Advance(recorder.dt());
       if (world.HasDiverged()) {
         m.status = FlightStatus::kDiverged;
         m.message = "the simulation diverged";
         break;
       }
-
-      const double t1 = world.time();
-      const physics::DroneState s = world.State();
-      const Eigen::Vector3d p_ref = replanner.ReferencePosition(t1);
-      const double err = (s.p_W - p_ref).norm();
-      error_sum += err;
-      m.max_tracking_error = std::max(m.max_tracking_error, err);
-      window_max = std::max(window_max, err);
-      if ((tick + 1) % window_ticks == 0) {
-        m.window_tracking_error.push_back(window_max);
-        window_max = 0.0;
-      }
-      m.jerk_integral += replanner.ReferenceJerk(t1).squaredNorm() * dt;
-      m.distance += (s.p_W - last_p).norm();
-      last_p = s.p_W;
-      m.max_speed = std::max(m.max_speed, s.v_W.norm());
-      m.min_clearance = std::min(m.min_clearance, world.obstacles().Distance(s.p_W) - drone_radius);
-      if (log_every > 0 && tick % log_every == 0) {
-        FlightLogRow row;
-        row.t = t1;
-        row.p_W = s.p_W;
-        row.v_W = s.v_W;
-        row.p_ref_W = p_ref;
-        const double tau = t1 - replanner.trajectory_start();
-        row.v_ref_W = replanner.trajectory().Empty() || tau >= replanner.trajectory().Duration()
-                          ? Eigen::Vector3d::Zero()
-                          : replanner.trajectory().Velocity(tau);
-        row.yaw = s.Yaw();
-        row.state = replanner.state();
-        row.collisions = static_cast<int>(world.collisions().Count());
-        row.v_des = replanner.params().v_des;
-        result.log.push_back(row);
-      }
+      recorder.AfterStep(tick, world, replanner);
     }
   } catch (const std::exception& e) {
     m.status = FlightStatus::kError;
     m.message = e.what();
   }
-  if (window_max > 0.0) m.window_tracking_error.push_back(window_max);
-
-  m.flight_time =
-      m.status == FlightStatus::kCompleted ? replanner.mission_end_time() : world.time();
-  m.collisions = static_cast<int>(world.collisions().Count());
-  m.emergency_stops = replanner.emergency_stops();
-  m.mean_tracking_error = tick > 0 ? error_sum / static_cast<double>(tick) : 0.0;
-  result.plans = replanner.records();
-  double solve_sum = 0.0;
-  for (const auto& r : result.plans) {
-    ++m.plans;
-    if (!r.ok) ++m.failed_plans;
-    if (r.fallback) ++m.fallback_plans;
-    m.failed_attempts += r.failed_attempts;
-    solve_sum += r.solve_time_s;
-    m.max_solve_time = std::max(m.max_solve_time, r.solve_time_s);
-    m.compute_units += r.compute_units;
-  }
-  m.mean_solve_time = m.plans > 0 ? solve_sum / m.plans : 0.0;
-  m.mean_speed = m.flight_time > 0.0 ? m.distance / m.flight_time : 0.0;
-  if (!std::isfinite(m.min_clearance)) m.min_clearance = 0.0;
+  recorder.Finish(tick, world, replanner);
   m.wall_time =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   return result;
