@@ -33,53 +33,49 @@ timed() {
   mv "$docs/wall_times.txt.new" "$docs/wall_times.txt"
 }
 
-run_benchmark() {
-  rm -rf "$raw/benchmark"
-  timed benchmark "$q" run --no-plot experiments/benchmark.yaml --out "$raw/benchmark"
-  "$q" plot run "$raw/benchmark"
-  mkdir -p "$docs/benchmark"
-  cp "$raw/benchmark/"{tuning.png,tuning.md,tuning.csv,validation.png,validation.csv,summary.json} \
-    "$docs/benchmark/"
+# tuning NAME FILE [ARGS...]: `quadtune run FILE ARGS` into results/full/NAME, timed, then its
+# figures; tables and figures copied to docs/results/NAME.
+tuning() {
+  local name=$1 file=$2
+  shift 2
+  rm -rf "${raw:?}/$name"
+  timed "$name" "$q" run --no-plot "$file" --out "$raw/$name" "$@"
+  "$q" plot run "$raw/$name"
+  mkdir -p "$docs/$name"
+  cp "$raw/$name/"{tuning.png,tuning.md,tuning.csv,validation.png,validation.csv,summary.json} \
+    "$docs/$name/"
 }
+
+# study NAME FILE: `quadtune study FILE` into results/full/NAME, timed; tables and figures
+# copied to docs/results/NAME.
+study() {
+  local name=$1 file=$2
+  rm -rf "${raw:?}/$name"
+  timed "$name" "$q" study "$file" --out "$raw/$name"
+  mkdir -p "$docs/$name"
+  cp "$raw/$name/"{study.md,study.csv,study_sweep.png,validation.csv,study_validation.csv} \
+    "$raw/$name/summary.json" "$docs/$name/"
+}
+
+run_benchmark() { tuning benchmark experiments/benchmark.yaml; }
 
 run_benchmark_jc() {  # BO+PSO with the clearance term in f_s, against the same defaults
-  rm -rf "$raw/benchmark_jc"
-  timed benchmark_jc "$q" run --no-plot experiments/benchmark.yaml --out "$raw/benchmark_jc" \
-    --set objective.short_term.w_c=0.1 --set 'methods=[default, bo_pso]'
-  "$q" plot run "$raw/benchmark_jc"
-  mkdir -p "$docs/benchmark_jc"
-  cp "$raw/benchmark_jc/"{tuning.png,tuning.md,tuning.csv,validation.png,validation.csv,summary.json} \
-    "$docs/benchmark_jc/"
+  tuning benchmark_jc experiments/benchmark.yaml --set objective.short_term.w_c=0.1 \
+    --set 'methods=[default, bo_pso]'
 }
 
-run_benchmark_ego() {  # the same comparison with the EGO-Planner-style back end
-  rm -rf "$raw/benchmark_ego"
-  timed benchmark_ego "$q" run --no-plot experiments/benchmark_ego.yaml --out "$raw/benchmark_ego"
-  "$q" plot run "$raw/benchmark_ego"
-  mkdir -p "$docs/benchmark_ego"
-  cp "$raw/benchmark_ego/"{tuning.png,tuning.md,tuning.csv,validation.png,validation.csv,summary.json} \
-    "$docs/benchmark_ego/"
-}
+run_benchmark_ego() { tuning benchmark_ego experiments/benchmark_ego.yaml; }  # EGO back end
 
-run_density_ego() {
-  rm -rf "$raw/density_ego"
-  timed density_ego "$q" study experiments/density_study_ego.yaml --out "$raw/density_ego"
-  mkdir -p "$docs/density_ego"
-  cp "$raw/density_ego/"{study.md,study.csv,study_sweep.png,validation.csv,study_validation.csv} \
-    "$raw/density_ego/summary.json" "$docs/density_ego/"
-}
+run_density() { study density experiments/density_study.yaml; }
 
-run_planners() {  # both planners at their defaults on map seeds 1-200 at 1.3 m
+run_density_ego() { study density_ego experiments/density_study_ego.yaml; }
+
+run_planners() {  # both planners at their defaults on map seeds 1-200 at 1.3 m, and side by side
   timed planners python3 scripts/speed_table.py --planners ipopt ego --speeds 2 --spacings 1.3 \
     --seeds 1 200 --out "$docs/planners"
-}
-
-run_density() {
-  rm -rf "$raw/density"
-  timed density "$q" study experiments/density_study.yaml --out "$raw/density"
-  mkdir -p "$docs/density"
-  cp "$raw/density/"{study.md,study.csv,study_sweep.png,validation.csv,study_validation.csv} \
-    "$raw/density/summary.json" "$docs/density/"
+  /usr/bin/python3 scripts/planner_comparison.py \
+    --benchmark ipopt="$raw/benchmark" ego="$raw/benchmark_ego" \
+    --density ipopt="$raw/density" ego="$raw/density_ego" --out "$docs/planners"
 }
 
 run_sweep() {  # parameter importance at the benchmark's 1.3 m forest
