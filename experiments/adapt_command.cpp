@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "file_kind.hpp"
 #include "commands.hpp"
 #include "result_dir.hpp"
 #include "quadtune/common/text_file.hpp"
@@ -145,6 +146,7 @@ double Ratio(double num, double den) { return den > 0.0 ? num / den : 0.0; }
 
 int RunAdapt(const AdaptArgs& a) {
   engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "adapt");
+  CheckFileKind(a.experiment, FileKind::kAdaptation);
   const auto wall_start = std::chrono::steady_clock::now();
   const std::string dir_of_file = fs::path(a.experiment).parent_path().string();
   engine::AdaptExperiment e = engine::AdaptExperiment::FromString(

@@ -20,6 +20,7 @@
 #include <thread>
 #include <vector>
 
+#include "file_kind.hpp"
 #include "commands.hpp"
 #include "eta.hpp"
 #include "soak.hpp"
@@ -243,6 +244,7 @@ int Run(const RunArgs& a) {
     return RunMpi(a);
   }
   // Every configuration error is reported here, before any work starts.
+  CheckFileKind(a.experiment, FileKind::kExperiment);
   const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
   namespace fs = std::filesystem;
   const ResultDir dir(a.out, ResultDirPolicy{a.resume, a.overwrite, true});
@@ -361,6 +363,7 @@ int Soak(const engine::Experiment& e, int flights, int threads, const std::strin
 
 /// Flights/s and re-solves/s at 1..N threads, and the scheduler's overhead per task.
 int Bench(const BenchArgs& a) {
+  CheckFileKind(a.experiment, FileKind::kExperiment);
   const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
   if (a.soak > 0) return Soak(e, a.soak, a.max_threads, a.csv);
   const engine::Opaque map = e.planner.PrepareMap(e.MapSeed(0));

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "file_kind.hpp"
 #include "commands.hpp"
 #include "eta.hpp"
 #include "quadtune/common/cancel.hpp"
@@ -37,6 +38,7 @@ struct StudyArgs {
 
 int RunStudyCommand(const StudyArgs& a) {
   engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "study");
+  CheckFileKind(a.file, FileKind::kStudy);
   const engine::Study study = engine::Study::LoadFile(a.file, a.set);  // all errors before any work
   spdlog::info("study '{}' ({}): {} point(s){}, {} stage(s), {} validation flights per tuned trial",
                study.name, a.file, study.labels.size(),

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "file_kind.hpp"
 #include "commands.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/engine/distributed.hpp"
@@ -255,6 +256,7 @@ std::function<void(const engine::SweepProgress&)> Printer(bool tty, bool quiet, 
 
 int RunSweepCommand(const SweepArgs& a) {
   engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "sweep");
+  CheckFileKind(a.experiment, FileKind::kExperiment);
   if (fs::exists(a.out) && !fs::is_empty(a.out) && !a.overwrite) {
     throw ConfigError(a.out, "--out",
                       "the output directory exists and is not empty; choose another --out or "

@@ -41,10 +41,11 @@ if [[ "$mode" == quick ]]; then
   [[ -f "$main_build/build.ninja" ]] || { echo "fuzz: build $main_build first (scripts/setup.sh)" >&2; exit 1; }
   build_dir="${QUADTUNE_FUZZ_BUILD_DIR:-$main_build/fuzz}"
   mkdir -p "$build_dir/test/fuzz"
-  cmake --build "$main_build" --target quadtune_engine quadtune_layout quadtune_physics quadtune_common \
+  cmake --build "$main_build" --target quadtune_engine quadtune_sim quadtune_layout quadtune_physics \
+    quadtune_common \
     quadtune_test_planners
   includes=()
-  for m in engine planning common physics physics/layout optimizers; do includes+=(-I"$root/$m/include"); done
+  for m in engine sim planning common physics physics/layout optimizers; do includes+=(-I"$root/$m/include"); done
   for t in "${targets[@]}"; do
     # The link line of the ordinary build's replay target, without its replay main.
     link=$(awk -v t="build test/fuzz/fuzz_$t:" 'index($0, t) == 1 {f = 1}
