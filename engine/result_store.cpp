@@ -27,11 +27,24 @@ std::string SqliteError(sqlite3* db) {
          sqlite3_errmsg(db);
 }
 
+/// Throws for the last error `rc` of `db`: a ConfigError naming the file when the file is
+/// damaged or not a database (bad input, like any other malformed file), else runtime_error.
+[[noreturn]] void ThrowSqliteError(sqlite3* db, int rc) {
+  const int primary = rc & 0xff;
+  if (primary == SQLITE_CORRUPT || primary == SQLITE_NOTADB) {
+    const char* file = sqlite3_db_filename(db, "main");
+    throw ConfigError(file != nullptr ? file : "", "",
+                      std::string("the results file is damaged (") + sqlite3_errmsg(db) +
+                          "); it cannot be read or resumed");
+  }
+  throw std::runtime_error(SqliteError(db));
+}
+
 class Statement {
  public:
   Statement(sqlite3* db, const std::string& sql) {
-    if (sqlite3_prepare_v2(db, sql.c_str(), -1, &stmt_, nullptr) != SQLITE_OK) {
-      throw std::runtime_error(SqliteError(db));
+    if (const int rc = sqlite3_prepare_v2(db, sql.c_str(), -1, &stmt_, nullptr); rc != SQLITE_OK) {
+      ThrowSqliteError(db, rc);
     }
   }
   ~Statement() { sqlite3_finalize(stmt_); }
@@ -47,7 +60,7 @@ class Statement {
     const int rc = sqlite3_step(stmt_);
     if (rc == SQLITE_ROW) return true;
     if (rc == SQLITE_DONE) return false;
-    throw std::runtime_error(SqliteError(sqlite3_db_handle(stmt_)));
+    ThrowSqliteError(sqlite3_db_handle(stmt_), rc);
   }
   std::string Text(int i) {
     const auto* t = sqlite3_column_text(stmt_, i);
