@@ -318,13 +318,29 @@ TEST(CliRun, RealPlannerTimeoutsAreStoredRows) {
 // exit code 2 for a results file that does not exist.
 TEST(CliExitCodes, UnexpectedErrorIsOneMissingInputIsTwo) {
   const fs::path dir = Fresh("exit_codes");
+  // A file that is not a store is bad input (2), named with what is wrong with it.
   std::ofstream(dir / "garbage.sqlite") << "this is not a database, just text long enough to "
                                            "fill a page header of sixteen bytes or more\n";
   EXPECT_EQ(RunQuadtune(
                 "export " + (dir / "garbage.sqlite").string() + " --csv " + (dir / "csv").string(),
                 dir / "garbage.log"),
-            1)
+            2)
       << ReadText(dir / "garbage.log");
+  EXPECT_NE(ReadText(dir / "garbage.log").find("garbage.sqlite: the results file is damaged"),
+            std::string::npos)
+      << ReadText(dir / "garbage.log");
+  // A path that cannot be written while working is an error while running (1).
+  ASSERT_EQ(RunQuadtune("run --no-plot --quiet " + ToyExperimentFile() + " --out " +
+                            (dir / "small").string() + " --set budget.flights=2",
+                        dir / "small.log"),
+            0)
+      << ReadText(dir / "small.log");
+  std::ofstream(dir / "blocker") << "a file where a folder should be\n";
+  EXPECT_EQ(RunQuadtune("export " + (dir / "small" / "results.sqlite").string() + " --csv " +
+                            (dir / "blocker" / "csv").string(),
+                        dir / "blocked.log"),
+            1)
+      << ReadText(dir / "blocked.log");
   EXPECT_EQ(
       RunQuadtune("export " + (dir / "none.sqlite").string() + " --csv " + (dir / "csv").string(),
                   dir / "none.log"),
