@@ -11,31 +11,32 @@
 
 namespace quadtune::optimizers {
 
-void PsoOptions::Validate() const {
-  if (num_particles < 1) throw ConfigError("", "num_particles", "must be an integer >= 1");
-  if (!(inertia >= 0.0 && inertia <= 1.5)) throw ConfigError("", "inertia", "must be a number in [0, 1.5]");
-  if (!(cognitive >= 0.0 && std::isfinite(cognitive))) throw ConfigError("", "cognitive", "must be a finite number >= 0");
-  if (!(social >= 0.0 && std::isfinite(social))) throw ConfigError("", "social", "must be a finite number >= 0");
-  if (!(max_velocity > 0.0 && max_velocity <= 1.0)) throw ConfigError("", "max_velocity", "must be a number in (0, 1]");
-  if (reevaluation_period < 0) throw ConfigError("", "reevaluation_period", "must be an integer >= 0");
+const Fields<PsoOptions>& PsoFields() {
+  static const Fields<PsoOptions> fields =
+      Fields<PsoOptions>()
+          .Integer("num_particles", &PsoOptions::num_particles, Range::Closed(1, 1e6),
+                   "swarm size N_p")
+          .Number("inertia", &PsoOptions::inertia, Range::Closed(0.0, 1.5), "inertia weight w")
+          .Number("cognitive", &PsoOptions::cognitive, Range::NonNegative(),
+                  "cognitive weight r_x (pull towards the particle's own best)")
+          .Number("social", &PsoOptions::social, Range::NonNegative(),
+                  "social weight r_g (pull towards the swarm's best)")
+          .Number("max_velocity", &PsoOptions::max_velocity, Range{0.0, 1.0, true, false},
+                  "velocity clamp, in unit-cube widths per step")
+          .Choice("bound_handling", &PsoOptions::bound_handling,
+                  "a coordinate leaving the box is reflected (velocity reversed) or clamped "
+                  "(velocity zeroed)")
+          .Integer("reevaluation_period", &PsoOptions::reevaluation_period, Range::Closed(0, 1e6),
+                   "every P-th issue of a particle re-evaluates its personal best (noisy "
+                   "objectives); 0: never")
+          .Integer("seed", &PsoOptions::seed, Range::NonNegative(),
+                   "seed (an experiment derives one per trial)");
+  return fields;
 }
 
-PsoOptions PsoOptions::FromYaml(const YamlMap& map) {
-  map.RejectUnknownKeys({"num_particles", "inertia", "cognitive", "social", "max_velocity", "bound_handling",
-                         "reevaluation_period", "seed"});
-  PsoOptions o;
-  o.num_particles = static_cast<int>(map.Integer("num_particles", o.num_particles, Range::Closed(1, 1e6)));
-  o.inertia = map.Number("inertia", o.inertia, Range::Closed(0.0, 1.5));
-  o.cognitive = map.Number("cognitive", o.cognitive, Range::NonNegative());
-  o.social = map.Number("social", o.social, Range::NonNegative());
-  o.max_velocity = map.Number("max_velocity", o.max_velocity, Range{0.0, 1.0, true, false});
-  o.bound_handling = map.String("bound_handling", std::string("reflect"), {"reflect", "clamp"}) == "clamp"
-                         ? BoundHandling::kClamp
-                         : BoundHandling::kReflect;
-  o.reevaluation_period = static_cast<int>(map.Integer("reevaluation_period", 0, Range::Closed(0, 1e6)));
-  o.seed = static_cast<std::uint64_t>(map.Integer("seed", 0, Range::NonNegative()));
-  return o;
-}
+void PsoOptions::Validate() const { PsoFields().Check(*this); }
+
+PsoOptions PsoOptions::FromYaml(const YamlMap& map) { return PsoFields().Read(map); }
 
 Pso::Pso(ParameterSpace space, PsoOptions options)
     : space_(std::move(space)), options_(options), rng_(DeriveSeed(options.seed, {0x950})) {

@@ -272,11 +272,11 @@ TEST(Pso, RejectsBadOptions) {
   PsoOptions o;
   o.num_particles = 0;
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Pso(BoxSpace(2, 0.0, 1.0), o); },
-                                                  "num_particles", {"must be an integer"}));
+                                                  "num_particles", {"got 0, allowed: an integer in [1, 1000000]"}));
   o = {};
   o.max_velocity = 0.0;
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { Pso(BoxSpace(2, 0.0, 1.0), o); },
-                                                  "max_velocity", {"must be a number"}));
+                                                  "max_velocity", {"got 0, allowed: a number in (0, 1]"}));
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
       [&] { PsoOptions::FromYaml(YamlMap::FromString("inertia: 3")); }, "inertia",
       {"allowed: a number in [0, 1.5]"}));

@@ -23,10 +23,12 @@
 /// Thread safety: one thread at a time (the engine serialises calls); instances independent.
 
 #include <Eigen/Core>
+#include <array>
 #include <map>
 #include <set>
 #include <vector>
 
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/optimizers/optimizer.hpp"
@@ -35,6 +37,10 @@ namespace quadtune::optimizers {
 
 /// What a coordinate leaving the unit cube does.
 enum class BoundHandling { kReflect, kClamp };
+constexpr auto EnumNames(BoundHandling) {
+  return std::array{EnumName{BoundHandling::kReflect, "reflect"},
+                    EnumName{BoundHandling::kClamp, "clamp"}};
+}
 
 /// Settings of Pso.
 struct PsoOptions {
@@ -49,10 +55,13 @@ struct PsoOptions {
 
   /// Throws ConfigError naming the key and its range.
   void Validate() const;
-  /// Reads the keys named above; unknown keys and bad values throw ConfigError naming the
+  /// Reads the keys of PsoFields(); unknown keys and bad values throw ConfigError naming the
   /// file and key. Absent keys keep their defaults.
   static PsoOptions FromYaml(const YamlMap& map);
 };
+
+/// The keys of a `pso:` map: reading, writing and the configuration reference.
+const Fields<PsoOptions>& PsoFields();
 
 /// Ask/tell particle swarm (minimisation). See the file comment.
 class Pso final : public Optimizer {
