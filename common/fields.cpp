@@ -29,11 +29,23 @@ std::string CodeList(const std::vector<std::string>& names) {
   return out;
 }
 
+namespace {
+/// `text` fit for a table cell: a bar written as \| (GitHub's tables read it so, in code too).
+std::string Cell(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    if (c == '|') out += '\\';
+    out += c;
+  }
+  return out;
+}
+}  // namespace
+
 std::string MarkdownTable(const std::vector<FieldDoc>& rows) {
   std::string out = "| key | type | default | allowed | meaning |\n|---|---|---|---|---|\n";
   for (const FieldDoc& r : rows) {
-    out += "| `" + r.key + "` | " + r.type + " | " + r.fallback + " | " + r.allowed + " | " +
-           r.meaning + " |\n";
+    out += "| `" + Cell(r.key) + "` | " + Cell(r.type) + " | " + Cell(r.fallback) + " | " +
+           Cell(r.allowed) + " | " + Cell(r.meaning) + " |\n";
   }
   return out;
 }
