@@ -5,7 +5,10 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "commands.hpp"
 
@@ -72,46 +75,50 @@ std::string OutArgument(const std::string& out) {
   return out.empty() ? std::string() : " --out '" + out + "'";
 }
 
+/// A `plot` sub-command that hands one input (a directory or a file) and an optional --out to
+/// the figure script's sub-command of the same name.
+struct SingleInputPlot {
+  const char* name;
+  const char* help;
+  const char* input_name;  ///< DIR or CSV
+  const char* input_help;
+  const char* out_help;
+  bool input_is_file;  ///< false: a directory
+};
+
+constexpr SingleInputPlot kSingleInputPlots[] = {
+    {"flight", "top-down figure of a flight directory", "DIR",
+     "directory written by `quadtune fly`", "figure (PNG; default: DIR/flight_topdown.png)", false},
+    {"run", "figures and table of a tuning run (`quadtune run` output)", "DIR",
+     "directory holding results.sqlite", "output folder (default: DIR)", false},
+    {"study", "figures and tables of a study (`quadtune study` output)", "DIR",
+     "directory holding study.json", "output folder (default: DIR)", false},
+    {"bench", "thread-scaling figure of `quadtune bench --csv` output", "CSV",
+     "CSV written by `quadtune bench --csv`", "figure (PNG; default: next to the CSV)", true},
+    {"adapt", "velocity along the path and top-down view of a `quadtune adapt` directory", "DIR",
+     "directory written by `quadtune adapt`", "figure (PNG; default: DIR/adapt.png)", false},
+};
+
+void AddSingleInputPlot(CLI::App& plot, const SingleInputPlot& spec, int& exit_code) {
+  // The parsed values live as long as the program (CLI11 keeps pointers to them).
+  static std::vector<std::unique_ptr<std::pair<std::string, std::string>>> values;
+  auto& value = *values.emplace_back(std::make_unique<std::pair<std::string, std::string>>());
+  auto* sub = plot.add_subcommand(spec.name, spec.help);
+  sub->add_option(spec.input_name, value.first, spec.input_help)
+      ->required()
+      ->check(spec.input_is_file ? CLI::Validator(CLI::ExistingFile)
+                                 : CLI::Validator(CLI::ExistingDirectory));
+  sub->add_option("--out", value.second, spec.out_help);
+  sub->callback([&exit_code, &value, name = std::string(spec.name)] {
+    exit_code = RunPlotScript(name + " '" + value.first + "'" + OutArgument(value.second));
+  });
+}
+
 }  // namespace
 
 void RegisterPlot(CLI::App& app, int& exit_code) {
   auto* cmd = app.add_subcommand("plot", "draw figures (PNG) from quadtune outputs");
-  auto* flight = cmd->add_subcommand("flight", "top-down figure of a flight directory");
-  static std::string dir;
-  flight->add_option("DIR", dir, "directory written by `quadtune fly`")->required()->check(
-      CLI::ExistingDirectory);
-  static std::string flight_out;
-  flight->add_option("--out", flight_out, "figure (PNG; default: DIR/flight_topdown.png)");
-  flight->callback([&exit_code] {
-    exit_code = RunPlotScript("flight '" + dir + "'" + OutArgument(flight_out));
-  });
-  auto* run = cmd->add_subcommand("run", "figures and table of a tuning run (`quadtune run` output)");
-  static std::string run_dir;
-  run->add_option("DIR", run_dir, "directory holding results.sqlite")->required()->check(
-      CLI::ExistingDirectory);
-  static std::string run_out;
-  run->add_option("--out", run_out, "output folder (default: DIR)");
-  run->callback([&exit_code] {
-    exit_code = RunPlotScript("run '" + run_dir + "'" + OutArgument(run_out));
-  });
-  auto* study = cmd->add_subcommand("study", "figures and tables of a study (`quadtune study` output)");
-  static std::string study_dir;
-  study->add_option("DIR", study_dir, "directory holding study.json")->required()->check(
-      CLI::ExistingDirectory);
-  static std::string study_out;
-  study->add_option("--out", study_out, "output folder (default: DIR)");
-  study->callback([&exit_code] {
-    exit_code = RunPlotScript("study '" + study_dir + "'" + OutArgument(study_out));
-  });
-  auto* bench = cmd->add_subcommand("bench", "thread-scaling figure of `quadtune bench --csv` output");
-  static std::string bench_csv;
-  static std::string bench_out;
-  bench->add_option("CSV", bench_csv, "CSV written by `quadtune bench --csv`")->required()->check(
-      CLI::ExistingFile);
-  bench->add_option("--out", bench_out, "figure (PNG; default: next to the CSV)");
-  bench->callback([&exit_code] {
-    exit_code = RunPlotScript("bench '" + bench_csv + "'" + OutArgument(bench_out));
-  });
+  for (const SingleInputPlot& spec : kSingleInputPlots) AddSingleInputPlot(*cmd, spec, exit_code);
   auto* flights = cmd->add_subcommand("flights", "summary figures and table of several flights");
   static std::vector<std::string> dirs;
   static std::string out;
@@ -122,16 +129,6 @@ void RegisterPlot(CLI::App& app, int& exit_code) {
     std::string args = "flights --out '" + out + "'";
     for (const auto& d : dirs) args += " '" + d + "'";
     exit_code = RunPlotScript(args);
-  });
-  auto* adapt = cmd->add_subcommand("adapt", "velocity along the path and top-down view of a "
-                                             "`quadtune adapt` directory");
-  static std::string adapt_dir;
-  adapt->add_option("DIR", adapt_dir, "directory written by `quadtune adapt`")->required()->check(
-      CLI::ExistingDirectory);
-  static std::string adapt_out;
-  adapt->add_option("--out", adapt_out, "figure (PNG; default: DIR/adapt.png)");
-  adapt->callback([&exit_code] {
-    exit_code = RunPlotScript("adapt '" + adapt_dir + "'" + OutArgument(adapt_out));
   });
   cmd->require_subcommand(1);
 }
