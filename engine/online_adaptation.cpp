@@ -15,6 +15,7 @@
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/text_file.hpp"
 #include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/planner_registry.hpp"
 #include "quadtune/sim/scenario.hpp"
 
 namespace quadtune::engine {
@@ -172,10 +173,22 @@ struct OnlineAdapter::Pending {
   bool best_reaches_waypoint = false;
 };
 
-OnlineAdapter::OnlineAdapter(const planning::TrajectoryOptimizer& optimizer,
+namespace {
+
+planning::LocalPlannerOptions WithSnapshot(planning::LocalPlannerOptions options,
+                                           const planning::TrajectoryBackend& backend) {
+  options.snapshot = backend.Snapshot();
+  return options;
+}
+
+}  // namespace
+
+OnlineAdapter::OnlineAdapter(const planning::TrajectoryBackend& backend,
                              const planning::LocalPlannerOptions& planner_options,
                              AdaptationOptions options)
-    : optimizer_(optimizer), planner_(planner_options), options_(std::move(options)) {
+    : backend_(backend),
+      planner_(WithSnapshot(planner_options, backend)),
+      options_(std::move(options)) {
   options_.Validate();
 }
 
@@ -254,15 +267,16 @@ void OnlineAdapter::RunTrial(double t, const planning::LocalMap& map,
     if (trial.v_des < p.segment.speed_s) {
       query->braking_deceleration = options_.braking_fraction * params.a_max;
     }
-    outcome = planner_.Plan(optimizer_, *query, params);
+    outcome = backend_.Solve(*query, params, planner_.options());
     const planning::PlanResult& r = outcome->result;
     bool accepted = outcome->Ok();
     trial.status = planning::ToString(r.status);
     if (!accepted && r.status == planning::PlanStatus::kDynamicsViolated &&
         trial.v_des < p.segment.speed_s) {
-      const std::string why = CheckBrakingEnvelope(
-          r.trajectory, p.segment.speed_s, trial.v_des, params.a_max, options_.braking_fraction,
-          optimizer_.Options().limit_tolerance, optimizer_.Options().check_dt);
+      const planning::TrajectoryOptimizerOptions& limits = planner_.options().optimizer;
+      const std::string why =
+          CheckBrakingEnvelope(r.trajectory, p.segment.speed_s, trial.v_des, params.a_max,
+                               options_.braking_fraction, limits.limit_tolerance, limits.check_dt);
       accepted = why.empty();
       trial.status = accepted ? "braking" : why;
     }
@@ -372,7 +386,15 @@ AdaptExperiment AdaptExperiment::FromString(const std::string& text, const std::
   if (map.Has("world")) e.world = physics::WorldOptions::FromYaml(map.Map("world"));
   e.world.collision_response = physics::CollisionResponse::kPassThrough;
   e.max_time = map.Number("max_time", e.max_time, Range::Positive());
-  if (map.Has("planner")) e.params = planning::PlannerParams::FromYaml(map.Map("planner"));
+  if (map.Has("planner")) {
+    // `type` picks the closed-loop planner; the other keys are PlannerParams.
+    const YamlMap planner = map.Map("planner");
+    e.planner_type = planner.String("type", e.planner_type);
+    (void)BuildClosedLoopBackend(e.planner_type, origin, planner.KeyPath("type"));
+    YAML::Node params = YAML::Clone(planner.node());
+    params.remove("type");
+    e.params = planning::PlannerParams::FromYaml(YamlMap(params, planner.file(), planner.path()));
+  }
   e.params.Validate(origin);
   sim::FlightOptions{}.planner.CheckParams(e.params, origin);  // as the flights plan
   if (map.Has("baselines")) {
@@ -419,15 +441,16 @@ AdaptFlight RunAdaptFlight(const AdaptExperiment& e, const layout::Layout& layou
   sim::MakeWorld(scenario, world);
   sim::FlightOptions options;
   options.max_time = e.max_time;
-  const planning::TrajectoryOptimizer optimizer(options.planner.optimizer);
+  const std::shared_ptr<const planning::TrajectoryBackend> backend =
+      BuildClosedLoopBackend(e.planner_type, e.file, "planner.type");
   sim::FlightHooks hooks;
   std::unique_ptr<OnlineAdapter> adapter;
   if (out.adapted) {
-    adapter = std::make_unique<OnlineAdapter>(optimizer, options.planner, e.adaptation);
+    adapter = std::make_unique<OnlineAdapter>(*backend, options.planner, e.adaptation);
     if (on_segment) adapter->SetSegmentObserver(on_segment);
     hooks.adapter = adapter.get();
   }
-  out.result = sim::Fly(*world, scenario.mission, params, options, optimizer, hooks);
+  out.result = sim::Fly(*world, scenario.mission, params, options, *backend, hooks);
   if (adapter) {
     out.trials = adapter->trials();
     out.segments = adapter->segments();

@@ -120,6 +120,29 @@ std::vector<std::string> RegisteredPlanners() { return TheRegistry().Names(); }
 
 std::optional<PlannerType> FindPlanner(const std::string& name) { return TheRegistry().Find(name); }
 
+std::vector<std::string> ClosedLoopPlanners() {
+  std::vector<std::string> names;
+  for (const std::string& name : RegisteredPlanners()) {
+    const std::optional<PlannerType> type = FindPlanner(name);
+    if (type && type->backend) names.push_back(name);
+  }
+  return names;
+}
+
+std::shared_ptr<const planning::TrajectoryBackend> BuildClosedLoopBackend(const std::string& name,
+                                                                          const std::string& file,
+                                                                          const std::string& key) {
+  const std::optional<PlannerType> type = FindPlanner(name);
+  if (!type || !type->backend) {
+    std::string names;
+    for (const auto& n : ClosedLoopPlanners()) names += (names.empty() ? "" : ", ") + n;
+    throw ConfigError(file, key,
+                      "'" + name + "' is not a registered planner flown in the closed loop; " +
+                          "registered: " + names);
+  }
+  return type->backend();
+}
+
 BuiltPlanner BuildPlanner(const YamlMap& planner, const std::string& base_dir) {
   const std::string type = planner.String("type", std::string("ipopt"));
   std::optional<PlannerType> entry = FindPlanner(type);

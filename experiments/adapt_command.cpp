@@ -156,12 +156,13 @@ int RunAdapt(const AdaptArgs& a) {
   const ResultDir out_dir(a.out, ResultDirPolicy{false, a.overwrite, false});
   const layout::Layout layout = layout::GenerateLayout(e.layout, e.seed);
   layout.Save((fs::path(a.out) / "layout.yaml").string());
-  spdlog::info("adapt '{}' ({}): {} obstacles over {:.0f} m, {} zones, seed {}, R {:.1f} m, "
-               "v_des in [{}, {}], {} trials per segment, baselines {}",
-               e.name, a.experiment, layout.obstacles.size(),
-               layout.goal_W().x() - layout.start_W().x(), layout.options.zones.size(), e.seed,
-               e.adaptation.lookahead, e.adaptation.v_min, e.adaptation.v_max,
-               e.adaptation.trials_per_segment, fmt::join(e.baselines, ", "));
+  spdlog::info(
+      "adapt '{}' ({}): planner {}, {} obstacles over {:.0f} m, {} zones, seed {}, "
+      "R {:.1f} m, v_des in [{}, {}], {} trials per segment, baselines {}",
+      e.name, a.experiment, e.planner_type, layout.obstacles.size(),
+      layout.goal_W().x() - layout.start_W().x(), layout.options.zones.size(), e.seed,
+      e.adaptation.lookahead, e.adaptation.v_min, e.adaptation.v_max,
+      e.adaptation.trials_per_segment, fmt::join(e.baselines, ", "));
   for (const auto& z : layout.stats.zones) {
     spdlog::info("  zone x in [{:.1f}, {:.1f}] m: target spacing {:.2f} m, achieved {:.3f} m",
                  z.x_min, z.x_max, z.target_spacing, z.spacing.mean);

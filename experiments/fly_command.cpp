@@ -1,3 +1,4 @@
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -71,29 +72,6 @@ planning::PlannerParams ParseOverrides(const std::vector<std::string>& items) {
   return params;
 }
 
-/// The registered planner types flown in the closed loop (those with a trajectory back end),
-/// comma-separated.
-std::string ClosedLoopPlanners() {
-  std::string names;
-  for (const std::string& name : engine::RegisteredPlanners()) {
-    const std::optional<engine::PlannerType> type = engine::FindPlanner(name);
-    if (type && type->backend) names += (names.empty() ? "" : ", ") + name;
-  }
-  return names;
-}
-
-/// The trajectory back end of the registered planner type `name`; throws ConfigError for a name
-/// that is not registered or whose planner has no back end to fly in the closed loop.
-std::shared_ptr<const planning::TrajectoryBackend> RegisteredBackend(const std::string& name) {
-  const std::optional<engine::PlannerType> type = engine::FindPlanner(name);
-  if (!type || !type->backend) {
-    throw ConfigError("", "--planner",
-                      "'" + name + "' is not a registered planner flown in the closed loop; " +
-                          "registered: " + ClosedLoopPlanners());
-  }
-  return type->backend();
-}
-
 int RunFly(const FlyArgs& a) {
   if (!a.from.empty() || a.evaluation >= 0) {
     if (a.from.empty() || a.evaluation < 0) {
@@ -104,7 +82,8 @@ int RunFly(const FlyArgs& a) {
     if (a.plot && RunPlotScript("flight '" + a.out + "'") != 0) return 1;
     return status;
   }
-  const std::shared_ptr<const planning::TrajectoryBackend> backend = RegisteredBackend(a.planner);
+  const std::shared_ptr<const planning::TrajectoryBackend> backend =
+      engine::BuildClosedLoopBackend(a.planner, "", "--planner");
   CheckOutputDir(a.out, "--out");
   const planning::PlannerParams params = ParseOverrides(a.set);
   const physics::DroneDescription drone = physics::LoadDroneDescription(AssetPath(a.drone));
@@ -220,7 +199,8 @@ void RegisterFly(CLI::App& app, int& exit_code) {
       ->capture_default_str();
   cmd->add_option("--planner", args.planner,
                   "planner type from the planner registry, flown in the closed loop (registered: " +
-                      ClosedLoopPlanners() + "; ego is EGO-Planner's back end)")
+                      fmt::format("{}", fmt::join(engine::ClosedLoopPlanners(), ", ")) +
+                      "; ego is EGO-Planner's back end)")
       ->capture_default_str();
   cmd->add_option("--max-time", args.max_time, "flight time limit (s)")->capture_default_str();
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();

@@ -83,6 +83,33 @@ TEST(AdaptFlight, SlowerTrialsArePlannedAsBrakings) {
   EXPECT_GE(braking, 3);
 }
 
+// The experiment flies the registered planner its `planner.type` names: with `ego`, the flight
+// and the adapter's trials fly the EGO back end, which adapts v_des too.
+TEST(AdaptFlight, AdaptsWithTheEgoPlanner) {
+  std::string text = test::ReadText(kSmall);
+  const std::string planner = "planner: {v_des: 2.0}";
+  ASSERT_NE(text.find(planner), std::string::npos);
+  text.replace(text.find(planner), planner.size(), "planner: {type: ego, v_des: 2.0}");
+  const AdaptExperiment ego =
+      AdaptExperiment::FromString(text, "ego.yaml", fs::path(kSmall).parent_path().string());
+  ASSERT_EQ(ego.planner_type, "ego");
+  const layout::Layout layout = layout::GenerateLayout(ego.layout, ego.seed);
+  const AdaptFlight a = RunAdaptFlight(ego, layout, std::nullopt);
+  EXPECT_EQ(a.result.metrics.status, sim::FlightStatus::kCompleted) << a.result.metrics.message;
+  int adopted = 0;
+  for (const auto& s : a.segments) adopted += s.outcome == AdaptationSegment::Outcome::kAdopted;
+  EXPECT_GE(adopted, 2);
+  for (const auto& row : a.result.log) {
+    EXPECT_GE(row.v_des, ego.adaptation.v_min);
+    EXPECT_LE(row.v_des, ego.adaptation.v_max);
+  }
+  // Not the Ipopt planner's flight: the same file with the default type flies another one.
+  const AdaptFlight ipopt = RunAdaptFlight(AdaptExperiment::LoadFile(kSmall), layout, std::nullopt);
+  ASSERT_FALSE(a.trials.empty());
+  ASSERT_FALSE(ipopt.trials.empty());
+  EXPECT_NE(a.trials.front().jerk_integral, ipopt.trials.front().jerk_integral);
+}
+
 using test::ReadCsv;
 
 TEST(AdaptCli, SmallExperimentWritesCsvsSummaryAndFigure) {
@@ -194,6 +221,28 @@ TEST(AdaptCli, BadKeyStopsBeforeAnyWorkNamingFileAndKey) {
   EXPECT_NE(text.str().find(yaml.string()), std::string::npos) << text.str();
   EXPECT_NE(text.str().find("adaptation.lookahed"), std::string::npos) << text.str();
   EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+// `--set planner.type=ego` adapts with the EGO planner; a type that cannot fly in the closed
+// loop stops the command before any work, naming the file, the key and the planners that can.
+TEST(AdaptCli, PlannerTypeSelectsTheClosedLoopPlanner) {
+  const fs::path dir = test::FreshTempDir("quadtune_adapt_planner");
+  const std::string common = "--log-level warn adapt '" + kSmall + "' --no-plot --out '";
+  ASSERT_EQ(test::RunQuadtune(common + (dir / "ego").string() + "' --set planner.type=ego",
+                              dir / "ego.log"),
+            0)
+      << test::ReadText(dir / "ego.log");
+  EXPECT_FALSE(ReadCsv(dir / "ego" / "adapted" / "trials.csv").empty());
+  EXPECT_EQ(test::RunQuadtune(common + (dir / "toy").string() + "' --set planner.type=toy",
+                              dir / "toy.log"),
+            2);
+  const std::string log = test::ReadText(dir / "toy.log");
+  for (const char* words :
+       {"changing_environment_small.yaml", "planner.type",
+        "'toy' is not a registered planner flown in the closed loop", "registered: ego, ipopt"}) {
+    EXPECT_NE(log.find(words), std::string::npos) << words << " in: " << log;
+  }
+  EXPECT_FALSE(fs::exists(dir / "toy"));
 }
 
 // --set edits the adaptation file (a third flight from one more baseline); --threads flies the

@@ -8,9 +8,13 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <string>
 
 #include "../config_error_util.hpp"
+#include "quadtune/engine/planner_registry.hpp"
+#include "quadtune/engine/planners.hpp"
+#include "quadtune/planning/ego_optimizer.hpp"
 #include "../planning/scene_util.hpp"
 
 namespace quadtune::engine {
@@ -27,11 +31,15 @@ AdaptationOptions SmallOptions(int trials = 4) {
   return o;
 }
 
-/// The Replanner with an OnlineAdapter, flying with perfect tracking through a mapped forest.
+/// The Replanner with an OnlineAdapter, both planning with `backend` (default: the Ipopt back
+/// end), flying with perfect tracking through a mapped forest.
 struct AdaptedKinematicFlight {
-  explicit AdaptedKinematicFlight(const AdaptationOptions& options)
-      : replanner(optimizer, PlannerParams{}),
-        adapter(optimizer, planning::LocalPlannerOptions{}, options),
+  explicit AdaptedKinematicFlight(
+      const AdaptationOptions& options,
+      std::shared_ptr<const planning::TrajectoryBackend> flight_backend = MakeIpoptBackend())
+      : backend(std::move(flight_backend)),
+        replanner(*backend, PlannerParams{}),
+        adapter(*backend, planning::LocalPlannerOptions{}, options),
         map(planning::LocalMapOptions::FromPlannerParams(PlannerParams{}),
             Eigen::Vector3d(3, 0, 1.2)) {
     replanner.SetAdapter(&adapter);
@@ -49,7 +57,7 @@ struct AdaptedKinematicFlight {
     }
   }
 
-  planning::TrajectoryOptimizer optimizer;
+  std::shared_ptr<const planning::TrajectoryBackend> backend;
   sim::Replanner replanner;
   OnlineAdapter adapter;
   planning::LocalMap map;
@@ -170,6 +178,40 @@ TEST(OnlineAdapter, SameSeedGivesTheSameChoices) {
   EXPECT_EQ(a.replanner.mission_end_time(), b.replanner.mission_end_time());
 }
 
+// The adapter plans its trials with the flight's back end: with the EGO back end (occupancy
+// snapshots) it adapts too, executes its chosen EGO plan from P_s, and its trials differ from
+// the Ipopt back end's.
+TEST(OnlineAdapter, PlansItsTrialsWithTheFlightsBackEnd) {
+  AdaptedKinematicFlight ego(SmallOptions(),
+                             std::make_shared<const planning::EgoBackend>(planning::EgoOptions{}));
+  ego.Fly(kGoal, 40.0);
+  int adopted = 0;
+  std::size_t first = 0;
+  for (const auto& s : ego.adapter.segments()) {
+    if (s.outcome == AdaptationSegment::Outcome::kAdopted) {
+      ++adopted;
+      const AdaptationTrial& chosen =
+          ego.adapter.trials()[first + static_cast<std::size_t>(s.best_trial)];
+      const auto& records = ego.replanner.records();
+      const auto it = std::find_if(records.begin(), records.end(),
+                                   [&](const auto& r) { return r.ok && r.time == s.split_time; });
+      ASSERT_NE(it, records.end()) << "segment " << s.index;
+      EXPECT_EQ(it->duration, chosen.t_exe);
+      EXPECT_EQ(it->jerk, chosen.jerk_integral);
+    }
+    first += static_cast<std::size_t>(s.trials);
+  }
+  EXPECT_GE(adopted, 1);
+
+  AdaptedKinematicFlight ipopt(SmallOptions());
+  ipopt.Fly(kGoal, 40.0);
+  ASSERT_FALSE(ego.adapter.trials().empty());
+  ASSERT_FALSE(ipopt.adapter.trials().empty());
+  // The trials' plans are the back end's own.
+  EXPECT_NE(ego.adapter.trials().front().jerk_integral,
+            ipopt.adapter.trials().front().jerk_integral);
+}
+
 // ---- the experiment file ----------------------------------------------------------------------
 
 std::string WriteTemp(const std::string& name, const std::string& text) {
@@ -222,6 +264,46 @@ TEST(AdaptExperiment, OutOfRangeValuesNameKeyAndRange) {
                         "baselines", {"x.yaml", "(0, 15]"}));
   EXPECT_TRUE(ThrowsConfigError(parse("baselines: [2.0]\n"), "layout_file",
                                 {"x.yaml", "exactly one of layout"}));
+}
+
+TEST(AdaptExperiment, PlannerTypeNamesAClosedLoopPlanner) {
+  const AdaptExperiment ipopt = AdaptExperiment::FromString(kMinimal, "x.yaml");
+  EXPECT_EQ(ipopt.planner_type, "ipopt");
+  const AdaptExperiment ego = AdaptExperiment::FromString(
+      std::string(kMinimal) + "planner: {type: ego, v_des: 2.5, h_pl: 6}\n", "x.yaml");
+  EXPECT_EQ(ego.planner_type, "ego");
+  EXPECT_EQ(ego.params.v_des, 2.5);
+  EXPECT_EQ(ego.params.h_pl, 6.0);
+  // A planner parameter beside `type` is still checked.
+  EXPECT_TRUE(ThrowsConfigError(
+      [] {
+        (void)AdaptExperiment::FromString(
+            std::string(kMinimal) + "planner: {type: ego, v_dse: 2}\n", "x.yaml");
+      },
+      "planner.v_dse", {"x.yaml"}));
+}
+
+// A planner type that cannot fly in the closed loop (not registered, or registered without a
+// back end, as the test planners toy and sleep are) is refused on load, naming the file and key
+// and listing the planners that can.
+TEST(AdaptExperiment, PlannerWithoutAClosedLoopBackEndNamesFileKeyAndTheUsablePlanners) {
+  static const bool registered = [] {
+    RegisterPlanner(
+        "adapt_test_loopless",
+        [](const YamlMap&, const std::string&) { return Planner{NoPlanner{}}; }, PlannerSchema{});
+    return true;
+  }();
+  ASSERT_TRUE(registered);
+  for (const std::string type : {"adapt_test_loopless", "rrt"}) {
+    ExpectFileKeyError("planner_" + type, "planner: {type: " + type + "}\n", "planner.type",
+                       "'" + type + "' is not a registered planner flown in the closed loop");
+    EXPECT_TRUE(ThrowsConfigError(
+        [&] {
+          (void)AdaptExperiment::FromString(
+              std::string(kMinimal) + "planner: {type: " + type + "}\n", "x.yaml");
+        },
+        "planner.type", {"x.yaml", "registered: ego, ipopt"}));
+  }
 }
 
 TEST(AdaptExperiment, ObjectiveKeysWithoutKindKeepTheChangingEnvironmentDefaults) {

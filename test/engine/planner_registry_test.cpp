@@ -143,6 +143,24 @@ TEST(PlannerRegistry, ClosedLoopTypesGiveTheirBackEnd) {
   }
 }
 
+// BuildClosedLoopBackend is how `fly --planner` and an adaptation experiment's `planner.type`
+// find a back end: the closed-loop types build theirs; the others and unknown names are refused
+// with the file and key given, listing the closed-loop types.
+TEST(PlannerRegistry, BuildClosedLoopBackendRefusesTypesWithoutOne) {
+  EXPECT_EQ(ClosedLoopPlanners(), (std::vector<std::string>{"ego", "ipopt"}));
+  for (const char* name : {"ipopt", "ego"}) {
+    const auto backend = BuildClosedLoopBackend(name, "f.yaml", "planner.type");
+    ASSERT_NE(backend, nullptr) << name;
+    EXPECT_EQ(backend->Name(), name);
+  }
+  for (const std::string name : {"toy", "sleep", "rrt"}) {
+    EXPECT_TRUE(quadtune::test::ThrowsConfigError(
+        [&] { (void)BuildClosedLoopBackend(name, "f.yaml", "planner.type"); }, "planner.type",
+        {"f.yaml", "'" + name + "' is not a registered planner flown in the closed loop",
+         "registered: ego, ipopt"}));
+  }
+}
+
 TEST(PlannerRegistry, BadRegistrationsThrow) {
   const PlannerSchema schema = PlannerSchema::Of(test::ToyPlanner{});
   EXPECT_THROW(RegisterPlanner("toy", BuildToyAgain, schema), std::invalid_argument);

@@ -11,8 +11,9 @@
 ///  2. While the drone approaches P_s, `trials_per_segment` trials run at fixed instants of
 ///     simulated time t0 + k (t_s − t0) / N (k = 0 … N−1; all still due run at t_s), so the
 ///     count never depends on the wall clock. Each trial asks BO for one v_des, plans from P_s
-///     on the latest map (front end + snapshot + Ipopt, LocalPlanner), and scores the plan with
-///     the changing-environment short-term objective (engine::ShortTermObjective):
+///     on the latest map (LocalPlanner's front end and the snapshot the back end reads, then the
+///     flight's planning::TrajectoryBackend), and scores the plan with the changing-environment
+///     short-term objective (engine::ShortTermObjective):
 ///       f_s = w_t t_exe + w_p ∫|jerk|² dt + w_c J_c,  J_c = (C − c_obs)² if c_obs < C else 0.
 ///     Before each trial, BayesOpt::AdvanceAge(Δt) ages the earlier trials by the simulated
 ///     time passed, so their noise grows (`noise_growth` per second): the map kept changing.
@@ -24,14 +25,21 @@
 ///
 /// A failed trial (front end or solver failure, a plan outside the limits) is recorded with the
 /// objective's failure value and told to BO; it is never thrown. Trials solve with at most two
-/// attempts (warm, then cold start), never the slowed-down retries, so every trial's plan belongs
-/// to the v_des it was asked for. A plan from P_s whose start speed exceeds the proposed v_des
+/// attempts of the back end (Ipopt: warm, then cold start, never the slowed-down retries, so
+/// every trial's plan belongs to the v_des it was asked for; EGO: its second attempt allocates
+/// 1 / retry_slowdown times the time). A plan from P_s whose start speed exceeds the proposed v_des
 /// cannot keep |v| <= v_des at its start: such a trial asks the planner to brake
 /// (PlanningQuery::braking_deceleration = braking_fraction · a_max: its time allocation and speed
 /// penalty follow a braking at that rate from |v_s| down to v_des), and its plan is accepted when
 /// it stays within the acceleration limit, never exceeds |v_s| and is down to v_des by the time
 /// that braking would be, τ_b = (|v_s| − v_des) / (braking_fraction · a_max) (each with the
-/// optimiser's limit_tolerance), so the drone can slow down on entering a dense zone.
+/// limit_tolerance and check_dt of LocalPlannerOptions::optimizer), so the drone can slow down on
+/// entering a dense zone. The Ipopt back end plans the braking; the EGO back end ignores
+/// braking_deceleration, and its plans are judged by the same envelope.
+///
+/// The experiment flies the planner type named by its `planner.type` (default `ipopt`): any
+/// registered type with a BackendFactory (planner_registry.hpp), through sim::Scenario,
+/// sim::MakeWorld and sim::Fly with that back end; the adapter plans its trials with it too.
 ///
 /// Thread safety: an OnlineAdapter belongs to one flight (one thread). Options, records and
 /// AdaptExperiment are values; RunAdaptFlight only uses its arguments and may run concurrently.
@@ -51,6 +59,7 @@
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/physics/world.hpp"
 #include "quadtune/planning/local_planner.hpp"
+#include "quadtune/planning/trajectory_backend.hpp"
 #include "quadtune/sim/flight.hpp"
 #include "quadtune/sim/replanner.hpp"
 
@@ -126,8 +135,9 @@ const char* ToString(AdaptationSegment::Outcome outcome);
 /// The adapter. See the file comment.
 class OnlineAdapter final : public sim::PlanAdapter {
  public:
-  /// `optimizer` must outlive the adapter. Validates `options`.
-  OnlineAdapter(const planning::TrajectoryOptimizer& optimizer,
+  /// Plans its trials with `backend` (the flight's; it must outlive the adapter), recording the
+  /// snapshot the back end reads. Validates `options`.
+  OnlineAdapter(const planning::TrajectoryBackend& backend,
                 const planning::LocalPlannerOptions& planner_options, AdaptationOptions options);
   ~OnlineAdapter() override;
   OnlineAdapter(const OnlineAdapter&) = delete;
@@ -153,7 +163,7 @@ class OnlineAdapter final : public sim::PlanAdapter {
   void RunTrial(double t, const planning::LocalMap& map, const Eigen::Vector3d& waypoint_W);
   void Close(AdaptationSegment::Outcome outcome);
 
-  const planning::TrajectoryOptimizer& optimizer_;
+  const planning::TrajectoryBackend& backend_;
   planning::LocalPlanner planner_;
   AdaptationOptions options_;
   std::unique_ptr<Pending> pending_;
@@ -171,7 +181,8 @@ class OnlineAdapter final : public sim::PlanAdapter {
 /// layout_file: layouts/changing_density.yaml   # generator options with density zones
 /// world: {...}                  # optional physics::WorldOptions
 /// max_time: 90                  # flight time limit (s)
-/// planner: {h_pl: 7.5, ...}     # optional PlannerParams over the defaults (v_des: the start value)
+/// planner: {type: ego, h_pl: 7.5, ...}  # optional: type (a closed-loop planner, default ipopt)
+///                               # and PlannerParams over the defaults (v_des: the start value)
 /// baselines: [2.0, 4.0]         # fixed v_des flown for comparison
 /// adaptation: {lookahead: 2.0, v_des_bounds: [1, 6], trials_per_segment: 8, objective: ..., bo: ...}
 /// ```
@@ -185,11 +196,15 @@ struct AdaptExperiment {
   layout::LayoutOptions layout;
   physics::WorldOptions world;        ///< seed replaced by `seed`; pass-through collisions
   double max_time = 90.0;             ///< (s), > 0
+  /// `planner.type`: a registered planner type flown in the closed loop (ClosedLoopPlanners());
+  /// every flight flies its back end.
+  std::string planner_type = "ipopt";
   planning::PlannerParams params;     ///< fixed parameters; v_des is the adapted flight's start
   std::vector<double> baselines{2.0}; ///< fixed v_des values (m/s), each in (0, 15]
   AdaptationOptions adaptation;
 
-  /// Reads and checks a file; errors name the file, the key and what is allowed.
+  /// Reads and checks a file; errors name the file, the key and what is allowed (a
+  /// `planner.type` that is not a closed-loop planner: key planner.type, listing those that are).
   static AdaptExperiment LoadFile(const std::string& path);
   /// As LoadFile, from text; relative paths are resolved against `base_dir`, then assets/.
   static AdaptExperiment FromString(const std::string& text, const std::string& origin,
@@ -208,7 +223,8 @@ struct AdaptFlight {
   std::vector<AdaptationSegment> segments;  ///< adapted flight only
 };
 
-/// Flies start → goal of `layout` once: adapted (fixed_v_des empty) or with a fixed v_des.
+/// Flies start → goal of `layout` once with the back end of `experiment.planner_type`: adapted
+/// (fixed_v_des empty) or with a fixed v_des.
 /// Deterministic for the same experiment, layout and seed. Flight failures are reported in the
 /// result's metrics, never thrown.
 [[nodiscard]] AdaptFlight RunAdaptFlight(

@@ -82,6 +82,17 @@ struct PlannerRegistration {
 /// The planner type called `name`, or nullopt.
 [[nodiscard]] std::optional<PlannerType> FindPlanner(const std::string& name);
 
+/// The registered names of the planner types flown in quadtune's closed loop (those with a
+/// BackendFactory), sorted.
+[[nodiscard]] std::vector<std::string> ClosedLoopPlanners();
+
+/// The trajectory back end of the closed-loop planner type `name`, built by its BackendFactory.
+/// Throws ConfigError(file, key, "'NAME' is not a registered planner flown in the closed loop;
+/// registered: ...", listing ClosedLoopPlanners()) when `name` is not registered or has no back
+/// end (`quadtune fly --planner`, an adaptation experiment's `planner.type`).
+[[nodiscard]] std::shared_ptr<const planning::TrajectoryBackend> BuildClosedLoopBackend(
+    const std::string& name, const std::string& file, const std::string& key);
+
 /// A plug-in built from a `planner:` map.
 struct BuiltPlanner {
   std::string type;  ///< the `planner.type` it was built as
