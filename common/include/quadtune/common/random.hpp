@@ -44,12 +44,13 @@ inline double Uniform(Rng& rng, double lo, double hi) { return lo + (hi - lo) * 
 
 /// Uniform integer in [lo, hi] (inclusive), unbiased.
 inline std::int64_t UniformInt(Rng& rng, std::int64_t lo, std::int64_t hi) {
-  const std::uint64_t span = static_cast<std::uint64_t>(hi - lo) + 1ULL;
+  // Unsigned arithmetic: hi − lo overflows a signed integer for spans beyond 2^63.
+  const std::uint64_t span = static_cast<std::uint64_t>(hi) - static_cast<std::uint64_t>(lo) + 1ULL;
   if (span == 0) return static_cast<std::int64_t>(rng());  // full 64-bit range
   const std::uint64_t limit = UINT64_MAX - (UINT64_MAX % span);
   std::uint64_t r = rng();
   while (r >= limit) r = rng();
-  return lo + static_cast<std::int64_t>(r % span);
+  return static_cast<std::int64_t>(static_cast<std::uint64_t>(lo) + r % span);
 }
 
 /// Standard normal sample (Box–Muller, no cached second value, so draws are stateless).
