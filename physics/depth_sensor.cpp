@@ -39,8 +39,8 @@ const Fields<DepthSensorOptions>& DepthSensorFields() {
 
 void DepthSensorOptions::Validate(const std::string& origin) const {
   DepthSensorFields().Check(*this, origin);
-  CheckInRange(max_range, {min_range, std::numeric_limits<double>::infinity(), true, true},
-               origin, "max_range");
+  CheckInRange(max_range, {min_range, std::numeric_limits<double>::infinity(), true, true}, origin,
+               "max_range");
   for (int i = 0; i < 3; ++i) {
     CheckInRange(p_BC[i], Range::Any(), origin, "p_BC[" + std::to_string(i) + "]");
   }

@@ -21,6 +21,16 @@ void CheckPositiveVector(const Eigen::Vector3d& v, const std::string& origin,
   }
 }
 
+// The first key of either collision map.
+Fields<DroneDescription> CollisionShapeField() {
+  Fields<DroneDescription> fields;
+  fields
+      .Choice("shape", &DroneDescription::collision_shape,
+              "collision body: `sphere` (with `radius`) or `box` (with `half_extents`)")
+      .Required();
+  return fields;
+}
+
 // The collision map's keys for `shape`.
 const Fields<DroneDescription>& CollisionFieldsOf(CollisionShapeKind shape) {
   return shape == CollisionShapeKind::kSphere ? SphereCollisionFields() : BoxCollisionFields();
@@ -53,10 +63,7 @@ const Fields<DroneDescription>& RotorFields() {
 
 const Fields<DroneDescription>& SphereCollisionFields() {
   static const Fields<DroneDescription> fields =
-      Fields<DroneDescription>()
-          .Choice("shape", &DroneDescription::collision_shape,
-                  "collision body: `sphere` (with `radius`) or `box` (with `half_extents`)")
-          .Required()
+      CollisionShapeField()
           .Number("radius", &DroneDescription::collision_radius, Range::Positive(),
                   "sphere radius (m), centred on the centre of mass")
           .Required();
@@ -65,10 +72,7 @@ const Fields<DroneDescription>& SphereCollisionFields() {
 
 const Fields<DroneDescription>& BoxCollisionFields() {
   static const Fields<DroneDescription> fields =
-      Fields<DroneDescription>()
-          .Choice("shape", &DroneDescription::collision_shape,
-                  "collision body: `sphere` (with `radius`) or `box` (with `half_extents`)")
-          .Required()
+      CollisionShapeField()
           .Vector3("half_extents", &DroneDescription::collision_half_extents,
                    "box half sizes along the body axes (m), each > 0")
           .Required();
@@ -105,29 +109,29 @@ const Fields<DroneDescription>& DroneFields() {
           .Choice("configuration", &DroneDescription::configuration,
                   "rotors at ±45°/±135° (`x`) or on the body axes (`plus`)")
           .Required()
-          .Custom({"rotor", "map", "", "", "rotor speeds and coefficients (see Drone: rotor)"},
-                  [](const YamlMap& m, DroneDescription& d) {
-                    RotorFields().Read(m.Map("rotor"), d);
-                  },
-                  [](YAML::Emitter& out, const DroneDescription& d) {
-                    out << YAML::Key << "rotor" << YAML::Value;
-                    RotorFields().Write(out, d);
-                  })
+          .Custom(
+              {"rotor", "map", "", "", "rotor speeds and coefficients (see Drone: rotor)"},
+              [](const YamlMap& m, DroneDescription& d) { RotorFields().Read(m.Map("rotor"), d); },
+              [](YAML::Emitter& out, const DroneDescription& d) {
+                out << YAML::Key << "rotor" << YAML::Value;
+                RotorFields().Write(out, d);
+              })
           .Required()
           .Vector3("drag", &DroneDescription::linear_drag,
                    "linear drag per body axis (N·s/m), each ≥ 0")
-          .Custom({"collision", "map", "", "",
-                   "collision body: `{shape: sphere, radius}` or `{shape: box, half_extents}` "
-                   "(see Drone: collision)"},
-                  [](const YamlMap& m, DroneDescription& d) {
-                    const YamlMap collision = m.Map("collision");
-                    CollisionFieldsOf(ReadEnum<CollisionShapeKind>(collision, "shape", std::nullopt))
-                        .Read(collision, d);
-                  },
-                  [](YAML::Emitter& out, const DroneDescription& d) {
-                    out << YAML::Key << "collision" << YAML::Value;
-                    CollisionFieldsOf(d.collision_shape).Write(out, d);
-                  })
+          .Custom(
+              {"collision", "map", "", "",
+               "collision body: `{shape: sphere, radius}` or `{shape: box, half_extents}` "
+               "(see Drone: collision)"},
+              [](const YamlMap& m, DroneDescription& d) {
+                const YamlMap collision = m.Map("collision");
+                CollisionFieldsOf(ReadEnum<CollisionShapeKind>(collision, "shape", std::nullopt))
+                    .Read(collision, d);
+              },
+              [](YAML::Emitter& out, const DroneDescription& d) {
+                out << YAML::Key << "collision" << YAML::Value;
+                CollisionFieldsOf(d.collision_shape).Write(out, d);
+              })
           .Required()
           .Number("max_speed", &DroneDescription::max_speed, Range::Positive(),
                   "top speed the world must handle (m/s)")

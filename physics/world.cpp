@@ -67,8 +67,7 @@ const Fields<WorldOptions>& WorldFields() {
           .Choice("collision_response", &WorldOptions::collision_response,
                   "what a contact does: `physical` (Bullet resolves it) or `pass_through` "
                   "(contacts counted, the drone flies on); experiments force `pass_through`")
-          .Number("contact_release_time", &WorldOptions::contact_release_time,
-                  Range::NonNegative(),
+          .Number("contact_release_time", &WorldOptions::contact_release_time, Range::NonNegative(),
                   "a bounce and re-contact within it is one collision episode (s)")
           .Integer("collision_pool_size", &WorldOptions::collision_pool_size,
                    Range::Closed(8, 4096), "Bullet manifold pool entries")

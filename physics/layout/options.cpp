@@ -107,8 +107,12 @@ void AddInterval(Fields<T>& fields, const std::string& key, Interval T::*member,
                  std::string allowed, std::string meaning) {
   AddPair<T>(
       fields, key, "[min, max]", std::move(allowed), std::move(meaning), /*required=*/false,
-      [member](const T& t) { return Pair{(t.*member).min, (t.*member).max}; },
-      [member](T& t, const Pair& v) { t.*member = {v[0], v[1]}; });
+      [member](const T& t) {
+        return Pair{(t.*member).min, (t.*member).max};
+      },
+      [member](T& t, const Pair& v) {
+        t.*member = {v[0], v[1]};
+      });
 }
 
 template <class T>
@@ -116,8 +120,12 @@ void AddVector2(Fields<T>& fields, const std::string& key, Eigen::Vector2d T::*m
                 std::string meaning, bool required = false) {
   AddPair<T>(
       fields, key, "[x, y]", "", std::move(meaning), required,
-      [member](const T& t) { return Pair{(t.*member).x(), (t.*member).y()}; },
-      [member](T& t, const Pair& v) { t.*member = {v[0], v[1]}; });
+      [member](const T& t) {
+        return Pair{(t.*member).x(), (t.*member).y()};
+      },
+      [member](T& t, const Pair& v) {
+        t.*member = {v[0], v[1]};
+      });
 }
 
 // A key holding a list of maps, each read and written by `item`; present, it replaces the
@@ -228,7 +236,9 @@ const Fields<ZoneOptions>& ZoneFields() {
     AddPair<ZoneOptions>(
         f, "x_range", "[x_min, x_max]", "x_min < x_max",
         "the zone's x-interval (m); zones are consecutive and cover the region", /*required=*/true,
-        [](const ZoneOptions& z) { return Pair{z.x_min, z.x_max}; },
+        [](const ZoneOptions& z) {
+          return Pair{z.x_min, z.x_max};
+        },
         [](ZoneOptions& z, const Pair& v) {
           z.x_min = v[0];
           z.x_max = v[1];
@@ -264,12 +274,12 @@ const Fields<LayoutOptions>& LayoutFields() {
              "rectangle that holds every footprint (see Layout: region)")
         .Nested("mission", &LayoutOptions::mission, MissionFields(),
                 "the flight the layout is made for (see Layout: mission)");
-    AddList<LayoutOptions, KeepOutZone>(
-        f,
-        {"keep_out", "list of `{center: [x, y], radius}`", "empty", "",
-         "further keep-out cylinders (see Layout: keep_out)"},
-        &LayoutOptions::keep_out, KeepOutFields(), /*flow_items=*/true,
-        [](const LayoutOptions&) { return KeepOutZone{}; });
+    AddList<LayoutOptions, KeepOutZone>(f,
+                                        {"keep_out", "list of `{center: [x, y], radius}`", "empty",
+                                         "", "further keep-out cylinders (see Layout: keep_out)"},
+                                        &LayoutOptions::keep_out, KeepOutFields(),
+                                        /*flow_items=*/true,
+                                        [](const LayoutOptions&) { return KeepOutZone{}; });
     f.Number("spacing", &LayoutOptions::spacing, Range::Positive(),
              "target spacing (m) when `zones` is absent; at least what the obstacles allow side "
              "by side")
@@ -281,8 +291,7 @@ const Fields<LayoutOptions>& LayoutFields() {
         {"zones", "list of `{x_range: [a, b], spacing, obstacles}`", "one zone over the region",
          "consecutive x-intervals covering the region",
          "density zones, each with its own spacing and optional mixture (see Layout: zones)"},
-        &LayoutOptions::zones, ZoneFields(), /*flow_items=*/false,
-        [](const LayoutOptions& o) {
+        &LayoutOptions::zones, ZoneFields(), /*flow_items=*/false, [](const LayoutOptions& o) {
           ZoneOptions zone;
           zone.obstacles = o.obstacles;  // a zone's mixture starts from the layout's
           return zone;
