@@ -125,7 +125,7 @@ int RunFly(const FlyArgs& a) {
     const auto path = std::filesystem::path(a.out) / "summary.json";
     nlohmann::json summary = nlohmann::json::parse(std::ifstream(path));
     summary["spacing_target"] = layout.options.spacing;
-    summary["density_definition"] = layout::ToString(layout.options.density);
+    summary["density_definition"] = quadtune::ToString(layout.options.density);
     summary["spacing_achieved"] = layout.stats.overall.mean;
     summary["obstacles"] = layout.obstacles.size();
     summary["seed"] = a.seed;

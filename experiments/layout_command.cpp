@@ -30,7 +30,7 @@ int RunLayout(const LayoutArgs& a) {
   spdlog::info("{} cylinders, {} rings (density: {}); mean nearest-neighbour spacing {:.3f} m "
                "(std {:.3f}, min {:.3f}); saved to {}",
                layout.obstacles.cylinders.size(), layout.obstacles.rings.size(),
-               layout::ToString(options.density), s.mean, s.std, s.min, a.out);
+               quadtune::ToString(options.density), s.mean, s.std, s.min, a.out);
   const auto zones = options.EffectiveZones();
   for (std::size_t i = 0; i < layout.stats.zones.size(); ++i) {
     const auto& z = layout.stats.zones[i];

@@ -5,42 +5,49 @@
 #include <numbers>
 
 #include "quadtune/common/error.hpp"
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/physics/world.hpp"
 
 namespace quadtune::physics {
 
+const Fields<DepthSensorOptions>& DepthSensorFields() {
+  static const Fields<DepthSensorOptions> fields =
+      Fields<DepthSensorOptions>()
+          .Integer("width", &DepthSensorOptions::width, Range::Closed(1, 4096),
+                   "image width (pixels)")
+          .Integer("height", &DepthSensorOptions::height, Range::Closed(1, 4096),
+                   "image height (pixels)")
+          .Number("horizontal_fov_deg", &DepthSensorOptions::horizontal_fov_deg,
+                  {0.0, 170.0, true, false}, "horizontal field of view (deg)")
+          .Number("vertical_fov_deg", &DepthSensorOptions::vertical_fov_deg,
+                  {0.0, 170.0, true, false}, "vertical field of view (deg)")
+          .Number("min_range", &DepthSensorOptions::min_range, Range::NonNegative(),
+                  "nearest range returned (m); below `max_range`")
+          .Number("max_range", &DepthSensorOptions::max_range, Range::Positive(),
+                  "farthest range returned (m); rays that hit nothing end there")
+          .Number("rate_hz", &DepthSensorOptions::rate_hz, Range::Positive(),
+                  "scans per second of simulated time")
+          .Vector3("p_BC", &DepthSensorOptions::p_BC, "camera position in the body frame (m)")
+          .Number("pitch", &DepthSensorOptions::pitch,
+                  Range::Closed(-0.5 * std::numbers::pi, 0.5 * std::numbers::pi),
+                  "camera pitch down about the body y-axis (rad)")
+          .Number("range_noise", &DepthSensorOptions::range_noise, Range::NonNegative(),
+                  "std-dev of Gaussian range noise (m)");
+  return fields;
+}
+
 void DepthSensorOptions::Validate(const std::string& origin) const {
-  CheckInRange(width, Range::Closed(1, 4096), origin, "width");
-  CheckInRange(height, Range::Closed(1, 4096), origin, "height");
-  CheckInRange(horizontal_fov_deg, {0.0, 170.0, true, false}, origin, "horizontal_fov_deg");
-  CheckInRange(vertical_fov_deg, {0.0, 170.0, true, false}, origin, "vertical_fov_deg");
-  CheckInRange(min_range, Range::NonNegative(), origin, "min_range");
-  CheckInRange(max_range, {min_range, std::numeric_limits<double>::infinity(), true, true},
-               origin, "max_range");
-  CheckInRange(rate_hz, Range::Positive(), origin, "rate_hz");
+  DepthSensorFields().Check(*this, origin);
+  CheckInRange(max_range, {min_range, std::numeric_limits<double>::infinity(), true, true}, origin,
+               "max_range");
   for (int i = 0; i < 3; ++i) {
     CheckInRange(p_BC[i], Range::Any(), origin, "p_BC[" + std::to_string(i) + "]");
   }
-  CheckInRange(pitch, Range::Closed(-0.5 * std::numbers::pi, 0.5 * std::numbers::pi), origin,
-               "pitch");
-  CheckInRange(range_noise, Range::NonNegative(), origin, "range_noise");
 }
 
 DepthSensorOptions DepthSensorOptions::FromYaml(const YamlMap& map) {
-  map.RejectUnknownKeys({"width", "height", "horizontal_fov_deg", "vertical_fov_deg", "min_range",
-                         "max_range", "rate_hz", "p_BC", "pitch", "range_noise"});
-  DepthSensorOptions o;
-  o.width = static_cast<int>(map.Integer("width", o.width, Range::Closed(1, 4096)));
-  o.height = static_cast<int>(map.Integer("height", o.height, Range::Closed(1, 4096)));
-  o.horizontal_fov_deg = map.Number("horizontal_fov_deg", o.horizontal_fov_deg);
-  o.vertical_fov_deg = map.Number("vertical_fov_deg", o.vertical_fov_deg);
-  o.min_range = map.Number("min_range", o.min_range);
-  o.max_range = map.Number("max_range", o.max_range);
-  o.rate_hz = map.Number("rate_hz", o.rate_hz);
-  o.p_BC = map.Vector3("p_BC", o.p_BC);
-  o.pitch = map.Number("pitch", o.pitch);
-  o.range_noise = map.Number("range_noise", o.range_noise);
+  const DepthSensorOptions o = DepthSensorFields().Read(map);
   o.Validate(map.file());
   return o;
 }

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "quadtune/common/error.hpp"
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/yaml.hpp"
 
 namespace quadtune::physics {
@@ -20,7 +21,124 @@ void CheckPositiveVector(const Eigen::Vector3d& v, const std::string& origin,
   }
 }
 
+// The first key of either collision map.
+Fields<DroneDescription> CollisionShapeField() {
+  Fields<DroneDescription> fields;
+  fields
+      .Choice("shape", &DroneDescription::collision_shape,
+              "collision body: `sphere` (with `radius`) or `box` (with `half_extents`)")
+      .Required();
+  return fields;
+}
+
+// The collision map's keys for `shape`.
+const Fields<DroneDescription>& CollisionFieldsOf(CollisionShapeKind shape) {
+  return shape == CollisionShapeKind::kSphere ? SphereCollisionFields() : BoxCollisionFields();
+}
+
 }  // namespace
+
+const Fields<DroneDescription>& RotorFields() {
+  static const Fields<DroneDescription> fields =
+      Fields<DroneDescription>()
+          .Number("min_speed_rpm", &DroneDescription::min_rotor_speed, Range::NonNegative(),
+                  "least rotor speed (rpm); below `max_speed_rpm` and low enough that the drone "
+                  "can descend (thrust-to-weight < 1)")
+          .Required()
+          .Number("max_speed_rpm", &DroneDescription::max_rotor_speed, Range::Positive(),
+                  "top rotor speed (rpm); a drone that cannot lift itself there (thrust-to-weight "
+                  "≤ 1) is refused")
+          .Required()
+          .Number("thrust_coefficient", &DroneDescription::thrust_coefficient, Range::Positive(),
+                  "kf: thrust = kf ω² (N/rpm²)")
+          .Required()
+          .Number("torque_coefficient", &DroneDescription::torque_coefficient, Range::Positive(),
+                  "km: drag torque = km ω² (N·m/rpm²)")
+          .Required()
+          .Number("time_constant", &DroneDescription::motor_time_constant, Range::Positive(),
+                  "first-order motor lag (s)")
+          .Required();
+  return fields;
+}
+
+const Fields<DroneDescription>& SphereCollisionFields() {
+  static const Fields<DroneDescription> fields =
+      CollisionShapeField()
+          .Number("radius", &DroneDescription::collision_radius, Range::Positive(),
+                  "sphere radius (m), centred on the centre of mass")
+          .Required();
+  return fields;
+}
+
+const Fields<DroneDescription>& BoxCollisionFields() {
+  static const Fields<DroneDescription> fields =
+      CollisionShapeField()
+          .Vector3("half_extents", &DroneDescription::collision_half_extents,
+                   "box half sizes along the body axes (m), each > 0")
+          .Required();
+  return fields;
+}
+
+const Fields<ControllerGains>& ControllerFields() {
+  static const Fields<ControllerGains> fields =
+      Fields<ControllerGains>()
+          .Vector3("position_gain", &ControllerGains::position,
+                   "kp, normalised by mass (1/s²), world x, y, z; each > 0")
+          .Vector3("velocity_gain", &ControllerGains::velocity,
+                   "kv, normalised by mass (1/s), world x, y, z; each > 0")
+          .Vector3("attitude_gain", &ControllerGains::attitude,
+                   "kR, normalised by inertia (1/s²), body x, y, z; each > 0")
+          .Vector3("angular_rate_gain", &ControllerGains::angular_rate,
+                   "kω, normalised by inertia (1/s), body x, y, z; each > 0");
+  return fields;
+}
+
+const Fields<DroneDescription>& DroneFields() {
+  static const Fields<DroneDescription> fields =
+      Fields<DroneDescription>()
+          .Text("name", &DroneDescription::name, {}, "name of the drone")
+          .Number("mass", &DroneDescription::mass, Range::Positive(), "mass (kg)")
+          .Required()
+          .Vector3("inertia", &DroneDescription::inertia,
+                   "principal moments of inertia, body axes (kg·m²); each > 0 and at most the "
+                   "sum of the other two")
+          .Required()
+          .Number("arm_length", &DroneDescription::arm_length, Range::Positive(),
+                  "centre of mass to rotor axis (m)")
+          .Required()
+          .Choice("configuration", &DroneDescription::configuration,
+                  "rotors at ±45°/±135° (`x`) or on the body axes (`plus`)")
+          .Required()
+          .Custom(
+              {"rotor", "map", "", "", "rotor speeds and coefficients (see Drone: rotor)"},
+              [](const YamlMap& m, DroneDescription& d) { RotorFields().Read(m.Map("rotor"), d); },
+              [](YAML::Emitter& out, const DroneDescription& d) {
+                out << YAML::Key << "rotor" << YAML::Value;
+                RotorFields().Write(out, d);
+              })
+          .Required()
+          .Vector3("drag", &DroneDescription::linear_drag,
+                   "linear drag per body axis (N·s/m), each ≥ 0")
+          .Custom(
+              {"collision", "map", "", "",
+               "collision body: `{shape: sphere, radius}` or `{shape: box, half_extents}` "
+               "(see Drone: collision)"},
+              [](const YamlMap& m, DroneDescription& d) {
+                const YamlMap collision = m.Map("collision");
+                CollisionFieldsOf(ReadEnum<CollisionShapeKind>(collision, "shape", std::nullopt))
+                    .Read(collision, d);
+              },
+              [](YAML::Emitter& out, const DroneDescription& d) {
+                out << YAML::Key << "collision" << YAML::Value;
+                CollisionFieldsOf(d.collision_shape).Write(out, d);
+              })
+          .Required()
+          .Number("max_speed", &DroneDescription::max_speed, Range::Positive(),
+                  "top speed the world must handle (m/s)")
+          .Nested("controller", &DroneDescription::gains, ControllerFields(),
+                  "SE(3) tracking-controller gains (see Drone: controller)");
+  return fields;
+}
 
 double DroneDescription::ThrustToWeight() const {
   return 4.0 * thrust_coefficient * max_rotor_speed * max_rotor_speed / (mass * kGravity);
@@ -42,7 +160,7 @@ double DroneDescription::InscribedRadius() const {
 
 void DroneDescription::Validate(const std::string& origin, const std::string& key_prefix) const {
   const auto K = [&key_prefix](const char* key) { return key_prefix + key; };
-  CheckInRange(mass, Range::Positive(), origin, K("mass"));
+  DroneFields().Check(*this, origin, key_prefix);  // mass, arm_length, max_speed
   CheckPositiveVector(inertia, origin, K("inertia"));
   // A rigid body's principal moments obey the triangle inequality.
   for (int i = 0; i < 3; ++i) {
@@ -54,14 +172,10 @@ void DroneDescription::Validate(const std::string& origin, const std::string& ke
       throw ConfigError(origin, K("inertia"), s.str());
     }
   }
-  CheckInRange(arm_length, Range::Positive(), origin, K("arm_length"));
-  CheckInRange(min_rotor_speed, Range::NonNegative(), origin, K("rotor.min_speed_rpm"));
+  RotorFields().Check(*this, origin, K("rotor."));
   CheckInRange(max_rotor_speed,
                {min_rotor_speed, std::numeric_limits<double>::infinity(), true, false}, origin,
                K("rotor.max_speed_rpm"));
-  CheckInRange(thrust_coefficient, Range::Positive(), origin, K("rotor.thrust_coefficient"));
-  CheckInRange(torque_coefficient, Range::Positive(), origin, K("rotor.torque_coefficient"));
-  CheckInRange(motor_time_constant, Range::Positive(), origin, K("rotor.time_constant"));
   if (!(ThrustToWeight() > 1.0)) {
     std::ostringstream s;
     s << "thrust-to-weight ratio at max_speed_rpm is " << ThrustToWeight()
@@ -77,12 +191,10 @@ void DroneDescription::Validate(const std::string& origin, const std::string& ke
     throw ConfigError(origin, K("rotor.min_speed_rpm"), s.str());
   }
   CheckPositiveVector(linear_drag, origin, K("drag"), /*allow_zero=*/true);
-  if (collision_shape == CollisionShapeKind::kSphere) {
-    CheckInRange(collision_radius, Range::Positive(), origin, K("collision.radius"));
-  } else {
+  CollisionFieldsOf(collision_shape).Check(*this, origin, K("collision."));
+  if (collision_shape == CollisionShapeKind::kBox) {
     CheckPositiveVector(collision_half_extents, origin, K("collision.half_extents"));
   }
-  CheckInRange(max_speed, Range::Positive(), origin, K("max_speed"));
   CheckPositiveVector(gains.position, origin, K("controller.position_gain"));
   CheckPositiveVector(gains.velocity, origin, K("controller.velocity_gain"));
   CheckPositiveVector(gains.attitude, origin, K("controller.attitude_gain"));
@@ -90,50 +202,8 @@ void DroneDescription::Validate(const std::string& origin, const std::string& ke
 }
 
 DroneDescription DroneDescription::FromYaml(const YamlMap& map) {
-  map.RejectUnknownKeys({"name", "mass", "inertia", "arm_length", "configuration", "rotor", "drag",
-                         "collision", "max_speed", "controller"});
-  DroneDescription d;
-  const std::string& file = map.file();
-  d.name = map.String("name", d.name);
-  d.mass = map.Number("mass", std::nullopt, Range::Positive());
-  d.inertia = map.Vector3("inertia");
-  d.arm_length = map.Number("arm_length", std::nullopt, Range::Positive());
-  const std::string config = map.String("configuration", std::nullopt, {"x", "plus"});
-  d.configuration = config == "x" ? RotorConfiguration::kX : RotorConfiguration::kPlus;
-
-  const YamlMap rotor = map.Map("rotor");
-  rotor.RejectUnknownKeys({"min_speed_rpm", "max_speed_rpm", "thrust_coefficient",
-                           "torque_coefficient", "time_constant"});
-  d.min_rotor_speed = rotor.Number("min_speed_rpm", std::nullopt, Range::NonNegative());
-  d.max_rotor_speed = rotor.Number("max_speed_rpm", std::nullopt, Range::Positive());
-  d.thrust_coefficient = rotor.Number("thrust_coefficient", std::nullopt, Range::Positive());
-  d.torque_coefficient = rotor.Number("torque_coefficient", std::nullopt, Range::Positive());
-  d.motor_time_constant = rotor.Number("time_constant", std::nullopt, Range::Positive());
-
-  d.linear_drag = map.Vector3("drag", d.linear_drag);
-
-  const YamlMap collision = map.Map("collision");
-  const std::string shape = collision.String("shape", std::nullopt, {"sphere", "box"});
-  if (shape == "sphere") {
-    collision.RejectUnknownKeys({"shape", "radius"});
-    d.collision_shape = CollisionShapeKind::kSphere;
-    d.collision_radius = collision.Number("radius", std::nullopt, Range::Positive());
-  } else {
-    collision.RejectUnknownKeys({"shape", "half_extents"});
-    d.collision_shape = CollisionShapeKind::kBox;
-    d.collision_half_extents = collision.Vector3("half_extents");
-  }
-  d.max_speed = map.Number("max_speed", d.max_speed, Range::Positive());
-
-  const YamlMap gains = map.Map("controller", /*optional=*/true);
-  gains.RejectUnknownKeys(
-      {"position_gain", "velocity_gain", "attitude_gain", "angular_rate_gain"});
-  d.gains.position = gains.Vector3("position_gain", d.gains.position);
-  d.gains.velocity = gains.Vector3("velocity_gain", d.gains.velocity);
-  d.gains.attitude = gains.Vector3("attitude_gain", d.gains.attitude);
-  d.gains.angular_rate = gains.Vector3("angular_rate_gain", d.gains.angular_rate);
-
-  d.Validate(file, map.path().empty() ? "" : map.path() + ".");
+  const DroneDescription d = DroneFields().Read(map);
+  d.Validate(map.file(), map.path().empty() ? "" : map.path() + ".");
   return d;
 }
 

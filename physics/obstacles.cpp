@@ -10,15 +10,8 @@
 namespace quadtune::physics {
 
 std::string ObstacleId::ToString() const {
-  switch (kind) {
-    case ObstacleKind::kGround:
-      return "ground";
-    case ObstacleKind::kCylinder:
-      return "cylinders[" + std::to_string(index) + "]";
-    case ObstacleKind::kRing:
-      return "rings[" + std::to_string(index) + "]";
-  }
-  return "unknown";
+  const std::string name = quadtune::ToString(kind);
+  return kind == ObstacleKind::kGround ? name : name + "[" + std::to_string(index) + "]";
 }
 
 Eigen::Vector3d RingObstacle::Axis_W() const { return {std::cos(yaw), std::sin(yaw), 0.0}; }

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "quadtune/common/error.hpp"
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/yaml.hpp"
 
@@ -40,80 +41,79 @@ void Tag(btCollisionObject& object, ObstacleKind kind, int index) {
 
 }  // namespace
 
-void WorldOptions::Validate(const std::string& origin) const {
-  CheckInRange(physics_rate_hz, Range::Closed(100.0, 20000.0), origin, "physics_rate_hz");
+const Fields<MeasurementNoise>& MeasurementNoiseFields() {
+  static const Fields<MeasurementNoise> fields =
+      Fields<MeasurementNoise>()
+          .Number("position", &MeasurementNoise::position, Range::NonNegative(),
+                  "std-dev of the position noise per axis (m)")
+          .Number("velocity", &MeasurementNoise::velocity, Range::NonNegative(),
+                  "std-dev of the velocity noise per axis (m/s)")
+          .Number("attitude", &MeasurementNoise::attitude, Range::NonNegative(),
+                  "std-dev per axis of a small rotation applied to the attitude (rad)")
+          .Number("angular_velocity", &MeasurementNoise::angular_velocity, Range::NonNegative(),
+                  "std-dev of the body-rate noise per body axis (rad/s)");
+  return fields;
+}
+
+const Fields<WorldOptions>& WorldFields() {
+  static const Fields<WorldOptions> fields =
+      Fields<WorldOptions>()
+          .Number("physics_rate_hz", &WorldOptions::physics_rate_hz, Range::Closed(100.0, 20000.0),
+                  "Bullet and motor integration rate (Hz)")
+          .Number("controller_rate_hz", &WorldOptions::controller_rate_hz, Range::Positive(),
+                  "controller rate (Hz); at most `physics_rate_hz`, which it must divide into a "
+                  "whole number of physics steps")
+          .Number("gravity", &WorldOptions::gravity, Range::Positive(), "gravity along −z (m/s²)")
+          .Choice("collision_response", &WorldOptions::collision_response,
+                  "what a contact does: `physical` (Bullet resolves it) or `pass_through` "
+                  "(contacts counted, the drone flies on); experiments force `pass_through`")
+          .Number("contact_release_time", &WorldOptions::contact_release_time, Range::NonNegative(),
+                  "a bounce and re-contact within it is one collision episode (s)")
+          .Integer("collision_pool_size", &WorldOptions::collision_pool_size,
+                   Range::Closed(8, 4096), "Bullet manifold pool entries")
+          .Number("ring_max_error", &WorldOptions::ring_max_error, {0.0, 0.05, true, false},
+                  "deviation of the capsule ring from the torus (m)")
+          .Number("obstacle_margin", &WorldOptions::obstacle_margin, {0.0, 0.05, true, false},
+                  "Bullet collision margin of cylinders (m)")
+          .Vector3("wind", &WorldOptions::wind_W, "constant wind (m/s)")
+          .Number("gust_stddev", &WorldOptions::gust_stddev, Range::NonNegative(),
+                  "stationary std-dev of each gust component (m/s)")
+          .Number("gust_time_constant", &WorldOptions::gust_time_constant, Range::Positive(),
+                  "Ornstein–Uhlenbeck correlation time of gusts (s)")
+          .Number("force_noise", &WorldOptions::force_noise, Range::NonNegative(),
+                  "std-dev of a white force disturbance per axis (N)")
+          .Number("torque_noise", &WorldOptions::torque_noise, Range::NonNegative(),
+                  "std-dev of a white torque disturbance per axis (N·m)")
+          .Nested("measurement_noise", &WorldOptions::measurement_noise, MeasurementNoiseFields(),
+                  "noise on the state the controller sees (std-devs; see World: "
+                  "measurement_noise)")
+          .Number("mass_scale", &WorldOptions::mass_scale, Range::Closed(0.2, 5.0),
+                  "true mass / described mass (model mismatch)")
+          .Flag("motor_lag", &WorldOptions::motor_lag,
+                "false: rotors reach commanded speeds at once")
+          .Integer("seed", &WorldOptions::seed, Range::NonNegative(),
+                   "seed of every random stream of the world");
+  return fields;
+}
+
+void WorldOptions::Validate(const std::string& origin, const std::string& key_prefix) const {
+  WorldFields().Check(*this, origin, key_prefix);
   CheckInRange(controller_rate_hz, {0.0, physics_rate_hz, true, false}, origin,
-               "controller_rate_hz");
+               key_prefix + "controller_rate_hz");
   const double ratio = physics_rate_hz / controller_rate_hz;
   if (std::abs(ratio - std::round(ratio)) > 1e-9 * ratio) {
-    throw ConfigError(origin, "controller_rate_hz",
+    throw ConfigError(origin, key_prefix + "controller_rate_hz",
                       "must divide physics_rate_hz (" + std::to_string(physics_rate_hz) +
                           " Hz) into a whole number of physics steps");
   }
-  CheckInRange(gravity, Range::Positive(), origin, "gravity");
-  CheckInRange(contact_release_time, Range::NonNegative(), origin, "contact_release_time");
-  CheckInRange(collision_pool_size, Range::Closed(8, 4096), origin, "collision_pool_size");
-  CheckInRange(ring_max_error, {0.0, 0.05, true, false}, origin, "ring_max_error");
-  CheckInRange(obstacle_margin, {0.0, 0.05, true, false}, origin, "obstacle_margin");
   for (int i = 0; i < 3; ++i) {
-    CheckInRange(wind_W[i], Range::Any(), origin, "wind[" + std::to_string(i) + "]");
+    CheckInRange(wind_W[i], Range::Any(), origin, key_prefix + "wind[" + std::to_string(i) + "]");
   }
-  CheckInRange(gust_stddev, Range::NonNegative(), origin, "gust_stddev");
-  CheckInRange(gust_time_constant, Range::Positive(), origin, "gust_time_constant");
-  CheckInRange(force_noise, Range::NonNegative(), origin, "force_noise");
-  CheckInRange(torque_noise, Range::NonNegative(), origin, "torque_noise");
-  CheckInRange(measurement_noise.position, Range::NonNegative(), origin,
-               "measurement_noise.position");
-  CheckInRange(measurement_noise.velocity, Range::NonNegative(), origin,
-               "measurement_noise.velocity");
-  CheckInRange(measurement_noise.attitude, Range::NonNegative(), origin,
-               "measurement_noise.attitude");
-  CheckInRange(measurement_noise.angular_velocity, Range::NonNegative(), origin,
-               "measurement_noise.angular_velocity");
-  CheckInRange(mass_scale, Range::Closed(0.2, 5.0), origin, "mass_scale");
 }
 
 WorldOptions WorldOptions::FromYaml(const YamlMap& map) {
-  map.RejectUnknownKeys({"physics_rate_hz", "controller_rate_hz", "gravity", "collision_response",
-                         "contact_release_time", "collision_pool_size", "ring_max_error",
-                         "obstacle_margin", "wind", "gust_stddev", "gust_time_constant",
-                         "force_noise", "torque_noise", "measurement_noise", "mass_scale",
-                         "motor_lag", "seed"});
-  WorldOptions o;
-  o.physics_rate_hz = map.Number("physics_rate_hz", o.physics_rate_hz);
-  o.controller_rate_hz = map.Number("controller_rate_hz", o.controller_rate_hz);
-  o.gravity = map.Number("gravity", o.gravity);
-  o.collision_response = map.String("collision_response", "physical",
-                                    {"physical", "pass_through"}) == "physical"
-                             ? CollisionResponse::kPhysical
-                             : CollisionResponse::kPassThrough;
-  o.contact_release_time = map.Number("contact_release_time", o.contact_release_time);
-  o.collision_pool_size = static_cast<int>(map.Integer("collision_pool_size", o.collision_pool_size));
-  o.ring_max_error = map.Number("ring_max_error", o.ring_max_error);
-  o.obstacle_margin = map.Number("obstacle_margin", o.obstacle_margin);
-  o.wind_W = map.Vector3("wind", o.wind_W);
-  o.gust_stddev = map.Number("gust_stddev", o.gust_stddev);
-  o.gust_time_constant = map.Number("gust_time_constant", o.gust_time_constant);
-  o.force_noise = map.Number("force_noise", o.force_noise);
-  o.torque_noise = map.Number("torque_noise", o.torque_noise);
-  const YamlMap noise = map.Map("measurement_noise", /*optional=*/true);
-  noise.RejectUnknownKeys({"position", "velocity", "attitude", "angular_velocity"});
-  o.measurement_noise.position = noise.Number("position", 0.0);
-  o.measurement_noise.velocity = noise.Number("velocity", 0.0);
-  o.measurement_noise.attitude = noise.Number("attitude", 0.0);
-  o.measurement_noise.angular_velocity = noise.Number("angular_velocity", 0.0);
-  o.mass_scale = map.Number("mass_scale", o.mass_scale);
-  o.motor_lag = map.Bool("motor_lag", o.motor_lag);
-  o.seed = static_cast<std::uint64_t>(map.Integer("seed", 0, Range::NonNegative()));
-  try {
-    o.Validate(map.file());
-  } catch (const ConfigError& e) {
-    if (map.path().empty()) throw;
-    // Name the key by its full path inside the file.
-    const std::string what = e.what();
-    const std::size_t skip = (e.file().empty() ? 0 : e.file().size() + 2) + e.key().size() + 2;
-    throw ConfigError(map.file(), map.KeyPath(e.key()), what.substr(std::min(skip, what.size())));
-  }
+  const WorldOptions o = WorldFields().Read(map);
+  o.Validate(map.file(), map.path().empty() ? "" : map.path() + ".");
   return o;
 }
 

@@ -3,11 +3,14 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <functional>
 #include <numbers>
 #include <sstream>
 
 #include "quadtune/common/error.hpp"
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/yaml.hpp"
 
 namespace quadtune::layout {
@@ -31,9 +34,6 @@ class Checker {
   [[noreturn]] void Fail(const std::string& key, const std::string& message) const {
     throw ConfigError(file_, Key(key), message);
   }
-  void InRange(double v, const Range& range, const std::string& key) const {
-    CheckInRange(v, range, file_, Key(key));
-  }
   void Finite(const Eigen::Vector2d& v, const std::string& key) const {
     if (!v.allFinite()) Fail(key, "every coordinate must be a finite number");
   }
@@ -52,6 +52,8 @@ class Checker {
     }
   }
   [[nodiscard]] Checker Sub(const std::string& key) const { return {file_, Key(key)}; }
+  // The prefix Fields::Check puts before a key: "prefix." (or nothing).
+  [[nodiscard]] std::string Prefix() const { return prefix_.empty() ? "" : prefix_ + "."; }
   [[nodiscard]] const std::string& file() const { return file_; }
 
  private:
@@ -59,8 +61,8 @@ class Checker {
   std::string prefix_;
 };
 
-void ValidateMix(const ObstacleMix& mix, const Checker& c) {
-  c.InRange(mix.ring_fraction, Range::Closed(0.0, 1.0), "ring_fraction");
+// The interval rules of a mixture (ring_fraction is checked by ObstacleMixFields()).
+void ValidateIntervals(const ObstacleMix& mix, const Checker& c) {
   const Range finite = Range::Any();
   c.CheckInterval(mix.cylinder.radius, Range::Positive(), "cylinder.radius");
   c.CheckInterval(mix.cylinder.height, Range::Positive(), "cylinder.height");
@@ -75,67 +77,237 @@ void ValidateMix(const ObstacleMix& mix, const Checker& c) {
   c.CheckInterval(mix.ring.yaw, finite, "ring.yaw");
 }
 
-Interval ReadInterval(const YamlMap& m, std::string_view key, const Interval& fallback) {
-  if (!m.Has(key)) return fallback;
-  const std::vector<double> v = m.Numbers(key, 2);
-  return {v[0], v[1]};
+using Pair = std::array<double, 2>;
+
+// A key holding two numbers `[a, b]`: `get` takes them from a T, `set` stores them in one.
+// Absent: the T keeps its values, or an error when `required`.
+template <class T>
+void AddPair(Fields<T>& fields, const std::string& key, std::string type, std::string allowed,
+             std::string meaning, bool required, std::function<Pair(const T&)> get,
+             std::function<void(T&, const Pair&)> set) {
+  const Pair d = get(T{});
+  fields.Custom(
+      {key, std::move(type), "[" + FormatNumber(d[0]) + ", " + FormatNumber(d[1]) + "]",
+       std::move(allowed), std::move(meaning)},
+      [key, required, set](const YamlMap& m, T& t) {
+        if (!required && !m.Has(key)) return;
+        const std::vector<double> v = m.Numbers(key, 2);
+        set(t, {v[0], v[1]});
+      },
+      [key, get](YAML::Emitter& out, const T& t) {
+        const Pair v = get(t);
+        out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginSeq << v[0] << v[1]
+            << YAML::EndSeq;
+      });
+  if (required) fields.Required();
 }
 
-Eigen::Vector2d ReadVector2(const YamlMap& m, std::string_view key, const Eigen::Vector2d& fallback,
-                            bool required = false) {
-  if (!m.Has(key) && !required) return fallback;
-  const std::vector<double> v = m.Numbers(key, 2);
-  return {v[0], v[1]};
+template <class T>
+void AddInterval(Fields<T>& fields, const std::string& key, Interval T::*member,
+                 std::string allowed, std::string meaning) {
+  AddPair<T>(
+      fields, key, "[min, max]", std::move(allowed), std::move(meaning), /*required=*/false,
+      [member](const T& t) {
+        return Pair{(t.*member).min, (t.*member).max};
+      },
+      [member](T& t, const Pair& v) {
+        t.*member = {v[0], v[1]};
+      });
 }
 
-ObstacleMix ReadMix(const YamlMap& m, const ObstacleMix& base) {
-  m.RejectUnknownKeys({"ring_fraction", "cylinder", "ring"});
-  ObstacleMix mix = base;
-  mix.ring_fraction = m.Number("ring_fraction", base.ring_fraction, Range::Closed(0.0, 1.0));
-  const YamlMap cyl = m.Map("cylinder", true);
-  cyl.RejectUnknownKeys({"radius", "height"});
-  mix.cylinder.radius = ReadInterval(cyl, "radius", base.cylinder.radius);
-  mix.cylinder.height = ReadInterval(cyl, "height", base.cylinder.height);
-  const YamlMap ring = m.Map("ring", true);
-  ring.RejectUnknownKeys({"radius", "thickness", "center_height", "yaw"});
-  mix.ring.radius = ReadInterval(ring, "radius", base.ring.radius);
-  mix.ring.thickness = ReadInterval(ring, "thickness", base.ring.thickness);
-  mix.ring.center_height = ReadInterval(ring, "center_height", base.ring.center_height);
-  mix.ring.yaw = ReadInterval(ring, "yaw", base.ring.yaw);
-  return mix;
+template <class T>
+void AddVector2(Fields<T>& fields, const std::string& key, Eigen::Vector2d T::*member,
+                std::string meaning, bool required = false) {
+  AddPair<T>(
+      fields, key, "[x, y]", "", std::move(meaning), required,
+      [member](const T& t) {
+        return Pair{(t.*member).x(), (t.*member).y()};
+      },
+      [member](T& t, const Pair& v) {
+        t.*member = {v[0], v[1]};
+      });
 }
 
-void EmitInterval(YAML::Emitter& out, const char* key, const Interval& iv) {
-  out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginSeq << iv.min << iv.max
-      << YAML::EndSeq;
-}
-
-void EmitVector(YAML::Emitter& out, const char* key, const double* v, int n) {
-  out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginSeq;
-  for (int i = 0; i < n; ++i) out << v[i];
-  out << YAML::EndSeq;
-}
-
-void EmitMix(YAML::Emitter& out, const ObstacleMix& mix) {
-  out << YAML::BeginMap;
-  out << YAML::Key << "ring_fraction" << YAML::Value << mix.ring_fraction;
-  out << YAML::Key << "cylinder" << YAML::Value << YAML::BeginMap;
-  EmitInterval(out, "radius", mix.cylinder.radius);
-  EmitInterval(out, "height", mix.cylinder.height);
-  out << YAML::EndMap;
-  out << YAML::Key << "ring" << YAML::Value << YAML::BeginMap;
-  EmitInterval(out, "radius", mix.ring.radius);
-  EmitInterval(out, "thickness", mix.ring.thickness);
-  EmitInterval(out, "center_height", mix.ring.center_height);
-  EmitInterval(out, "yaw", mix.ring.yaw);
-  out << YAML::EndMap;
-  out << YAML::EndMap;
+// A key holding a list of maps, each read and written by `item`; present, it replaces the
+// list. Each item is read over `first(t)`.
+template <class T, class I>
+void AddList(Fields<T>& fields, FieldDoc doc, std::vector<I> T::*member, const Fields<I>& item,
+             bool flow_items, std::function<I(const T&)> first) {
+  const std::string key = doc.key;
+  fields.Custom(
+      std::move(doc),
+      [key, member, &item, first](const YamlMap& m, T& t) {
+        if (!m.Has(key)) return;
+        std::vector<I> items;
+        for (const YamlMap& map : m.Maps(key)) {
+          I value = first(t);
+          item.Read(map, value);
+          items.push_back(std::move(value));
+        }
+        t.*member = std::move(items);
+      },
+      [key, member, &item, flow_items](YAML::Emitter& out, const T& t) {
+        out << YAML::Key << key << YAML::Value << YAML::BeginSeq;
+        for (const I& value : t.*member) {
+          if (flow_items) out << YAML::Flow;
+          item.Write(out, value);
+        }
+        out << YAML::EndSeq;
+      });
 }
 
 }  // namespace
 
-const char* ToString(DensityDefinition d) {
-  return d == DensityDefinition::kArea ? "area" : "nearest_neighbour";
+const Fields<Region>& RegionFields() {
+  static const Fields<Region> fields = [] {
+    Fields<Region> f;
+    AddVector2(f, "min", &Region::min_W, "lower-left corner (m)");
+    AddVector2(f, "max", &Region::max_W,
+               "upper-right corner (m), above `min` in x and in y; the rectangle holds every "
+               "footprint");
+    return f;
+  }();
+  return fields;
+}
+
+const Fields<Mission>& MissionFields() {
+  static const Fields<Mission> fields =
+      Fields<Mission>()
+          .Vector3("start", &Mission::start_W, "start of the flight the layout is made for (m)")
+          .Vector3("goal", &Mission::goal_W, "goal of the flight the layout is made for (m)")
+          .Number("keep_out_radius", &Mission::keep_out_radius, Range::NonNegative(),
+                  "radius of the keep-out cylinders around start and goal (m); 0: none");
+  return fields;
+}
+
+const Fields<KeepOutZone>& KeepOutFields() {
+  static const Fields<KeepOutZone> fields = [] {
+    Fields<KeepOutZone> f;
+    AddVector2(f, "center", &KeepOutZone::center_W, "axis position (m)", /*required=*/true);
+    f.Number("radius", &KeepOutZone::radius, Range::Positive(), "radius (m)").Required();
+    return f;
+  }();
+  return fields;
+}
+
+const Fields<CylinderShape>& CylinderShapeFields() {
+  static const Fields<CylinderShape> fields = [] {
+    Fields<CylinderShape> f;
+    AddInterval(f, "radius", &CylinderShape::radius, "(0, inf)", "cylinder radius range (m)");
+    AddInterval(f, "height", &CylinderShape::height, "(0, inf)",
+                "cylinder height range (m); cylinders stand on the ground");
+    return f;
+  }();
+  return fields;
+}
+
+const Fields<RingShape>& RingShapeFields() {
+  static const Fields<RingShape> fields = [] {
+    Fields<RingShape> f;
+    AddInterval(f, "radius", &RingShape::radius, "(0, inf)", "ring (major) radius range (m)");
+    AddInterval(f, "thickness", &RingShape::thickness, "(0, inf), max < 2 × radius.min",
+                "rim diameter range (m)");
+    AddInterval(f, "center_height", &RingShape::center_height, "",
+                "height range of the hole's centre (m); a ring that would cut the ground is "
+                "raised");
+    AddInterval(f, "yaw", &RingShape::yaw, "",
+                "heading range of the ring's axis from +x about +z (rad); 0 faces a flight "
+                "along +x");
+    return f;
+  }();
+  return fields;
+}
+
+const Fields<ObstacleMix>& ObstacleMixFields() {
+  static const Fields<ObstacleMix> fields =
+      Fields<ObstacleMix>()
+          .Number("ring_fraction", &ObstacleMix::ring_fraction, Range::Closed(0.0, 1.0),
+                  "probability that an obstacle is a ring")
+          .Nested("cylinder", &ObstacleMix::cylinder, CylinderShapeFields(),
+                  "cylinder shape ranges (see Layout: obstacles.cylinder)")
+          .Nested("ring", &ObstacleMix::ring, RingShapeFields(),
+                  "ring shape ranges (see Layout: obstacles.ring)");
+  return fields;
+}
+
+const Fields<ZoneOptions>& ZoneFields() {
+  static const Fields<ZoneOptions> fields = [] {
+    Fields<ZoneOptions> f;
+    AddPair<ZoneOptions>(
+        f, "x_range", "[x_min, x_max]", "x_min < x_max",
+        "the zone's x-interval (m); zones are consecutive and cover the region", /*required=*/true,
+        [](const ZoneOptions& z) {
+          return Pair{z.x_min, z.x_max};
+        },
+        [](ZoneOptions& z, const Pair& v) {
+          z.x_min = v[0];
+          z.x_max = v[1];
+        });
+    f.Number("spacing", &ZoneOptions::spacing, Range::Positive(), "the zone's target spacing (m)")
+        .Required();
+    f.Custom(
+        {"obstacles", "map", "the layout's `obstacles`", "",
+         "the zone's mixture, over the layout's (keys as in `obstacles`)"},
+        [](const YamlMap& m, ZoneOptions& z) {
+          if (!m.Has("obstacles")) {
+            z.obstacles.reset();
+            return;
+          }
+          ObstacleMix mix = z.obstacles.value_or(ObstacleMix{});
+          ObstacleMixFields().Read(m.Map("obstacles"), mix);
+          z.obstacles = mix;
+        },
+        [](YAML::Emitter& out, const ZoneOptions& z) {
+          if (!z.obstacles) return;
+          out << YAML::Key << "obstacles" << YAML::Value;
+          ObstacleMixFields().Write(out, *z.obstacles);
+        });
+    return f;
+  }();
+  return fields;
+}
+
+const Fields<LayoutOptions>& LayoutFields() {
+  static const Fields<LayoutOptions> fields = [] {
+    Fields<LayoutOptions> f;
+    f.Nested("region", &LayoutOptions::region, RegionFields(),
+             "rectangle that holds every footprint (see Layout: region)")
+        .Nested("mission", &LayoutOptions::mission, MissionFields(),
+                "the flight the layout is made for (see Layout: mission)");
+    AddList<LayoutOptions, KeepOutZone>(f,
+                                        {"keep_out", "list of `{center: [x, y], radius}`", "empty",
+                                         "", "further keep-out cylinders (see Layout: keep_out)"},
+                                        &LayoutOptions::keep_out, KeepOutFields(),
+                                        /*flow_items=*/true,
+                                        [](const LayoutOptions&) { return KeepOutZone{}; });
+    f.Number("spacing", &LayoutOptions::spacing, Range::Positive(),
+             "target spacing (m) when `zones` is absent; at least what the obstacles allow side "
+             "by side")
+        .Choice("density", &LayoutOptions::density, "what a spacing means (see Density above)")
+        .Nested("obstacles", &LayoutOptions::obstacles, ObstacleMixFields(),
+                "the obstacle mixture (see Layout: obstacles)");
+    AddList<LayoutOptions, ZoneOptions>(
+        f,
+        {"zones", "list of `{x_range: [a, b], spacing, obstacles}`", "one zone over the region",
+         "consecutive x-intervals covering the region",
+         "density zones, each with its own spacing and optional mixture (see Layout: zones)"},
+        &LayoutOptions::zones, ZoneFields(), /*flow_items=*/false, [](const LayoutOptions& o) {
+          ZoneOptions zone;
+          zone.obstacles = o.obstacles;  // a zone's mixture starts from the layout's
+          return zone;
+        });
+    f.Number("min_gap", &LayoutOptions::min_gap, Range::NonNegative(),
+             "least distance between two footprints (m)")
+        .Number("hard_core_ratio", &LayoutOptions::hard_core_ratio, {0.0, 0.9, true, false},
+                "no two centres of a zone closer than this times its spacing")
+        .Number("tolerance", &LayoutOptions::tolerance, {0.0, 0.1, true, false},
+                "relative tolerance on the achieved spacing (`nearest_neighbour` only)")
+        .Integer("max_rejections", &LayoutOptions::max_rejections, Range::Closed(100.0, 1e8),
+                 "darts rejected in a row before a zone is declared impossible")
+        .Flag("ground", &LayoutOptions::ground, "ground plane at z = 0");
+    return f;
+  }();
+  return fields;
 }
 
 double LayoutOptions::TargetCount(const ZoneOptions& zone) const {
@@ -173,12 +345,14 @@ std::vector<KeepOutZone> LayoutOptions::AllKeepOutZones() const {
 
 void LayoutOptions::Validate(const std::string& file, const std::string& key_prefix) const {
   const Checker c(file, key_prefix);
-  // Scalars.
-  c.InRange(spacing, Range::Positive(), "spacing");
-  c.InRange(min_gap, Range::NonNegative(), "min_gap");
-  c.InRange(hard_core_ratio, {0.0, 0.9, true, false}, "hard_core_ratio");
-  c.InRange(tolerance, {0.0, 0.1, true, false}, "tolerance");
-  c.InRange(static_cast<double>(max_rejections), Range::Closed(100.0, 1e8), "max_rejections");
+  // Numbers and their ranges (every mixture's ring_fraction included).
+  LayoutFields().Check(*this, file, c.Prefix());
+  for (std::size_t i = 0; i < zones.size(); ++i) {
+    if (zones[i].obstacles) {
+      ObstacleMixFields().Check(*zones[i].obstacles, file,
+                                c.Sub("zones[" + std::to_string(i) + "].obstacles").Prefix());
+    }
+  }
   // Region and mission.
   c.Finite(region.min_W, "region.min");
   c.Finite(region.max_W, "region.max");
@@ -187,17 +361,16 @@ void LayoutOptions::Validate(const std::string& file, const std::string& key_pre
   }
   c.Finite(mission.start_W, "mission.start");
   c.Finite(mission.goal_W, "mission.goal");
-  c.InRange(mission.keep_out_radius, Range::NonNegative(), "mission.keep_out_radius");
   for (std::size_t i = 0; i < keep_out.size(); ++i) {
-    const std::string k = "keep_out[" + std::to_string(i) + "]";
-    c.Finite(keep_out[i].center_W, k + ".center");
-    c.InRange(keep_out[i].radius, Range::Positive(), k + ".radius");
+    const Checker k = c.Sub("keep_out[" + std::to_string(i) + "]");
+    k.Finite(keep_out[i].center_W, "center");
+    KeepOutFields().Check(keep_out[i], file, k.Prefix());
   }
   // Obstacle mixtures.
-  ValidateMix(obstacles, c.Sub("obstacles"));
+  ValidateIntervals(obstacles, c.Sub("obstacles"));
   for (std::size_t i = 0; i < zones.size(); ++i) {
     if (zones[i].obstacles) {
-      ValidateMix(*zones[i].obstacles, c.Sub("zones[" + std::to_string(i) + "].obstacles"));
+      ValidateIntervals(*zones[i].obstacles, c.Sub("zones[" + std::to_string(i) + "].obstacles"));
     }
   }
   // Zones: consecutive x-intervals covering the region.
@@ -220,7 +393,7 @@ void LayoutOptions::Validate(const std::string& file, const std::string& key_pre
       c.Fail(k + ".x_range", "the last zone ends at x = " + Num(z.x_max) + " but must end at " +
                                  Num(region.max_W.x()) + " (region.max x)");
     }
-    c.InRange(z.spacing, Range::Positive(), k + ".spacing");
+    ZoneFields().Check(z, file, c.Sub(k).Prefix());
   }
   // Densities the obstacles allow, and a region large enough for them.
   const std::vector<ZoneOptions> effective = EffectiveZones();
@@ -266,48 +439,7 @@ void LayoutOptions::Validate(const std::string& file, const std::string& key_pre
 }
 
 LayoutOptions LayoutOptions::FromYaml(const YamlMap& map) {
-  map.RejectUnknownKeys({"region", "mission", "keep_out", "spacing", "density", "obstacles",
-                         "zones", "min_gap", "hard_core_ratio", "tolerance", "max_rejections",
-                         "ground"});
-  LayoutOptions o;
-  const YamlMap region = map.Map("region", true);
-  region.RejectUnknownKeys({"min", "max"});
-  o.region.min_W = ReadVector2(region, "min", o.region.min_W);
-  o.region.max_W = ReadVector2(region, "max", o.region.max_W);
-
-  const YamlMap mission = map.Map("mission", true);
-  mission.RejectUnknownKeys({"start", "goal", "keep_out_radius"});
-  o.mission.start_W = mission.Vector3("start", o.mission.start_W);
-  o.mission.goal_W = mission.Vector3("goal", o.mission.goal_W);
-  o.mission.keep_out_radius =
-      mission.Number("keep_out_radius", o.mission.keep_out_radius, Range::NonNegative());
-
-  for (const YamlMap& k : map.Maps("keep_out")) {
-    k.RejectUnknownKeys({"center", "radius"});
-    o.keep_out.push_back({ReadVector2(k, "center", {}, /*required=*/true),
-                          k.Number("radius", std::nullopt, Range::Positive())});
-  }
-
-  o.spacing = map.Number("spacing", o.spacing, Range::Positive());
-  o.density = map.String("density", "area", {"area", "nearest_neighbour"}) == "area"
-                  ? DensityDefinition::kArea
-                  : DensityDefinition::kNearestNeighbour;
-  o.obstacles = ReadMix(map.Map("obstacles", true), o.obstacles);
-  for (const YamlMap& z : map.Maps("zones")) {
-    z.RejectUnknownKeys({"x_range", "spacing", "obstacles"});
-    ZoneOptions zone;
-    const std::vector<double> x = z.Numbers("x_range", 2);
-    zone.x_min = x[0];
-    zone.x_max = x[1];
-    zone.spacing = z.Number("spacing", std::nullopt, Range::Positive());
-    if (z.Has("obstacles")) zone.obstacles = ReadMix(z.Map("obstacles"), o.obstacles);
-    o.zones.push_back(zone);
-  }
-  o.min_gap = map.Number("min_gap", o.min_gap, Range::NonNegative());
-  o.hard_core_ratio = map.Number("hard_core_ratio", o.hard_core_ratio, {0.0, 0.9, true, false});
-  o.tolerance = map.Number("tolerance", o.tolerance, {0.0, 0.1, true, false});
-  o.max_rejections = map.Integer("max_rejections", o.max_rejections, Range::Closed(100.0, 1e8));
-  o.ground = map.Bool("ground", o.ground);
+  const LayoutOptions o = LayoutFields().Read(map);
   o.Validate(map.file(), map.path());
   return o;
 }
@@ -318,47 +450,7 @@ LayoutOptions LayoutOptions::LoadFile(const std::string& path) {
 
 void LayoutOptions::ToYaml(YAML::Emitter& out) const {
   SetExactDoubles(out);
-  out << YAML::BeginMap;
-  out << YAML::Key << "region" << YAML::Value << YAML::BeginMap;
-  EmitVector(out, "min", region.min_W.data(), 2);
-  EmitVector(out, "max", region.max_W.data(), 2);
-  out << YAML::EndMap;
-  out << YAML::Key << "mission" << YAML::Value << YAML::BeginMap;
-  EmitVector(out, "start", mission.start_W.data(), 3);
-  EmitVector(out, "goal", mission.goal_W.data(), 3);
-  out << YAML::Key << "keep_out_radius" << YAML::Value << mission.keep_out_radius;
-  out << YAML::EndMap;
-  out << YAML::Key << "keep_out" << YAML::Value << YAML::BeginSeq;
-  for (const KeepOutZone& k : keep_out) {
-    out << YAML::Flow << YAML::BeginMap;
-    EmitVector(out, "center", k.center_W.data(), 2);
-    out << YAML::Key << "radius" << YAML::Value << k.radius;
-    out << YAML::EndMap;
-  }
-  out << YAML::EndSeq;
-  out << YAML::Key << "spacing" << YAML::Value << spacing;
-  out << YAML::Key << "density" << YAML::Value << ToString(density);
-  out << YAML::Key << "obstacles" << YAML::Value;
-  EmitMix(out, obstacles);
-  out << YAML::Key << "zones" << YAML::Value << YAML::BeginSeq;
-  for (const ZoneOptions& z : zones) {
-    out << YAML::BeginMap;
-    const double x[2] = {z.x_min, z.x_max};
-    EmitVector(out, "x_range", x, 2);
-    out << YAML::Key << "spacing" << YAML::Value << z.spacing;
-    if (z.obstacles) {
-      out << YAML::Key << "obstacles" << YAML::Value;
-      EmitMix(out, *z.obstacles);
-    }
-    out << YAML::EndMap;
-  }
-  out << YAML::EndSeq;
-  out << YAML::Key << "min_gap" << YAML::Value << min_gap;
-  out << YAML::Key << "hard_core_ratio" << YAML::Value << hard_core_ratio;
-  out << YAML::Key << "tolerance" << YAML::Value << tolerance;
-  out << YAML::Key << "max_rejections" << YAML::Value << max_rejections;
-  out << YAML::Key << "ground" << YAML::Value << ground;
-  out << YAML::EndMap;
+  LayoutFields().Write(out, *this);
 }
 
 }  // namespace quadtune::layout

@@ -7,6 +7,7 @@
 
 #include "../config_error_util.hpp"
 #include "quadtune/common/error.hpp"
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/yaml.hpp"
 
 namespace quadtune::layout {
@@ -94,6 +95,17 @@ TEST(LayoutOptions, YamlRoundTripIsExact) {
   YAML::Emitter out;
   o.ToYaml(out);
   EXPECT_EQ(Parse(out.c_str()), o);
+}
+
+TEST(LayoutOptions, WrittenFieldsOfShippedAssetsReadBackEqual) {
+  for (const char* name : {"forest_1p3.yaml", "changing_density.yaml", "field_40x40.yaml"}) {
+    const LayoutOptions o =
+        LayoutOptions::LoadFile(std::string(QUADTUNE_SOURCE_DIR) + "/assets/layouts/" + name);
+    YAML::Emitter out;
+    SetExactDoubles(out);
+    LayoutFields().Write(out, o);
+    EXPECT_EQ(Parse(out.c_str()), o) << name;
+  }
 }
 
 TEST(LayoutOptions, ShippedAssetsAreValid) {

@@ -163,7 +163,7 @@ TEST(DepthSensor, RejectsBadOptions) {
   o = {};
   o.width = 0;
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { DepthSensor{o}; }, "width",
-                                                  {"allowed: a number in [1, 4096]"}));
+                                                  {"allowed: an integer in [1, 4096]"}));
   o = {};
   o.rate_hz = 0.0;
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { DepthSensor{o}; }, "rate_hz",

@@ -9,6 +9,7 @@
 
 #include "../config_error_util.hpp"
 #include "quadtune/common/error.hpp"
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/yaml.hpp"
 
 namespace quadtune::physics {
@@ -227,6 +228,34 @@ TEST(DroneDescription, AcceptsBoxCollisionShape) {
   EXPECT_EQ(d.collision_shape, CollisionShapeKind::kBox);
   EXPECT_NEAR(d.InscribedRadius(), 0.05, 1e-12);
   EXPECT_NEAR(d.BoundingRadius(), std::sqrt(0.04 + 0.04 + 0.0025), 1e-12);
+}
+
+// DroneFields().Write, read back by FromYaml, gives the same description.
+DroneDescription RoundTrip(const DroneDescription& d) {
+  YAML::Emitter out;
+  SetExactDoubles(out);
+  DroneFields().Write(out, d);
+  return DroneDescription::FromYaml(YamlMap::FromString(out.c_str(), "written.yaml"));
+}
+
+TEST(DroneDescription, WrittenFieldsReadBackEqual) {
+  DroneDescription d = LoadDroneDescription(kDrones + "crazyflie.yaml");
+  d.mass *= 1.0 + 1.0 / 3.0;  // not representable in few digits
+  d.configuration = RotorConfiguration::kPlus;
+  d.gains.attitude.x() = 123.456789012345;
+  EXPECT_EQ(RoundTrip(d), d);
+  DroneDescription box = LoadEdited([](YAML::Node& n) {
+    n["collision"] = YAML::Load("{shape: box, half_extents: [0.2, 0.15, 0.05]}");
+  });
+  EXPECT_EQ(RoundTrip(box), box);
+}
+
+TEST(DroneDescription, EnumNamesAreTheFileSpellings) {
+  EXPECT_STREQ(ToString(RotorConfiguration::kX), "x");
+  EXPECT_EQ(FromString<RotorConfiguration>("plus"), RotorConfiguration::kPlus);
+  EXPECT_STREQ(ToString(CollisionShapeKind::kBox), "box");
+  EXPECT_EQ(FromString<CollisionShapeKind>("sphere"), CollisionShapeKind::kSphere);
+  EXPECT_FALSE(FromString<CollisionShapeKind>("cone").has_value());
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include "../config_error_util.hpp"
 #include "physics_test_util.hpp"
 #include "quadtune/common/error.hpp"
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/yaml.hpp"
 
 namespace quadtune::physics {
@@ -381,6 +382,33 @@ TEST(World, OptionsFromYamlNameNestedKeys) {
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
       [&] { WorldOptions::FromYaml(YamlMap::FromString("physics_hz: 1", "w.yaml")); }, "physics_hz",
       {"unknown key; allowed keys"}));
+}
+
+TEST(World, OptionsWrittenByTheirFieldsReadBackEqual) {
+  WorldOptions o;
+  o.physics_rate_hz = 2000.0;
+  o.controller_rate_hz = 250.0;
+  o.gravity = 9.80665;
+  o.collision_response = CollisionResponse::kPassThrough;
+  o.collision_pool_size = 128;
+  o.wind_W = {1.0 / 3.0, -2.0, 0.5};
+  o.gust_stddev = 0.1 + 1e-12;
+  o.measurement_noise.attitude = 0.01;
+  o.measurement_noise.angular_velocity = 2.0 / 3.0;
+  o.mass_scale = 1.1;
+  o.motor_lag = false;
+  o.seed = 123456789012345ULL;
+  YAML::Emitter out;
+  SetExactDoubles(out);
+  WorldFields().Write(out, o);
+  EXPECT_EQ(WorldOptions::FromYaml(YamlMap::FromString(out.c_str(), "w.yaml")), o);
+}
+
+TEST(World, EnumNamesAreTheFileSpellings) {
+  EXPECT_STREQ(ToString(CollisionResponse::kPassThrough), "pass_through");
+  EXPECT_EQ(FromString<CollisionResponse>("physical"), CollisionResponse::kPhysical);
+  EXPECT_STREQ(ToString(ControlMode::kRotorSpeeds), "rotor_speeds");
+  EXPECT_STREQ(ToString(ObstacleKind::kCylinder), "cylinders");
 }
 
 }  // namespace

@@ -26,7 +26,9 @@
 
 namespace quadtune {
 class YamlMap;
-}
+template <class T>
+class Fields;
+}  // namespace quadtune
 
 namespace quadtune::physics {
 
@@ -45,11 +47,16 @@ struct DepthSensorOptions {
   double pitch = 0.0;                  ///< camera pitch down about y_B (rad), [-π/2, π/2]
   double range_noise = 0.0;            ///< std-dev of Gaussian range noise (m), >= 0
 
-  /// Throws ConfigError(origin, key, ...) naming the bad key and its allowed range.
+  /// Throws ConfigError(origin, key, ...) naming the bad key and its allowed range: the ranges
+  /// of DepthSensorFields(), max_range > min_range and a finite p_BC.
   void Validate(const std::string& origin = "") const;
-  /// Reads options (keys = field names, p_BC as a 3-vector); unknown keys are rejected.
+  /// Reads the keys of DepthSensorFields() (p_BC as a 3-vector), then Validate()s; unknown keys
+  /// are rejected.
   static DepthSensorOptions FromYaml(const YamlMap& map);
 };
+
+/// The keys of a depth sensor options map: reading, writing and the configuration reference.
+const Fields<DepthSensorOptions>& DepthSensorFields();
 
 /// One depth image and the points derived from it. Buffers are reused between scans.
 struct DepthScan {

@@ -13,9 +13,13 @@
 #include <array>
 #include <string>
 
+#include "quadtune/common/enum_names.hpp"
+
 namespace quadtune {
 class YamlMap;
-}
+template <class T>
+class Fields;
+}  // namespace quadtune
 
 namespace quadtune::physics {
 
@@ -27,12 +31,20 @@ enum class RotorConfiguration {
   kX,     ///< rotors at ±45°, ±135° from the body x-axis
   kPlus,  ///< rotors on the body axes (0°, 90°, 180°, 270°)
 };
+constexpr auto EnumNames(RotorConfiguration) {
+  return std::array{EnumName{RotorConfiguration::kX, "x"},
+                    EnumName{RotorConfiguration::kPlus, "plus"}};
+}
 
 /// Shape of the drone body used for collisions.
 enum class CollisionShapeKind {
   kSphere,  ///< a sphere of `collision_radius` centred on the centre of mass
   kBox,     ///< a box with `collision_half_extents` (body frame) centred on the centre of mass
 };
+constexpr auto EnumNames(CollisionShapeKind) {
+  return std::array{EnumName{CollisionShapeKind::kSphere, "sphere"},
+                    EnumName{CollisionShapeKind::kBox, "box"}};
+}
 
 /// Gains of the geometric SE(3) tracking controller (Lee, Leok, McClamroch 2010). Position and
 /// velocity gains are normalised by the mass, attitude and rate gains by the inertia, so they
@@ -84,13 +96,24 @@ struct DroneDescription {
   /// and max_speed. `key_prefix` is prepended to key names (for descriptions nested in a file).
   void Validate(const std::string& origin = "", const std::string& key_prefix = "") const;
 
-  /// Reads a description from a YAML map (schema: see assets/drones/research_1kg.yaml). Every
-  /// key is required except `name`, `drag`, `max_speed` and `controller` (defaults above);
-  /// unknown keys are rejected. Errors name the file and the dotted key.
+  /// Reads the keys of DroneFields() (example: assets/drones/research_1kg.yaml), then
+  /// Validate()s. Every key is required except `name`, `drag`, `max_speed` and `controller`
+  /// (defaults above); unknown keys are rejected. Errors name the file and the dotted key.
   static DroneDescription FromYaml(const YamlMap& map);
 
   friend bool operator==(const DroneDescription&, const DroneDescription&) = default;
 };
+
+/// The keys of a drone description file: reading, writing and the configuration reference.
+const Fields<DroneDescription>& DroneFields();
+/// The keys of its `rotor` map (members of DroneDescription: min_rotor_speed, ...).
+const Fields<DroneDescription>& RotorFields();
+/// The keys of its `collision` map with `shape: sphere`.
+const Fields<DroneDescription>& SphereCollisionFields();
+/// The keys of its `collision` map with `shape: box`.
+const Fields<DroneDescription>& BoxCollisionFields();
+/// The keys of its `controller` map.
+const Fields<ControllerGains>& ControllerFields();
 
 /// Loads and validates a drone description file. Throws ConfigError naming the file and key.
 [[nodiscard]] DroneDescription LoadDroneDescription(const std::string& path);

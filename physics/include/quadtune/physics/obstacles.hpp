@@ -9,9 +9,12 @@
 /// Thread safety: values; safe to share read-only between threads.
 
 #include <Eigen/Core>
+#include <array>
 #include <compare>
 #include <string>
 #include <vector>
+
+#include "quadtune/common/enum_names.hpp"
 
 namespace quadtune::physics {
 
@@ -71,6 +74,12 @@ enum class ObstacleKind {
   kCylinder,  ///< ObstacleSet::cylinders[index]
   kRing,      ///< ObstacleSet::rings[index]
 };
+/// Named as the ObstacleSet members (and layout file keys) that hold each kind.
+constexpr auto EnumNames(ObstacleKind) {
+  return std::array{EnumName{ObstacleKind::kGround, "ground"},
+                    EnumName{ObstacleKind::kCylinder, "cylinders"},
+                    EnumName{ObstacleKind::kRing, "rings"}};
+}
 
 /// Names one obstacle of an ObstacleSet (or the ground). A value type, ordered by (kind, index).
 struct ObstacleId {

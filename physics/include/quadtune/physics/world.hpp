@@ -28,6 +28,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -35,6 +36,7 @@
 #include <string>
 #include <vector>
 
+#include "quadtune/common/enum_names.hpp"
 #include "quadtune/physics/collision_monitor.hpp"
 #include "quadtune/physics/controller.hpp"
 #include "quadtune/physics/drone.hpp"
@@ -49,7 +51,9 @@ class btTransform;
 
 namespace quadtune {
 class YamlMap;
-}
+template <class T>
+class Fields;
+}  // namespace quadtune
 
 namespace quadtune::physics {
 
@@ -58,6 +62,10 @@ enum class CollisionResponse {
   kPhysical,     ///< Bullet resolves contacts: the drone bounces off / rests on obstacles
   kPassThrough,  ///< contacts are detected and counted, but the drone flies on unhindered
 };
+constexpr auto EnumNames(CollisionResponse) {
+  return std::array{EnumName{CollisionResponse::kPhysical, "physical"},
+                    EnumName{CollisionResponse::kPassThrough, "pass_through"}};
+}
 
 /// Standard deviations of the noise added to the state the controller sees (MeasuredState()).
 struct MeasurementNoise {
@@ -91,14 +99,21 @@ struct WorldOptions {
   bool motor_lag = true;             ///< false: rotors reach commanded speeds instantly
   std::uint64_t seed = 0;            ///< seed of every random stream of the world
 
-  /// Throws ConfigError(origin, key, ...) naming the bad key and its allowed range.
-  void Validate(const std::string& origin = "") const;
-  /// Reads options from YAML (keys = field names; measurement_noise is a nested map, wind a
-  /// 3-vector, collision_response "physical" | "pass_through"). Unknown keys are rejected.
+  /// Throws ConfigError(origin, key_prefix + key, ...) naming the bad key and its allowed range:
+  /// the ranges of WorldFields(), then controller_rate_hz in (0, physics_rate_hz] dividing it
+  /// into whole physics steps, and a finite wind.
+  void Validate(const std::string& origin = "", const std::string& key_prefix = "") const;
+  /// Reads the keys of WorldFields() (measurement_noise a nested map, wind a 3-vector), then
+  /// Validate()s. Unknown keys and bad values throw ConfigError naming the file and key.
   static WorldOptions FromYaml(const YamlMap& map);
 
   friend bool operator==(const WorldOptions&, const WorldOptions&) = default;
 };
+
+/// The keys of a `measurement_noise` map (std-devs).
+const Fields<MeasurementNoise>& MeasurementNoiseFields();
+/// The keys of a world options map: reading, writing and the configuration reference.
+const Fields<WorldOptions>& WorldFields();
 
 /// Immutable Bullet collision shapes and the analytic ray caster for one ObstacleSet. Worlds
 /// that fly the same layout share one ObstacleGeometry (each World keeps only its own light
@@ -145,6 +160,11 @@ enum class ControlMode {
   kRotorSpeeds,  ///< rotor speeds commanded directly (clamped to the rotor limits)
   kMotorsOff,    ///< motors unpowered: command 0 rpm (they spin down with the motor lag)
 };
+constexpr auto EnumNames(ControlMode) {
+  return std::array{EnumName{ControlMode::kTracking, "tracking"},
+                    EnumName{ControlMode::kRotorSpeeds, "rotor_speeds"},
+                    EnumName{ControlMode::kMotorsOff, "motors_off"}};
+}
 
 /// A simulated quadrotor among static obstacles. Non-copyable; movable.
 class World {

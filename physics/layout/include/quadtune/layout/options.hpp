@@ -38,9 +38,12 @@
 /// Thread safety: plain values; safe to share read-only between threads.
 
 #include <Eigen/Core>
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include "quadtune/common/enum_names.hpp"
 
 namespace YAML {
 class Emitter;
@@ -48,6 +51,8 @@ class Emitter;
 
 namespace quadtune {
 class YamlMap;
+template <class T>
+class Fields;
 }  // namespace quadtune
 
 namespace quadtune::layout {
@@ -136,9 +141,10 @@ enum class DensityDefinition {
   kArea,              ///< round(zone area / (4 spacing²)) obstacles per zone (YAML `area`)
   kNearestNeighbour,  ///< mean nearest-neighbour distance = spacing (YAML `nearest_neighbour`)
 };
-
-/// YAML name of a definition: "area" or "nearest_neighbour".
-[[nodiscard]] const char* ToString(DensityDefinition d);
+constexpr auto EnumNames(DensityDefinition) {
+  return std::array{EnumName{DensityDefinition::kArea, "area"},
+                    EnumName{DensityDefinition::kNearestNeighbour, "nearest_neighbour"}};
+}
 
 /// Most obstacles one layout may ask for (the sum of every zone's count under the `area`
 /// definition, or of the Poisson-equivalent count area / (4 spacing²) under
@@ -222,16 +228,34 @@ struct LayoutOptions {
   /// (key `spacing`, or `zones` when zones are given).
   void Validate(const std::string& file = "", const std::string& key_prefix = "") const;
 
-  /// Reads options from a YAML map (see the struct's documentation), then Validate()s them.
+  /// Reads the keys of LayoutFields() (see the struct's documentation), then Validate()s them.
   /// Unknown keys, wrong types and bad values throw ConfigError naming the file and key.
   static LayoutOptions FromYaml(const YamlMap& map);
   /// Reads options from a YAML file (LoadFile + FromYaml).
   static LayoutOptions LoadFile(const std::string& path);
-  /// Writes every field as a YAML map (doubles with 17 significant digits), so that
-  /// FromYaml(ToYaml(o)) == o.
+  /// Writes every field as a YAML map (LayoutFields().Write, doubles with 17 significant
+  /// digits), so that FromYaml(ToYaml(o)) == o.
   void ToYaml(YAML::Emitter& out) const;
 
   friend bool operator==(const LayoutOptions&, const LayoutOptions&) = default;
 };
+
+/// The keys of a layout options file: reading, writing and the configuration reference.
+const Fields<LayoutOptions>& LayoutFields();
+/// The keys of its `region` map.
+const Fields<Region>& RegionFields();
+/// The keys of its `mission` map.
+const Fields<Mission>& MissionFields();
+/// The keys of one `keep_out` item.
+const Fields<KeepOutZone>& KeepOutFields();
+/// The keys of an `obstacles` map (of the layout or of a zone).
+const Fields<ObstacleMix>& ObstacleMixFields();
+/// The keys of an `obstacles.cylinder` map.
+const Fields<CylinderShape>& CylinderShapeFields();
+/// The keys of an `obstacles.ring` map.
+const Fields<RingShape>& RingShapeFields();
+/// The keys of one `zones` item. Its `obstacles` are read over the mixture the zone holds
+/// when reading starts (LayoutFields() starts each zone from the layout's mixture).
+const Fields<ZoneOptions>& ZoneFields();
 
 }  // namespace quadtune::layout
