@@ -5,7 +5,10 @@
 
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/fields.hpp"
+#include "quadtune/layout/options.hpp"
 #include "quadtune/optimizers/pso.hpp"
+#include "quadtune/physics/drone.hpp"
+#include "quadtune/physics/world.hpp"
 
 namespace quadtune::cli {
 namespace {
@@ -57,6 +60,75 @@ and `)` open.
 | optimiser settings | `pso:`, `bo:` | [PSO](#pso), [Bayesian optimisation](#bayesian-optimisation) |
 )";
 
+/// `rows` with `prefix` before every key (a nested map's keys as dotted paths).
+std::vector<FieldDoc> Prefixed(std::vector<FieldDoc> rows, const std::string& prefix) {
+  for (FieldDoc& r : rows) r.key = prefix + r.key;
+  return rows;
+}
+
+/// `a` followed by `b`.
+std::vector<FieldDoc> Join(std::vector<FieldDoc> a, const std::vector<FieldDoc>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+std::string PhysicsPart() {
+  const physics::DroneDescription drone;
+  std::string out = Section(
+      "## Drone",
+      "Source: `physics/include/quadtune/physics/drone.hpp` (`DroneFields()`); examples in "
+      "`assets/drones/`. SI units, rotor speeds in rpm. A drone that cannot lift itself "
+      "(thrust-to-weight ≤ 1 at `max_speed_rpm`) is refused.",
+      physics::DroneFields().Docs());
+  out += Section("### `rotor`", "", physics::RotorFields().Docs(drone));
+  out += Section("### `collision`",
+                 "`shape: sphere` takes `radius`; `shape: box` takes `half_extents`.",
+                 Join(physics::SphereCollisionFields().Docs(drone),
+                      physics::BoxCollisionFields().Docs(drone)));
+  out += Section("### `controller`",
+                 "SE(3) controller gains: position and velocity gains normalised by mass, "
+                 "attitude and angular-rate gains by inertia.",
+                 physics::ControllerFields().Docs());
+  out += Section("## World",
+                 "Source: `physics/include/quadtune/physics/world.hpp` (`WorldFields()`). "
+                 "Defaults give an ideal, noise-free world.",
+                 physics::WorldFields().Docs());
+  out += Section("### `measurement_noise`",
+                 "Standard deviations of the noise on the state the controller sees.",
+                 physics::MeasurementNoiseFields().Docs());
+  return out;
+}
+
+const char* const kDensityProse =
+    R"(Source: `physics/layout/include/quadtune/layout/options.hpp` (`LayoutFields()`); examples
+in `assets/layouts/`. World frame, z up, metres and radians.
+
+**Density.** A zone's spacing s is the paper's "average spacing" (3.0, 2.1, 1.3, 0.9 m). With
+`density: area` (the default) a zone of area A (its x-extent times the region's y-extent,
+keep-out zones included) holds round(A / (4 s²)) obstacles, at least 1: the intensity
+λ = 1 / (4 s²) of a uniform random forest whose expected mean nearest-neighbour distance is s.
+The count, and so the crowding, is fixed and grows as 1 / s². With `density: nearest_neighbour`
+obstacles are added until the mean nearest-neighbour distance between centres reaches s. Either
+way the achieved nearest-neighbour statistics are measured and reported.
+
+A layout is refused when a spacing is below what its obstacles need side by side, when the
+keep-out zones cover more than half the region, or when it asks for more than 100 000 obstacles.)";
+
+std::string LayoutPart() {
+  std::string out = Section("## Layout", kDensityProse, layout::LayoutFields().Docs());
+  out += Section("### `region`", "", layout::RegionFields().Docs());
+  out += Section("### `mission`", "", layout::MissionFields().Docs());
+  out += Section("### `keep_out` (one item per cylinder)", "", layout::KeepOutFields().Docs());
+  out += Section("### `obstacles`", "", layout::ObstacleMixFields().Docs());
+  out += Section("### `obstacles.cylinder`", "", layout::CylinderShapeFields().Docs());
+  out += Section("### `obstacles.ring`", "", layout::RingShapeFields().Docs());
+  out += Section("### `zones` (one item per zone)",
+                 "Consecutive x-intervals covering the region; a zone's `obstacles` start from "
+                 "the layout's mixture.",
+                 layout::ZoneFields().Docs());
+  return out;
+}
+
 std::string OptimiserPart() {
   return Section("## PSO",
                  "Source: `optimizers/include/quadtune/optimizers/pso.hpp` (asynchronous PSO, "
@@ -69,6 +141,8 @@ std::string OptimiserPart() {
 std::string ConfigReference() {
   std::string out = kIntro;
   out += "\n";
+  out += PhysicsPart();
+  out += LayoutPart();
   out += OptimiserPart();
   // One newline at the end of the page.
   while (out.size() > 1 && out[out.size() - 1] == '\n' && out[out.size() - 2] == '\n') {
