@@ -28,12 +28,9 @@
 #include <bit>
 #include <chrono>
 #include <climits>
-#include <csignal>
 #include <cstdint>
-#include <cstdio>
 #include <deque>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -99,7 +96,7 @@ namespace {
 }  // namespace
 
 bool MpiBuilt() { return false; }
-MpiSession::MpiSession() { NotBuilt(); }
+MpiSession::MpiSession(const std::atomic<bool>*) { NotBuilt(); }
 MpiSession::~MpiSession() = default;
 void MpiSession::Abort(int code) const { std::_Exit(code); }
 Experiment LoadExperimentShared(const MpiSession&, const std::string&,
@@ -136,10 +133,8 @@ constexpr int kDrainMessages = 64;
 
 // ---- messages -----------------------------------------------------------------------------
 
-/// The run's cancel flag (set by signals), seen by every wait below; null when there is none.
-const std::atomic<bool>* g_cancel = nullptr;
-
-bool CancelSet() { return g_cancel != nullptr && g_cancel->load(); }
+/// True when `cancel` (the run's or the session's flag, set by signals; may be null) is set.
+bool CancelSet(const std::atomic<bool>* cancel) { return cancel != nullptr && cancel->load(); }
 
 /// Paces a polling wait without spinning in MPI (OpenMPI's blocking calls spin and would take a
 /// core from the computing threads): a few polls back to back, then sleeps from 20 µs doubling
@@ -164,28 +159,35 @@ class Backoff {
   std::chrono::microseconds sleep_ = kMinSleep;
 };
 
-/// Waits for `request` (Backoff pacing). Gives up when the run is cancelled (a peer may be
-/// gone): the caller then stops.
-void WaitFor(MPI_Request& request) {
+/// Waits for `request` (Backoff pacing). Gives up when `cancel` is set (a peer may be gone):
+/// the caller then stops.
+void WaitFor(MPI_Request& request, const std::atomic<bool>* cancel) {
   Backoff backoff;
   for (;;) {
     int done = 0;
     MPI_Test(&request, &done, MPI_STATUS_IGNORE);
-    if (done != 0 || CancelSet()) return;
+    if (done != 0 || CancelSet(cancel)) return;
     backoff.Pause();
   }
 }
 
-void SendBytes(int destination, int tag, const std::string& bytes) {
+void SendBytes(int destination, int tag, const std::string& bytes,
+               const std::atomic<bool>* cancel) {
   QT_DEMAND(bytes.size() < static_cast<std::size_t>(INT_MAX), "MPI message too large");
   MPI_Request request;
   MPI_Isend(bytes.data(), static_cast<int>(bytes.size()), MPI_CHAR, destination, tag,
             MPI_COMM_WORLD, &request);
-  WaitFor(request);
+  WaitFor(request, cancel);
 }
 
-void Send(int destination, int tag, const Json& message) {
-  SendBytes(destination, tag, message.dump());
+void Send(int destination, int tag, const Json& message, const std::atomic<bool>* cancel) {
+  SendBytes(destination, tag, message.dump(), cancel);
+}
+
+/// Hands `report` to `options.on_stop`, which ends the process (DistributedOptions::on_stop).
+[[noreturn]] void Stop(const DistributedOptions& options, const StopReport& report) {
+  options.on_stop(report);
+  std::abort();  // on_stop must not return: MPI cannot go on
 }
 
 struct RawMessage {
@@ -352,29 +354,17 @@ class LockedStore final : public EvaluationStore {
   mutable std::mutex mutex_;
 };
 
-/// QUADTUNE_TEST_KILL_RANK=R:N → N when R is `rank`, else 0.
-int KillAfter(int rank) {
-  const char* text = std::getenv("QUADTUNE_TEST_KILL_RANK");
-  if (text == nullptr || *text == '\0') return 0;
-  int r = -1;
-  int n = -1;
-  char extra = 0;
-  if (std::sscanf(text, "%d:%d%c", &r, &n, &extra) != 2 || r < 1 || n < 1) {
-    throw ConfigError("QUADTUNE_TEST_KILL_RANK", "",
-                      std::string("got '") + text +
-                          "', allowed: RANK:N with RANK >= 1 and N >= 1 (that rank raises SIGKILL "
-                          "right after sending the batch that holds its Nth evaluation)");
-  }
-  return r == rank ? n : 0;
-}
-
 /// The store of a rank ≠ 0: the current trial's stored rows (sent with its assignment) for
 /// replay; new rows travel to rank 0 in batches (Insert collects, Flush sends without waiting,
 /// rank 0 acknowledges each batch once it is committed); finished trials follow their rows.
 /// Driver thread only (it is the MPI thread).
 class RemoteStore final : public EvaluationStore {
  public:
-  explicit RemoteStore(int rank) : rank_(rank), kill_after_(KillAfter(rank)) {}
+  RemoteStore(int rank, const FaultInjection& fault, const std::atomic<bool>* cancel)
+      : rank_(rank),
+        fault_(fault),
+        fault_after_(fault.rank == rank && fault.trigger ? fault.after : 0),
+        cancel_(cancel) {}
 
   void Begin(std::int64_t trial_id, std::string method, int repeat,
              const std::vector<EvaluationRow>& rows) {
@@ -399,7 +389,7 @@ class RemoteStore final : public EvaluationStore {
   void Insert(const EvaluationRow& row) override {
     if (batch_.Rows() == 0) batch_started_ = Clock::now();
     batch_.Add(row);
-    if (++added_ == kill_after_) KillWithBatchInFlight();  // test hook (see the header)
+    if (++added_ == fault_after_) FaultWithBatchInFlight();  // fault injection (the header)
     if (batch_.Rows() >= kBatchRows || Clock::now() - batch_started_ >= kBatchAge) {
       Flush();
     } else if (!in_flight_.empty()) {
@@ -414,7 +404,8 @@ class RemoteStore final : public EvaluationStore {
               {"trial_id", trial_id},
               {"status", status},
               {"best_params", best_params},
-              {"best_value", Bits(best_value)}});
+              {"best_value", Bits(best_value)}},
+         cancel_);
   }
 
   /// Sends the collected rows, if any, without waiting for them to arrive; first waits while
@@ -455,7 +446,7 @@ class RemoteStore final : public EvaluationStore {
     }
     while (!in_flight_.empty() && in_flight_.front().sequence <= acked_) {
       InFlight& f = in_flight_.front();
-      if (!f.sent) WaitFor(f.request);  // acknowledged, so received: completes at once
+      if (!f.sent) WaitFor(f.request, cancel_);  // acknowledged, so received: completes at once
       acked_rows_ += f.rows;
       in_flight_.pop_front();
     }
@@ -472,7 +463,7 @@ class RemoteStore final : public EvaluationStore {
   /// Waits until at most `count` batches are unacknowledged (or the run is cancelled).
   void AwaitInFlight(std::size_t count) {
     Backoff backoff;
-    while (in_flight_.size() > count && !CancelSet()) {
+    while (in_flight_.size() > count && !CancelSet(cancel_)) {
       if (Progress()) {
         backoff.Reset();
       } else {
@@ -492,34 +483,31 @@ class RemoteStore final : public EvaluationStore {
     bool sent = false;
   };
 
-  /// The test hook: every earlier batch acknowledged, then the batch holding this evaluation
-  /// sent (its send completed, so rank 0 has it or is receiving it) and the rank killed before
-  /// the acknowledgement can arrive. Says what rank 0 acknowledged and what was in flight.
-  [[noreturn]] void KillWithBatchInFlight() {
+  /// The injected fault: every earlier batch acknowledged, then the batch holding this
+  /// evaluation sent (its send completed, so rank 0 has it or is receiving it), then the fault's
+  /// trigger (a SIGKILL arrives before the acknowledgement), told what rank 0 acknowledged and
+  /// what is in flight.
+  void FaultWithBatchInFlight() {
     AwaitInFlight(0);
     const std::uint32_t rows = batch_.Rows();
     Flush();
     InFlight& last = in_flight_.back();
-    WaitFor(last.request);
+    WaitFor(last.request, cancel_);
     last.sent = true;
-    std::fprintf(stderr,
-                 "quadtune: test hook: rank %d: %ld evaluations acknowledged by rank 0, %u sent "
-                 "in a batch not yet acknowledged (trials %s); raising SIGKILL\n",
-                 rank_, acked_rows_, rows, trials_.c_str());
-    std::fflush(stderr);
-    std::raise(SIGKILL);
-    std::_Exit(137);
+    fault_.trigger(FaultReport{rank_, acked_rows_, static_cast<long>(rows), trials_});
   }
 
   int rank_;
-  int kill_after_;
+  const FaultInjection& fault_;
+  int fault_after_;
+  const std::atomic<bool>* cancel_;
   long added_ = 0;
   long acked_rows_ = 0;
   std::uint64_t acked_ = 0;
   RowBatch batch_{1};
   Clock::time_point batch_started_;
   std::deque<InFlight> in_flight_;
-  std::string trials_;  // ids of the trials assigned to this rank, for the test hook
+  std::string trials_;  // ids of the trials assigned to this rank, for the fault report
   std::int64_t trial_id_ = -1;
   std::string method_;
   int repeat_ = -1;
@@ -546,16 +534,6 @@ struct RankState {
   int worlds = 0;
   bool done = false;  // said bye
 };
-
-/// The state letter of process `pid` in /proc (0 when it does not exist).
-char ProcessState(long pid) {
-  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
-  std::string text;
-  if (!std::getline(stat, text)) return 0;
-  const auto close = text.rfind(')');
-  if (close == std::string::npos || close + 2 >= text.size()) return 0;
-  return text[close + 2];
-}
 
 class Root {
  public:
@@ -598,7 +576,7 @@ class Root {
     acks_.assign(static_cast<std::size_t>(mpi_.Size()), 0);
     Backoff idle;
     while (active_ > 0 || !local_done_.load()) {
-      if (o_.run.cancel != nullptr && o_.run.cancel->load()) ReportStoppedAndExit();
+      if (CancelSet(o_.run.cancel)) Stopped();
       {
         std::lock_guard lock(mutex_);
         if (!local_error_.empty()) Fail("rank 0: " + local_error_);
@@ -672,7 +650,7 @@ class Root {
       MPI_Request request;
       MPI_Isend(&acks_[static_cast<std::size_t>(source)], 1, MPI_UINT64_T, source, kTagAck,
                 MPI_COMM_WORLD, &request);
-      WaitFor(request);
+      WaitFor(request, o_.run.cancel);
     }
     dirty_.clear();
   }
@@ -766,7 +744,7 @@ class Root {
     }
     const auto task = NextTask();
     if (!task) {
-      Send(source, kTagToRank, Json{{"stop", true}});
+      Send(source, kTagToRank, Json{{"stop", true}}, o_.run.cancel);
       return;
     }
     Json rows = Json::array();
@@ -777,15 +755,21 @@ class Root {
               {"method", ToString(task->method)},
               {"repeat", task->repeat},
               {"trial_id", task->trial_id},
-              {"rows", std::move(rows)}});
+              {"rows", std::move(rows)}},
+         o_.run.cancel);
     rank.task = task->index;
   }
 
+  /// An error ended the run (`message` names the rank it happened on): the report goes to
+  /// on_stop, which ends every rank.
   [[noreturn]] void Fail(const std::string& message) {
     stop_local_.store(true);
-    std::fprintf(stderr, "quadtune: error: %s\nquadtune: stopping every rank\n", message.c_str());
-    std::fflush(stderr);
-    mpi_.Abort(2);
+    StopReport report;
+    report.end = DistributedEnd::kFailed;
+    report.error = message;
+    report.store_path = store_ != nullptr ? o_.run.store_path : std::string();
+    report.resume_command = o_.resume_command;
+    Stop(o_, report);
   }
 
   std::string TrialName(int index) const {
@@ -794,43 +778,29 @@ class Root {
     return std::string("trial ") + ToString(t.method) + " r" + std::to_string(t.repeat);
   }
 
-  /// A signal stopped the run (the runtime's SIGTERM after a rank was lost, or the user): says
-  /// which rank was lost, the state of the store and how to resume; then exits (code 143).
-  [[noreturn]] void ReportStoppedAndExit() {
+  /// A signal stopped the run (the runtime's SIGTERM after a rank was lost, or the user): the
+  /// report (the lost ranks, the state of the store, how to resume) goes to on_stop.
+  [[noreturn]] void Stopped() {
     stop_local_.store(true);
-    std::string lost;
+    StopReport report;
     for (std::size_t r = 1; r < ranks_.size(); ++r) {
       const RankState& s = ranks_[r];
       if (s.done || s.pid <= 0 || s.host != mpi_.Host()) continue;
-      const char state = ProcessState(s.pid);
-      if (state == 0 || state == 'Z' || state == 'X') {
-        lost += (lost.empty() ? "" : ", ") + std::string("rank ") + std::to_string(r) + " (pid " +
-                std::to_string(s.pid) + " on " + s.host + ", running " + TrialName(s.task) + ")";
+      if (o_.process_ended && o_.process_ended(s.pid)) {
+        report.lost.push_back(LostRank{static_cast<int>(r), s.pid, s.host, TrialName(s.task)});
       }
     }
-    int done = 0;
     {
       std::lock_guard lock(mutex_);
-      done = trials_done_;
+      report.trials_done = trials_done_;
     }
-    if (!lost.empty()) {
-      std::fprintf(stderr, "quadtune: %s was lost; the MPI runtime stopped the other ranks.\n",
-                   lost.c_str());
-    } else {
-      std::fprintf(stderr,
-                   "quadtune: the run was stopped by a signal (a rank was lost or the job was "
-                   "cancelled; the MPI runtime's message names the rank).\n");
-    }
+    report.trials_total = static_cast<int>(tasks_.size());
     if (store_ != nullptr) {
-      std::fprintf(stderr,
-                   "quadtune: store %s is consistent: %zu evaluations committed (every batch rank "
-                   "0 acknowledged is in it), %d of %zu trials finished; unfinished trials resume "
-                   "from their stored evaluations.\nquadtune: resume with: %s\n",
-                   o_.run.store_path.c_str(), locked_->Count(), done, tasks_.size(),
-                   o_.resume_command.c_str());
+      report.store_path = o_.run.store_path;
+      report.committed = locked_->Count();
     }
-    std::fflush(stderr);
-    std::_Exit(143);
+    report.resume_command = o_.resume_command;
+    Stop(o_, report);
   }
 
   const MpiSession& mpi_;
@@ -861,32 +831,39 @@ class Root {
 
 // ---- ranks ≠ 0 ----------------------------------------------------------------------------
 
-/// A stopped rank waits to be killed by the runtime (so that rank 0 can tell the lost rank from
-/// the stopped ones), and leaves after 10 s if it is not.
-[[noreturn]] void WaitToBeStopped() {
-  std::this_thread::sleep_for(std::chrono::seconds(10));
-  std::_Exit(143);
+/// This rank stopped (kStopped) or failed and told rank 0 (kFailed, `error`): the report goes to
+/// on_stop, which ends the process (the `quadtune` program waits to be stopped by the runtime,
+/// so that rank 0 can tell the lost rank from the stopped ones).
+[[noreturn]] void WorkerStopped(const MpiSession& mpi, const DistributedOptions& o,
+                                DistributedEnd end, const std::string& error = {}) {
+  StopReport report;
+  report.end = end;
+  report.rank = mpi.Rank();
+  report.error = error;
+  report.resume_command = o.resume_command;
+  Stop(o, report);
 }
 
 RunSummary RunWorker(const MpiSession& mpi, const Experiment& e, const DistributedOptions& o) {
-  const auto cancelled = [&o] { return o.run.cancel != nullptr && o.run.cancel->load(); };
+  const auto cancelled = [&o] { return CancelSet(o.run.cancel); };
+  const auto stopped = [&] { WorkerStopped(mpi, o, DistributedEnd::kStopped); };
   RunSummary summary;
   summary.threads = o.run.threads > 0 ? o.run.threads : e.threads;
   summary.ranks = mpi.Size();
   std::unique_ptr<RemoteStore> store;
   std::unique_ptr<TrialRunner> runner;
   try {
-    store = std::make_unique<RemoteStore>(mpi.Rank());
+    store = std::make_unique<RemoteStore>(mpi.Rank(), o.fault, o.run.cancel);
     RunOptions options = o.run;
     options.on_progress = {};
     runner = std::make_unique<TrialRunner>(e, options, summary.threads, store.get());
     Json next{{"type", "next"}, {"pid", static_cast<long>(getpid())}, {"host", mpi.Host()}};
     for (;;) {
-      Send(0, kTagToRoot, next);
+      Send(0, kTagToRoot, next, o.run.cancel);
       std::optional<Message> m;
       Backoff backoff;
       while (!(m = TryReceive(0, kTagToRank))) {
-        if (cancelled()) WaitToBeStopped();
+        if (cancelled()) stopped();
         if (store->Progress()) {
           backoff.Reset();
         } else {
@@ -901,7 +878,7 @@ RunSummary RunWorker(const MpiSession& mpi, const Experiment& e, const Distribut
       const int repeat = a.at("repeat").get<int>();
       store->Begin(a.at("trial_id").get<std::int64_t>(), method, repeat, rows);
       TrialSummary trial;
-      if (!runner->Run(*MethodFromString(method), repeat, trial)) WaitToBeStopped();
+      if (!runner->Run(*MethodFromString(method), repeat, trial)) stopped();
       next = Json{{"type", "next"},
                   {"index", a.at("index").get<int>()},
                   {"summary", ToJson(trial)},
@@ -910,25 +887,26 @@ RunSummary RunWorker(const MpiSession& mpi, const Experiment& e, const Distribut
       summary.trials.push_back(std::move(trial));
     }
   } catch (const std::exception& ex) {
-    Send(0, kTagToRoot, Json{{"type", "error"}, {"message", ex.what()}});
-    WaitToBeStopped();  // rank 0 ends the job
+    Send(0, kTagToRoot, Json{{"type", "error"}, {"message", ex.what()}}, o.run.cancel);
+    WorkerStopped(mpi, o, DistributedEnd::kFailed, ex.what());  // rank 0 ends the job
   }
   summary.flights = runner->Flights();
   summary.resolves = runner->Resolves();
   summary.worlds = runner->Worlds();
   summary.wall_s = runner->ElapsedSeconds();
   store->Drain();
-  if (cancelled()) WaitToBeStopped();
-  Send(0, kTagToRoot, Json{{"type", "bye"}, {"worlds", summary.worlds}});
+  if (cancelled()) stopped();
+  Send(0, kTagToRoot, Json{{"type", "bye"}, {"worlds", summary.worlds}}, o.run.cancel);
   return summary;
 }
 
-/// MPI_Ibcast of `count` items at `data` from rank 0, waited for without spinning.
-void Broadcast(void* data, int count, MPI_Datatype type) {
+/// MPI_Ibcast of `count` items at `data` from rank 0, waited for without spinning; throws when
+/// `cancel` is set first.
+void Broadcast(void* data, int count, MPI_Datatype type, const std::atomic<bool>* cancel) {
   MPI_Request request;
   MPI_Ibcast(data, count, type, 0, MPI_COMM_WORLD, &request);
-  WaitFor(request);
-  if (CancelSet()) throw std::runtime_error("stopped by a signal before the run started");
+  WaitFor(request, cancel);
+  if (CancelSet(cancel)) throw std::runtime_error("stopped by a signal before the run started");
 }
 
 /// The lowest rank whose `failed` is true (Size() when none), agreed by every rank.
@@ -937,7 +915,7 @@ int FirstFailed(const MpiSession& mpi, bool failed) {
   int first = mpi.Size();
   MPI_Request request;
   MPI_Iallreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD, &request);
-  WaitFor(request);
+  WaitFor(request, mpi.Cancel());
   return first;
 }
 
@@ -945,7 +923,7 @@ int FirstFailed(const MpiSession& mpi, bool failed) {
 
 bool MpiBuilt() { return true; }
 
-MpiSession::MpiSession() {
+MpiSession::MpiSession(const std::atomic<bool>* cancel) : cancel_(cancel) {
   int initialized = 0;
   MPI_Initialized(&initialized);
   if (initialized != 0) throw std::runtime_error("MPI is already initialised");
@@ -969,7 +947,7 @@ MpiSession::~MpiSession() {
   // MPI_Finalize synchronises the ranks by spinning; meet in a barrier polled with sleeps first.
   MPI_Request request;
   MPI_Ibarrier(MPI_COMM_WORLD, &request);
-  WaitFor(request);
+  WaitFor(request, cancel_);
   PMPI_Finalize();
 }
 
@@ -992,14 +970,14 @@ Experiment LoadExperimentShared(const MpiSession& mpi, const std::string& path,
     }
   }
   long long length = error ? -1 : static_cast<long long>(text.size());
-  Broadcast(&length, 1, MPI_LONG_LONG);
+  Broadcast(&length, 1, MPI_LONG_LONG, mpi.Cancel());
   if (length < 0) {
     if (error) std::rethrow_exception(error);
     throw PeerError("rank 0 could not load " + path);
   }
   QT_DEMAND(length < INT_MAX, "experiment file too large");
   text.resize(static_cast<std::size_t>(length));
-  Broadcast(text.data(), static_cast<int>(length), MPI_CHAR);
+  Broadcast(text.data(), static_cast<int>(length), MPI_CHAR, mpi.Cancel());
   if (mpi.Rank() != 0) {
     try {
       const std::string dir = std::filesystem::path(path).parent_path().string();
@@ -1018,10 +996,10 @@ Experiment LoadExperimentShared(const MpiSession& mpi, const std::string& path,
 
 RunSummary RunDistributed(const MpiSession& mpi, const Experiment& experiment,
                           const DistributedOptions& options) {
-  g_cancel = options.run.cancel;
+  QT_DEMAND(static_cast<bool>(options.on_stop), "RunDistributed needs DistributedOptions::on_stop");
   if (mpi.Rank() != 0) {
     int ok = 0;
-    Broadcast(&ok, 1, MPI_INT);
+    Broadcast(&ok, 1, MPI_INT, options.run.cancel);
     if (ok == 0) throw PeerError("rank 0 could not start the run");
     return RunWorker(mpi, experiment, options);
   }
@@ -1033,7 +1011,7 @@ RunSummary RunDistributed(const MpiSession& mpi, const Experiment& experiment,
     error = std::current_exception();
   }
   int ok = error ? 0 : 1;
-  Broadcast(&ok, 1, MPI_INT);
+  Broadcast(&ok, 1, MPI_INT, options.run.cancel);
   if (error) std::rethrow_exception(error);
   return root.Serve();
 }

@@ -4,10 +4,8 @@
 
 #include <chrono>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <map>
-#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "quadtune/common/error.hpp"
@@ -31,19 +29,6 @@ std::string Slug(const std::string& label) {
 
 std::string StagePath(const std::string& out, const std::string& label, const std::string& stage) {
   return (fs::path(out) / Slug(label) / stage).string();
-}
-
-nlohmann::json ToJson(const ParamValues& values) {
-  nlohmann::json j = nlohmann::json::object();
-  for (const auto& [k, v] : values) j[k] = v;
-  return j;
-}
-
-std::string CsvField(const std::string& s) {
-  if (s.find_first_of(",\"\n") == std::string::npos) return s;
-  std::string out = "\"";
-  for (char ch : s) out += ch == '"' ? std::string("\"\"") : std::string(1, ch);
-  return out + "\"";
 }
 
 /// A parameter set flown in validation, and where it came from.
@@ -169,31 +154,26 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// The index entry of one finished stage.
-nlohmann::json StageEntry(const StudyStage& stage, const ParamValues& start,
-                          const std::string& store, const ParamValues& best, double wall_s,
-                          const Experiment& e) {
-  nlohmann::json sj;
-  sj["name"] = stage.name;
-  sj["start_from"] = stage.start_from;
-  sj["start"] = ToJson(start);
-  sj["store"] = store;
-  sj["best"] = ToJson(best);
-  sj["wall_s"] = wall_s;
-  nlohmann::json space = nlohmann::json::array();
-  for (const auto& prm : e.space.Parameters()) {
-    space.push_back(
-        {{"name", prm.name}, {"lower", prm.lower}, {"upper", prm.upper}, {"log", prm.log_scale}});
-  }
-  sj["space"] = space;
-  return sj;
+// The outcome entry of one finished stage.
+StudyStageResult StageEntry(const StudyStage& stage, const ParamValues& start,
+                            const std::string& store, const ParamValues& best, double wall_s,
+                            const Experiment& e) {
+  StudyStageResult r;
+  r.name = stage.name;
+  r.start_from = stage.start_from;
+  r.start = start;
+  r.store = store;
+  r.best = best;
+  r.wall_s = wall_s;
+  r.space = e.space.Parameters();
+  return r;
 }
 
 // The stages of point p in order, each started from its start_from stage's best point: their
-// index entries into point["stages"], the recommendations of the tuned trials into
-// *candidates, the last stage's experiment into *last. False when cancelled.
+// entries into point.stages, the recommendations of the tuned trials into *candidates, the last
+// stage's experiment into *last. False when cancelled.
 bool RunPointStages(const Study& study, const StudyOptions& options, std::size_t p,
-                    StudySummary& summary, nlohmann::json& point,
+                    StudySummary& summary, StudyPointResult& point,
                     std::vector<Candidate>* candidates, Experiment* last) {
   std::map<std::string, ParamValues> stage_best;
   for (std::size_t k = 0; k < study.stages.size(); ++k) {
@@ -235,19 +215,19 @@ bool RunPointStages(const Study& study, const StudyOptions& options, std::size_t
       }
     }
     if (!stage_best.count(stage.name)) stage_best[stage.name] = e.Defaults();
-    point["stages"].push_back(StageEntry(stage, start,
-                                         fs::relative(ro.store_path, options.out_dir).string(),
-                                         stage_best[stage.name], rs.wall_s, e));
+    point.stages.push_back(StageEntry(stage, start,
+                                      fs::relative(ro.store_path, options.out_dir).string(),
+                                      stage_best[stage.name], rs.wall_s, e));
   }
   return true;
 }
 
 // Validation of point p: every candidate (the defaults first) on the same held-out maps and
-// flight seeds, in the last stage's world `last`; one row per flight into `csv`. False when
-// cancelled.
+// flight seeds, in the last stage's world `last`; one entry per flight into `flights`. False
+// when cancelled.
 bool ValidatePoint(const Study& study, const StudyOptions& options, std::size_t p,
-                   const Experiment& last, std::vector<Candidate> candidates, std::ostream& csv,
-                   StudySummary& summary) {
+                   const Experiment& last, std::vector<Candidate> candidates,
+                   std::vector<StudyValidationFlight>& flights, StudySummary& summary) {
   candidates.insert(candidates.begin(), Candidate{"", "default", 0, last.Defaults()});
   const int n = study.validation_flights;
   std::vector<std::uint64_t> map_seeds(static_cast<std::size_t>(n));
@@ -284,63 +264,67 @@ bool ValidatePoint(const Study& study, const StudyOptions& options, std::size_t 
     const Candidate& c = candidates[i / static_cast<std::size_t>(n)];
     const std::size_t f = i % static_cast<std::size_t>(n);
     const FlightRecord& r = records[i];
-    const double fl = r.status == EvalStatus::kOk ? LongTermObjective(r, last.objective).value
-                                                  : last.objective.failure_value;
-    csv << p << ',' << CsvField(study.labels[p]) << ',' << c.stage << ',' << c.method << ','
-        << c.repeat << ',' << f << ',' << map_seeds[f] << ',' << ToString(r.status) << ','
-        << (r.completed ? 1 : 0) << ',' << r.flight_time << ',' << r.collisions << ','
-        << r.emergency_stops << ',' << r.plans << ',' << r.failed_plans << ',' << fl << ','
-        << CsvField(ToJson(c.params).dump()) << '\n';
+    StudyValidationFlight v;
+    v.point = p;
+    v.label = study.labels[p];
+    v.source_stage = c.stage;
+    v.method = c.method;
+    v.repeat = c.repeat;
+    v.flight = f;
+    v.map_seed = map_seeds[f];
+    v.status = r.status;
+    v.completed = r.completed;
+    v.flight_time = r.flight_time;
+    v.collisions = r.collisions;
+    v.emergency_stops = r.emergency_stops;
+    v.plans = r.plans;
+    v.failed_plans = r.failed_plans;
+    v.f_l = r.status == EvalStatus::kOk ? LongTermObjective(r, last.objective).value
+                                        : last.objective.failure_value;
+    v.params = c.params;
+    flights.push_back(std::move(v));
   }
-  csv.flush();
   return true;
 }
 
 }  // namespace
 
-StudySummary RunStudy(const Study& study, const StudyOptions& options) {
+StudyOutcome RunStudy(const Study& study, const StudyOptions& options) {
   const auto t0 = Clock::now();
-  StudySummary summary;
+  StudyOutcome outcome;
+  outcome.name = study.name;
+  outcome.file = study.file;
+  outcome.seed = study.seed;
+  outcome.sweep_key = study.sweep_key;
+  outcome.validation_flights = study.validation_flights;
+  StudySummary& summary = outcome.summary;
   fs::create_directories(options.out_dir);
-
-  nlohmann::json index;
-  index["name"] = study.name;
-  index["file"] = study.file;
-  index["seed"] = study.seed;
-  index["sweep_key"] = study.sweep_key;
-  index["validation_flights"] = study.validation_flights;
-  index["points"] = nlohmann::json::array();
-
-  const std::string csv_path = (fs::path(options.out_dir) / "validation.csv").string();
-  std::ofstream csv(csv_path);
-  csv << "point,label,source_stage,method,repeat,flight,map_seed,status,completed,flight_time,"
-         "collisions,emergency_stops,plans,failed_plans,f_l,params\n";
-
+  const auto update = [&] {
+    if (options.on_update) options.on_update(outcome);
+  };
+  update();
   for (std::size_t p = 0; p < study.labels.size(); ++p) {
-    nlohmann::json point;
-    point["label"] = study.labels[p];
-    point["value"] = study.sweep_key.empty() ? "" : study.sweep_values[p];
-    point["stages"] = nlohmann::json::array();
+    StudyPointResult point;
+    point.label = study.labels[p];
+    point.value = study.sweep_key.empty() ? "" : study.sweep_values[p];
     std::vector<Candidate> candidates;
     Experiment last = study.Build(p, study.stages.size() - 1);
     if (!RunPointStages(study, options, p, summary, point, &candidates, &last)) {
       summary.status = RunStatus::kCancelled;
-      summary.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
-      return summary;
+      break;
     }
-    index["points"].push_back(point);
-    {
-      std::ofstream out(fs::path(options.out_dir) / "study.json");
-      out << index.dump(2) << "\n";
-    }
+    outcome.points.push_back(std::move(point));
+    update();
     if (study.validation_flights == 0) continue;
-    if (!ValidatePoint(study, options, p, last, std::move(candidates), csv, summary)) {
+    if (!ValidatePoint(study, options, p, last, std::move(candidates), outcome.validation,
+                       summary)) {
       summary.status = RunStatus::kCancelled;
       break;
     }
+    update();
   }
   summary.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
-  return summary;
+  return outcome;
 }
 
 }  // namespace quadtune::engine

@@ -12,6 +12,7 @@
 #include <memory>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -47,6 +48,9 @@ struct RunArgs {
   bool overwrite = false;  ///< replace a run already in OUT
   bool quiet = false;
   bool plot = true;  ///< draw the figures and the report when the run has completed
+  /// --test-kill-rank R:N (tests of distributed runs, hidden from --help): rank R raises SIGKILL
+  /// right after sending the batch that holds its Nth evaluation. "" when not given.
+  std::string test_kill_rank;
 };
 
 /// The progress line: on a terminal rewritten in place at every update; otherwise (a log file,
@@ -176,10 +180,90 @@ int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& sto
   return 0;
 }
 
+/// The fault of --test-kill-rank R:N (RunArgs::test_kill_rank): rank R, at its Nth evaluation,
+/// says what rank 0 acknowledged and what is in flight, and raises SIGKILL. Off for "".
+engine::FaultInjection KillRankFault(const std::string& text) {
+  engine::FaultInjection fault;
+  if (text.empty()) return fault;
+  int r = -1;
+  int n = -1;
+  char extra = 0;
+  if (std::sscanf(text.c_str(), "%d:%d%c", &r, &n, &extra) != 2 || r < 1 || n < 1) {
+    throw ConfigError("", "--test-kill-rank",
+                      "got '" + text +
+                          "', allowed: RANK:N with RANK >= 1 and N >= 1 (that rank raises SIGKILL "
+                          "right after sending the batch that holds its Nth evaluation)");
+  }
+  fault.rank = r;
+  fault.after = n;
+  fault.trigger = [](const engine::FaultReport& f) {
+    std::fprintf(stderr,
+                 "quadtune: test hook: rank %d: %ld evaluations acknowledged by rank 0, %ld sent "
+                 "in a batch not yet acknowledged (trials %s); raising SIGKILL\n",
+                 f.rank, f.acknowledged, f.in_flight, f.trials.c_str());
+    std::fflush(stderr);
+    std::raise(SIGKILL);
+    std::_Exit(137);
+  };
+  return fault;
+}
+
+/// True when process `pid` has ended: /proc has no entry for it, or it is a zombie (state Z or
+/// X in /proc/PID/stat).
+bool ProcessEnded(long pid) {
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string text;
+  if (!std::getline(stat, text)) return true;
+  const auto close = text.rfind(')');
+  if (close == std::string::npos || close + 2 >= text.size()) return true;
+  const char state = text[close + 2];
+  return state == 'Z' || state == 'X';
+}
+
+/// Ends this rank of a distributed run that ended early (DistributedOptions::on_stop). Rank 0
+/// prints the report: after an error, the error, and it ends every rank (MPI_Abort, code 2);
+/// after a signal, which rank was lost, the state of the store and how to resume (code 143).
+/// Another rank waits to be killed by the runtime (so that rank 0 can tell the lost rank from
+/// the stopped ones), and leaves after 10 s (code 143) if it is not.
+[[noreturn]] void EndStoppedRank(const engine::MpiSession& mpi, const engine::StopReport& r) {
+  if (r.rank != 0) {
+    std::this_thread::sleep_for(std::chrono::seconds(10));
+    std::_Exit(143);
+  }
+  if (r.end == engine::DistributedEnd::kFailed) {
+    std::fprintf(stderr, "quadtune: error: %s\nquadtune: stopping every rank\n", r.error.c_str());
+    std::fflush(stderr);
+    mpi.Abort(2);
+  }
+  std::string lost;
+  for (const auto& l : r.lost) {
+    lost += (lost.empty() ? "" : ", ") + std::string("rank ") + std::to_string(l.rank) + " (pid " +
+            std::to_string(l.pid) + " on " + l.host + ", running " + l.trial + ")";
+  }
+  if (!lost.empty()) {
+    std::fprintf(stderr, "quadtune: %s was lost; the MPI runtime stopped the other ranks.\n",
+                 lost.c_str());
+  } else {
+    std::fprintf(stderr,
+                 "quadtune: the run was stopped by a signal (a rank was lost or the job was "
+                 "cancelled; the MPI runtime's message names the rank).\n");
+  }
+  if (!r.store_path.empty()) {
+    std::fprintf(stderr,
+                 "quadtune: store %s is consistent: %zu evaluations committed (every batch rank "
+                 "0 acknowledged is in it), %d of %d trials finished; unfinished trials resume "
+                 "from their stored evaluations.\nquadtune: resume with: %s\n",
+                 r.store_path.c_str(), r.committed, r.trials_done, r.trials_total,
+                 r.resume_command.c_str());
+  }
+  std::fflush(stderr);
+  std::_Exit(143);
+}
+
 /// `run` under an MPI launcher with more than one process: every rank takes trials; rank 0
 /// stores, reports progress and writes OUT.
-int RunMpi(const RunArgs& a) {
-  engine::MpiSession mpi;
+int RunMpi(const RunArgs& a, const engine::FaultInjection& fault) {
+  engine::MpiSession mpi(&CancelFlag());
   const int rank = mpi.Rank();
   if (rank != 0) spdlog::set_pattern(fmt::format("[%Y-%m-%d %H:%M:%S.%e] [%l] [rank {}] %v", rank));
   namespace fs = std::filesystem;
@@ -192,6 +276,9 @@ int RunMpi(const RunArgs& a) {
     options.run.threads = a.threads;
     options.run.resume = a.resume;
     options.run.cancel = &CancelFlag();
+    options.on_stop = [&mpi](const engine::StopReport& r) { EndStoppedRank(mpi, r); };
+    options.process_ended = ProcessEnded;
+    options.fault = fault;
     std::unique_ptr<ResultDir> dir;
     if (rank == 0) {
       try {
@@ -239,9 +326,10 @@ int RunMpi(const RunArgs& a) {
 }
 
 int Run(const RunArgs& a) {
+  const engine::FaultInjection fault = KillRankFault(a.test_kill_rank);
   if (const int processes = engine::MpiLaunchSize(); processes > 1) {
     engine::CheckMpiLaunch(processes, engine::MpiBuilt());
-    return RunMpi(a);
+    return RunMpi(a, fault);
   }
   // Every configuration error is reported here, before any work starts.
   CheckFileKind(a.experiment, FileKind::kExperiment);
@@ -503,6 +591,11 @@ void RegisterRun(CLI::App& app, int& exit_code) {
   cmd->add_option("--set", args.set,
                   "KEY=VALUE: change the experiment file's dotted KEY, e.g. --set "
                   "budget.flights=10 --set repeats=2 (repeat as needed; --resume needs the same)");
+  // For the tests of distributed runs (test/mpi): an empty group keeps it out of --help.
+  cmd->add_option("--test-kill-rank", args.test_kill_rank,
+                  "R:N: under mpirun, rank R raises SIGKILL right after sending the batch that "
+                  "holds its Nth evaluation (tests only)")
+      ->group("");
   cmd->callback([&exit_code] { exit_code = Run(args); });
 }
 

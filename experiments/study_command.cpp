@@ -109,9 +109,14 @@ int RunStudyCommand(const StudyArgs& a) {
       last_stage = key;
     }
   };
+  // The files follow the outcome as it grows, so a study killed on the way keeps those of the
+  // points it finished.
+  options.on_update = [&a](const engine::StudyOutcome& o) { engine::WriteStudyFiles(o, a.out); };
   engine::StudySummary s;
   try {
-    s = engine::RunStudy(study, options);
+    const engine::StudyOutcome outcome = engine::RunStudy(study, options);
+    engine::WriteStudyFiles(outcome, a.out);
+    s = outcome.summary;
   } catch (const Cancelled&) {
     s.status = engine::RunStatus::kCancelled;  // cancelled while a map was generated
   }

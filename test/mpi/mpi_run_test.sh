@@ -72,12 +72,12 @@ same_results() {  # same_results DIR_A DIR_B
   cmp -s "$1/evaluations.txt" "$2/evaluations.txt" && cmp -s "$1/trials.txt" "$2/trials.txt"
 }
 
-# killed_run R:N: toy.yaml on 2 ranks into cut/ with QUADTUNE_TEST_KILL_RANK=R:N; the run must
-# fail, and rank 0 must name the lost rank and say how to resume.
+# killed_run R:N: toy.yaml on 2 ranks into cut/ with --test-kill-rank R:N; the run must fail,
+# and rank 0 must name the lost rank and say how to resume.
 killed_run() {
   set +e
-  QUADTUNE_TEST_KILL_RANK=$1 "${mpi[@]}" "$quadtune" --log-level warn run toy.yaml --out cut \
-    --threads 1 --quiet > cut.log 2>&1
+  "${mpi[@]}" "$quadtune" --log-level warn run toy.yaml --out cut --threads 1 --quiet \
+    --test-kill-rank "$1" > cut.log 2>&1
   local status=$?
   set -e
   cat cut.log

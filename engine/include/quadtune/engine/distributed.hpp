@@ -22,20 +22,24 @@
 /// row of a key); a rank that is lost loses only its rows not yet committed, which a resume
 /// computes again, as it does for a killed single process.
 ///
-/// Losing a rank: the MPI runtime then stops the others with SIGTERM. Rank 0 says which rank was
-/// lost (when it ran on rank 0's host; otherwise mpirun names it), that the store is consistent
-/// and the command that resumes the run. The other ranks wait to be stopped so that the lost one
-/// can be told apart.
+/// Losing a rank: the MPI runtime then stops the others with SIGTERM. Rank 0 hands its caller a
+/// StopReport (DistributedOptions::on_stop): which rank was lost (when it ran on rank 0's host
+/// and DistributedOptions::process_ended says its process has ended; otherwise mpirun names it),
+/// the evaluations committed to the store and the command that resumes the run. The other ranks
+/// hand theirs a StopReport too; the `quadtune` program makes them wait to be stopped, so that
+/// the lost one can be told apart.
 ///
 /// Waiting never blocks inside MPI (OpenMPI spins there and would take a core from the
 /// computing threads): it polls (MPI_Improbe / MPI_Test), a few times back to back and then
 /// with sleeps from 20 µs doubling to 1 ms while nothing comes; rank 0 sleeps only when no
 /// message is waiting.
 ///
-/// Test hook: the environment variable QUADTUNE_TEST_KILL_RANK=R:N makes rank R (>= 1), at its
-/// Nth evaluation, wait until rank 0 has acknowledged every earlier batch, send the batch that
-/// holds the Nth evaluation, print on stderr how many evaluations rank 0 acknowledged, how many
-/// are in flight and the ids of its trials, and raise SIGKILL before the acknowledgement.
+/// Fault injection (DistributedOptions::fault, for tests): rank `fault.rank` (>= 1), at its
+/// `fault.after`th evaluation, waits until rank 0 has acknowledged every earlier batch, sends the
+/// batch that holds that evaluation and calls `fault.trigger` with how many evaluations rank 0
+/// acknowledged, how many are in flight and the ids of its trials. `quadtune run
+/// --test-kill-rank R:N` sets it; its trigger prints the report on stderr and raises SIGKILL
+/// before the acknowledgement can arrive.
 ///
 /// Without MPI (QUADTUNE_WITH_MPI=OFF or MPI not found) MpiBuilt() is false and MpiSession's
 /// constructor throws.
@@ -43,6 +47,9 @@
 /// Thread safety: MPI is called only from the thread that built the MpiSession
 /// (MPI_THREAD_FUNNELED); RunDistributed and LoadExperimentShared must run on it.
 
+#include <atomic>
+#include <cstddef>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -82,8 +89,10 @@ class PeerError : public std::runtime_error {
 /// destruction after every rank got there (waiting without spinning).
 class MpiSession {
  public:
-  /// Throws std::runtime_error when built without MPI or when MPI cannot start.
-  MpiSession();
+  /// Throws std::runtime_error when built without MPI or when MPI cannot start. The session's
+  /// own waits (LoadExperimentShared, the barrier before MPI_Finalize) give up once `cancel`
+  /// (may be null, e.g. quadtune::CancelFlag()) is set.
+  explicit MpiSession(const std::atomic<bool>* cancel = nullptr);
   ~MpiSession();
   MpiSession(const MpiSession&) = delete;
   MpiSession& operator=(const MpiSession&) = delete;
@@ -94,8 +103,11 @@ class MpiSession {
   [[nodiscard]] const std::string& Host() const { return host_; }
   /// Ends every rank of the job (MPI_Abort) with exit code `code`.
   [[noreturn]] void Abort(int code) const;
+  /// The flag the session's waits give up on (may be null).
+  [[nodiscard]] const std::atomic<bool>* Cancel() const { return cancel_; }
 
  private:
+  const std::atomic<bool>* cancel_ = nullptr;
   int rank_ = 0;
   int size_ = 1;
   std::string host_;
@@ -108,21 +120,79 @@ class MpiSession {
 Experiment LoadExperimentShared(const MpiSession& mpi, const std::string& path,
                                 const std::vector<std::string>& assignments = {});
 
+/// How a distributed run ended early on one rank.
+enum class DistributedEnd {
+  kStopped,  ///< a signal stopped it (the runtime's SIGTERM after a rank was lost, or the user)
+  kFailed,   ///< an error on some rank ended it (StopReport::error says which and why)
+};
+
+/// A rank that was lost: its process ended while the run went on.
+struct LostRank {
+  int rank = 0;
+  long pid = 0;
+  std::string host;
+  std::string trial;  ///< what it ran: "trial METHOD rREPEAT", or "no trial"
+};
+
+/// What one rank knows when the run ends before it completes (DistributedOptions::on_stop).
+/// Rank 0 fills every field; another rank fills `end`, `rank` and `error`.
+struct StopReport {
+  DistributedEnd end = DistributedEnd::kStopped;
+  int rank = 0;                ///< the rank that reports
+  std::vector<LostRank> lost;  ///< rank 0, kStopped: ranks whose process had ended (may be empty)
+  std::string store_path;      ///< rank 0: the store ("" when the run has none)
+  std::size_t committed = 0;   ///< rank 0: evaluations committed to the store
+  int trials_done = 0;         ///< rank 0: trials finished
+  int trials_total = 0;
+  std::string resume_command;  ///< DistributedOptions::resume_command
+  /// kFailed: the error. Rank 0: "rank R: message" (R: the rank it happened on); another rank:
+  /// its own error, already sent to rank 0, which ends the job.
+  std::string error;
+};
+
+/// What the faulting rank knows when its fault is triggered (FaultInjection).
+struct FaultReport {
+  int rank = 0;
+  long acknowledged = 0;  ///< its evaluations rank 0 acknowledged
+  long in_flight = 0;     ///< its evaluations in the batch sent and not yet acknowledged
+  std::string trials;     ///< ids of the trials it was assigned, e.g. "3,7"
+};
+
+/// Fault injection for tests: see the file comment. Off while `rank` or `after` is 0.
+struct FaultInjection {
+  int rank = 0;   ///< the rank (>= 1) that faults
+  int after = 0;  ///< at its Nth evaluation (>= 1)
+  /// What the fault does (e.g. raise SIGKILL); the rank goes on if it returns.
+  std::function<void(const FaultReport&)> trigger;
+};
+
 /// How to run distributed.
 struct DistributedOptions {
   /// store_path, resume, on_progress and cancel are used on rank 0 (cancel also on the others:
   /// a rank stops computing when it is set); threads (> 0) is the threads of every rank.
   RunOptions run;
-  /// Printed by rank 0 as the command that resumes the run when the run is stopped.
+  /// Rank 0's StopReport carries it as the command that resumes the run.
   std::string resume_command;
+  /// Called, on the rank concerned, when the run ends early (a signal, or an error that ends the
+  /// job) instead of returning; it must end the process and not return: MPI cannot be finalised
+  /// (a lost rank leaves the job broken) and rank 0's trial thread is still running. Required.
+  /// The `quadtune` program prints rank 0's report and exits with 143 (stopped) or ends every
+  /// rank with MPI_Abort (code 2, failed); another rank waits up to 10 s to be stopped by the
+  /// runtime, then exits with 143.
+  std::function<void(const StopReport&)> on_stop;
+  /// Rank 0: true when the process `pid` (of a rank on rank 0's host) has ended; a stopped run
+  /// names such ranks as lost. Empty: none is named. The `quadtune` program reads /proc.
+  std::function<bool(long pid)> process_ended;
+  FaultInjection fault;
 };
 
 /// Runs `experiment` over every rank of `mpi` (a collective call). Rank 0 returns the run's
 /// summary (every trial; flights, re-solves and worlds of all ranks); other ranks return their
 /// share. Problems found before the run starts (e.g. resuming another configuration) throw
-/// ConfigError on rank 0 and PeerError on the others. An error during the run ends the job
-/// (MPI_Abort) after rank 0 has reported it; a signal (SIGTERM from the runtime when a rank was
-/// lost) makes rank 0 report the state of the store and exit with code 143.
+/// ConfigError on rank 0 and PeerError on the others. A run that ends early (an error during
+/// the run, a signal such as the runtime's SIGTERM when a rank was lost) does not return: each
+/// rank hands its StopReport to `options.on_stop`, which ends the process. Throws
+/// InvariantError when `options.on_stop` is empty.
 RunSummary RunDistributed(const MpiSession& mpi, const Experiment& experiment,
                           const DistributedOptions& options);
 

@@ -22,15 +22,17 @@
 ///         start_from: low_fidelity  # experiment `start:` = that stage's recommended point
 ///     validation: {flights: 20}     # held-out maps each recommended point flies (0: none)
 ///
-/// Outputs under OUT: study.json (points, stages, parameter bounds, files), per point and stage
-/// OUT/<label>/<stage>/results.sqlite (a `quadtune run` store, so `--resume` works per stage),
-/// and validation.csv: every validation flight, flown in the last stage's world (planner, map
+/// RunStudy stores every stage's evaluations in OUT/<label>/<stage>/results.sqlite (a `quadtune
+/// run` store, so `--resume` works per stage) and returns the rest as a StudyOutcome, which
+/// WriteStudyFiles writes under OUT: study.json (points, stages, parameter bounds, files) and
+/// validation.csv: every validation flight, flown in the last stage's world (planner, map
 /// density, noise) with the recommended point of each trial of every stage (TrialSummary::
 /// recommended) and with the defaults, all on the same held-out maps and flight seeds
 /// (Experiment::HeldOutMapSeed / HeldOutFlightSeed of the last stage: maps of the same kind
 /// that no trial flew). The runs inside a study skip their own validation.
 ///
-/// Thread safety: a Study is an immutable value; RunStudy uses the threads it is given.
+/// Thread safety: a Study is an immutable value; RunStudy uses the threads it is given and calls
+/// `on_update` on the thread that called it.
 
 #include <atomic>
 #include <cstdint>
@@ -83,23 +85,85 @@ struct StudyProgress {
   int validation_done = 0, validation_total = 0;
 };
 
-struct StudyOptions {
-  std::string out_dir = "results/study";
-  int threads = 0;             ///< > 0 overrides the experiments' threads
-  bool resume = false;         ///< continue stored stages; stages already done are replayed
-  std::function<void(const StudyProgress&)> on_progress;  ///< may be empty
-  const std::atomic<bool>* cancel = nullptr;
-};
-
 struct StudySummary {
   RunStatus status = RunStatus::kCompleted;
   double wall_s = 0.0;
-  long flights = 0;            ///< tuning and validation flights flown
+  long flights = 0;  ///< tuning and validation flights flown
   long resolves = 0;
 };
 
-/// Runs the study (see the file comment). Configuration problems throw ConfigError before any
-/// work; failures inside flights are recorded in the stores and in validation.csv.
-StudySummary RunStudy(const Study& study, const StudyOptions& options);
+/// One stage of a study point as it ran (an entry of study.json).
+struct StudyStageResult {
+  std::string name;
+  std::string start_from;  ///< StudyStage::start_from
+  ParamValues start;       ///< the stage's `start:` (empty: none)
+  std::string store;       ///< its results.sqlite, relative to StudyOptions::out_dir
+  ParamValues best;        ///< the best recommended point of its tuned trials, else the defaults
+  double wall_s = 0.0;
+  std::vector<optimizers::Parameter> space;  ///< the stage's tuned parameters and bounds
+};
+
+/// A study point whose stages have all run.
+struct StudyPointResult {
+  std::string label;
+  std::string value;  ///< the sweep value as written (YAML), "" without a sweep
+  std::vector<StudyStageResult> stages;
+};
+
+/// One validation flight (a row of validation.csv).
+struct StudyValidationFlight {
+  std::size_t point = 0;
+  std::string label;
+  std::string source_stage;  ///< the stage whose trial recommended `params`; "" for the defaults
+  std::string method;        ///< "default" for the defaults
+  int repeat = 0;
+  std::size_t flight = 0;  ///< index of the held-out map
+  std::uint64_t map_seed = 0;
+  EvalStatus status = EvalStatus::kOk;
+  bool completed = false;
+  double flight_time = 0.0;
+  int collisions = 0;
+  int emergency_stops = 0;
+  int plans = 0;
+  int failed_plans = 0;
+  double f_l = 0.0;    ///< long-term objective (failure_value unless the flight was ok)
+  ParamValues params;  ///< the candidate's parameters (the rest at their defaults)
+};
+
+/// What a study produced besides its stores: the points whose stages finished and the
+/// validation flights of the points validated, in order, with the study's identity.
+struct StudyOutcome {
+  StudySummary summary;
+  std::string name;
+  std::string file;
+  std::uint64_t seed = 1;
+  std::string sweep_key;
+  int validation_flights = 0;
+  std::vector<StudyPointResult> points;
+  std::vector<StudyValidationFlight> validation;
+};
+
+struct StudyOptions {
+  std::string out_dir = "results/study";  ///< the stage stores go under it
+  int threads = 0;             ///< > 0 overrides the experiments' threads
+  bool resume = false;         ///< continue stored stages; stages already done are replayed
+  std::function<void(const StudyProgress&)> on_progress;  ///< may be empty
+  /// Called with the outcome so far when the study starts and whenever it grows (a point's
+  /// stages finished, a point validated); may be empty. `quadtune study` writes the files
+  /// (WriteStudyFiles) there, so a study killed on the way leaves those of the finished points.
+  std::function<void(const StudyOutcome&)> on_update;
+  const std::atomic<bool>* cancel = nullptr;
+};
+
+/// Runs the study (see the file comment) and returns its outcome; a cancelled study returns
+/// what it finished (summary.status kCancelled). Configuration problems throw ConfigError
+/// before any work; failures inside flights are recorded in the stores and in the outcome's
+/// validation flights.
+StudyOutcome RunStudy(const Study& study, const StudyOptions& options);
+
+/// Writes `outcome` under `out_dir` (which must exist): validation.csv (a header and one row per
+/// validation flight) and, once a point's stages have finished, study.json. Throws
+/// std::filesystem::filesystem_error when a file cannot be written.
+void WriteStudyFiles(const StudyOutcome& outcome, const std::string& out_dir);
 
 }  // namespace quadtune::engine
