@@ -94,17 +94,18 @@ const Fields<BayesOptOptions>& BayesOptFields() {
                   "the flying θ_s; 1: off")
           .Number("noise_growth", &O::noise_growth, Range::NonNegative(),
                   "relative noise growth per unit of age")
-          .Custom({"moving_bounds", "map", "see below", "",
-                   "moving damped bounds (paper Sec. III-E), see below"},
-                  [](const YamlMap& map, O& o) {
-                    if (!map.Has("moving_bounds")) return;
-                    o.moving_bounds.enabled = true;  // unless the map says otherwise
-                    MovingBoundsFields().Read(map.Map("moving_bounds"), o.moving_bounds);
-                  },
-                  [](YAML::Emitter& out, const O& o) {
-                    out << YAML::Key << "moving_bounds" << YAML::Value;
-                    MovingBoundsFields().Write(out, o.moving_bounds);
-                  })
+          .Custom(
+              {"moving_bounds", "map", "see below", "",
+               "moving damped bounds (paper Sec. III-E), see below"},
+              [](const YamlMap& map, O& o) {
+                if (!map.Has("moving_bounds")) return;
+                o.moving_bounds.enabled = true;  // unless the map says otherwise
+                MovingBoundsFields().Read(map.Map("moving_bounds"), o.moving_bounds);
+              },
+              [](YAML::Emitter& out, const O& o) {
+                out << YAML::Key << "moving_bounds" << YAML::Value;
+                MovingBoundsFields().Write(out, o.moving_bounds);
+              })
           .Nested("gp", &O::gp, GpFields(), "surrogate bounds and fit settings, see below")
           .Integer("seed", &O::seed, Range::NonNegative(),
                    "seed (an experiment derives one per trial)");

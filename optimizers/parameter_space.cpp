@@ -25,8 +25,7 @@ const Fields<Parameter>& ParameterFields() {
           .Required()
           .Number("upper", &Parameter::upper, Range::Any(), "upper search bound")
           .Required()
-          .Choice("type", &Parameter::type,
-                  "integer parameters are rounded in issued candidates")
+          .Choice("type", &Parameter::type, "integer parameters are rounded in issued candidates")
           .Flag("log", &Parameter::log_scale, "search on a log scale (continuous, lower > 0)")
           .OptionalNumber("default", &Parameter::default_value, Range::Any(),
                           "value flown by method `default` and by untuned parameters, inside "
@@ -110,7 +109,7 @@ int ParameterSpace::IndexOf(const std::string& name) const {
   }
   std::string known;
   for (const auto& p : parameters_) known += (known.empty() ? "" : ", ") + p.name;
-  throw std::invalid_argument("unknown parameter '" + name + "'; known parameters: " + known);
+  throw ConfigError("", name, "unknown parameter '" + name + "'; known parameters: " + known);
 }
 
 Eigen::VectorXd ParameterSpace::Lower() const {
@@ -229,7 +228,10 @@ Eigen::VectorXd ParameterSpace::FromNamed(const std::map<std::string, double>& v
     seen[static_cast<std::size_t>(i)] = true;
   }
   for (std::size_t i = 0; i < seen.size(); ++i) {
-    if (!seen[i]) throw std::invalid_argument("missing value for parameter '" + parameters_[i].name + "'");
+    if (!seen[i]) {
+      throw ConfigError("", parameters_[i].name,
+                        "missing value for parameter '" + parameters_[i].name + "'");
+    }
   }
   return x;
 }

@@ -31,12 +31,11 @@ const std::vector<Row>& Rows() {
        "dynamic-feasibility penalty weight"},
       {"n_pol", nullptr, &P::n_pol, Range::Closed(2, 12), R::kShortTerm,
        "polynomial pieces of a local trajectory"},
-      {"v_des", &P::v_des, nullptr, {0.0, 15.0, true, false}, R::kLongTerm,
+      {"v_des", &P::v_des, nullptr, Range{0.0, 15.0, true, false}, R::kLongTerm,
        "desired (maximum) velocity (m/s)"},
       {"h_pl", &P::h_pl, nullptr, Range::Closed(1.0, 30.0), R::kLongTerm,
        "planning horizon: distance to the local goal (m)"},
-      {"t_pl", &P::t_pl, nullptr, Range::Closed(0.05, 10.0), R::kLongTerm,
-       "re-plan interval (s)"},
+      {"t_pl", &P::t_pl, nullptr, Range::Closed(0.05, 10.0), R::kLongTerm, "re-plan interval (s)"},
       {"a_max", &P::a_max, nullptr, Range::Positive(), R::kFixed, "acceleration limit (m/s²)"},
       {"clearance", &P::clearance, nullptr, Range::Positive(), R::kFixed,
        "desired clearance in the collision cost (soft) (m); below the distance field's 1 m "
@@ -49,12 +48,12 @@ const std::vector<Row>& Rows() {
        "waypoint reached within it (m)"},
       {"no_replan_near_goal", &P::no_replan_near_goal, nullptr, Range::NonNegative(), R::kFixed,
        "no periodic re-plan this close to the goal (m)"},
-      {"map_resolution", &P::map_resolution, nullptr, {0.0, 1.0, true, false}, R::kFixed,
+      {"map_resolution", &P::map_resolution, nullptr, Range{0.0, 1.0, true, false}, R::kFixed,
        "occupancy and distance-field voxel size (m)"},
       {"w_smooth", &P::w_smooth, nullptr, Range::Positive(), R::kFixed, "jerk-energy weight"},
       {"w_time", &P::w_time, nullptr, Range::NonNegative(), R::kFixed,
        "weight of slowing below the nominal time allocation at v_des (1/s)"},
-      {"max_attempts", nullptr, &P::max_attempts, {1.0, kInf, false, false}, R::kFixed,
+      {"max_attempts", nullptr, &P::max_attempts, Range{1.0, kInf, false, false}, R::kFixed,
        "planning attempts per re-plan before it counts as failed"},
   };
   return rows;
@@ -107,8 +106,8 @@ const std::vector<PlannerParameterInfo>& PlannerParameterSchema() {
     const PlannerParams defaults;
     std::vector<PlannerParameterInfo> out;
     for (const Row& r : Rows()) {
-      out.push_back({r.name, r.role, r.integer != nullptr, r.range, defaults.Get(r.name),
-                     r.meaning});
+      out.push_back(
+          {r.name, r.role, r.integer != nullptr, r.range, defaults.Get(r.name), r.meaning});
     }
     return out;
   }();
@@ -156,6 +155,8 @@ void PlannerParams::Validate(const std::string& origin) const {
   PlannerParamsFields().Check(*this, origin);
 }
 
-PlannerParams PlannerParams::FromYaml(const YamlMap& map) { return PlannerParamsFields().Read(map); }
+PlannerParams PlannerParams::FromYaml(const YamlMap& map) {
+  return PlannerParamsFields().Read(map);
+}
 
 }  // namespace quadtune::planning

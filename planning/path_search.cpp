@@ -128,8 +128,7 @@ const Fields<PathSearchOptions>& PathSearchFields() {
 namespace {
 // The cross-field rule: z_max above z_min.
 void CheckHeights(const PathSearchOptions& o, const std::string& file, const std::string& key) {
-  CheckInRange(o.z_max, {o.z_min, std::numeric_limits<double>::infinity(), true, false}, file,
-               key);
+  CheckInRange(o.z_max, {o.z_min, std::numeric_limits<double>::infinity(), true, false}, file, key);
 }
 }  // namespace
 

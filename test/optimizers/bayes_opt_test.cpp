@@ -372,9 +372,9 @@ TEST(BayesOpt, OptionsWrittenReadBackEqual) {
 TEST(BayesOpt, CrossedGpBoundsNameTheKeyUnderItsMap) {
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
       [&] {
-        BayesOptOptions::FromYaml(YamlMap::FromString(
-            "bo: {gp: {min_lengthscale: 2, max_lengthscale: 1}}", "e.yaml")
-                                      .Map("bo"));
+        BayesOptOptions::FromYaml(
+            YamlMap::FromString("bo: {gp: {min_lengthscale: 2, max_lengthscale: 1}}", "e.yaml")
+                .Map("bo"));
       },
       "bo.gp.max_lengthscale", {"e.yaml", "must be a finite number > bo.gp.min_lengthscale"}));
 }

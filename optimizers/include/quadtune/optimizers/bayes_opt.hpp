@@ -54,9 +54,9 @@ namespace quadtune::optimizers {
 /// Kernel of the surrogate (each maps to a compile-time GaussianProcess<Kernel>).
 enum class KernelChoice { kMatern52, kSquaredExponential };
 constexpr auto EnumNames(KernelChoice) {
-  return std::array{EnumName{KernelChoice::kMatern52, Matern52Kernel::kName.data()},
-                    EnumName{KernelChoice::kSquaredExponential,
-                             SquaredExponentialKernel::kName.data()}};
+  return std::array{
+      EnumName{KernelChoice::kMatern52, Matern52Kernel::kName.data()},
+      EnumName{KernelChoice::kSquaredExponential, SquaredExponentialKernel::kName.data()}};
 }
 /// How the initial design is drawn.
 enum class InitialDesign { kLatinHypercube, kUniform };

@@ -82,7 +82,7 @@ class ParameterSpace {
   [[nodiscard]] const std::vector<Parameter>& Parameters() const { return parameters_; }
   /// Parameter names in order.
   [[nodiscard]] std::vector<std::string> Names() const;
-  /// Index of `name`; throws std::invalid_argument listing the known names when unknown.
+  /// Index of `name`; throws ConfigError (key `name`) listing the known names when unknown.
   [[nodiscard]] int IndexOf(const std::string& name) const;
 
   /// Lower / upper bounds in original coordinates.
@@ -107,14 +107,14 @@ class ParameterSpace {
   /// True when x has Dim() entries, each inside its bounds, integers integral.
   [[nodiscard]] bool Contains(const Eigen::VectorXd& x) const;
 
-  /// Named values → vector. Every parameter must be present; an unknown name throws
-  /// std::invalid_argument.
+  /// Named values → vector. Every parameter must be present; an unknown or missing name throws
+  /// ConfigError naming it.
   [[nodiscard]] Eigen::VectorXd FromNamed(const std::map<std::string, double>& values) const;
   /// Vector → named values (throws std::invalid_argument on a wrong size).
   [[nodiscard]] std::map<std::string, double> ToNamed(const Eigen::VectorXd& x) const;
 
   /// The sub-space of the named parameters, in the given order (e.g. θ_s or θ_l out of θ).
-  /// Unknown names throw std::invalid_argument.
+  /// Unknown names throw ConfigError (IndexOf); an empty list std::invalid_argument.
   [[nodiscard]] ParameterSpace Subspace(const std::vector<std::string>& names) const;
 
  private:

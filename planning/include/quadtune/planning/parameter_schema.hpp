@@ -32,7 +32,7 @@ constexpr auto EnumNames(ParameterRole) {
 
 /// One row of the planner parameter schema.
 struct PlannerParameterInfo {
-  std::string name;       ///< the PlannerParams field, e.g. "v_des"
+  std::string name;  ///< the PlannerParams field, e.g. "v_des"
   ParameterRole role;
   bool integer = false;   ///< n_pol, max_attempts
   Range range;            ///< allowed values
