@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/random.hpp"
 #include "quadtune/engine/experiment.hpp"
 #include "quadtune/layout/layout.hpp"
@@ -69,9 +70,7 @@ IpoptPlannerOptions IpoptPlannerOptions::FromYaml(const YamlMap& p, const std::s
   }
   if (p.Has("world")) o.world = physics::WorldOptions::FromYaml(p.Map("world"));
   o.world.collision_response = physics::CollisionResponse::kPassThrough;
-  o.mission = sim::MissionKindFromString(
-      p.String("mission", std::string("go_and_return"), {"go_and_return", "go_to"}), p.file(),
-      "planner.mission");
+  o.mission = ReadEnum<sim::MissionKind>(p, "mission", sim::MissionKind::kGoAndReturn);
   o.flight.max_time = p.Number("max_time", 60.0, Range::Positive());
   if (p.Has("fixed")) o.base = planning::PlannerParams::FromYaml(p.Map("fixed"));
   if (!p.Bool("safety_nets", true)) {

@@ -104,8 +104,10 @@ int RunFly(const FlyArgs& a) {
     world_options = physics::WorldOptions::FromYaml(YamlMap::LoadFile(a.world_file));
   }
   world_options.collision_response = physics::CollisionResponse::kPassThrough;
-  const sim::Scenario scenario = sim::Scenario::OverLayout(
-      layout, sim::MissionKindFromString(a.mission, "", "--mission"), drone, world_options, a.seed);
+  const std::optional<sim::MissionKind> mission_kind = FromString<sim::MissionKind>(a.mission);
+  if (!mission_kind) throw ConfigError("", "--mission", "unknown mission '" + a.mission + "'");
+  const sim::Scenario scenario =
+      sim::Scenario::OverLayout(layout, *mission_kind, drone, world_options, a.seed);
   sim::FlightOptions options;
   options.max_time = a.max_time;
 
@@ -195,7 +197,7 @@ void RegisterFly(CLI::App& app, int& exit_code) {
         std::replace(text.begin(), text.end(), '-', '_');
         return text;
       }, "", "")
-      ->check(CLI::IsMember({"go_and_return", "go_to"}))
+      ->check(CLI::IsMember(EnumNameList<sim::MissionKind>()))
       ->capture_default_str();
   cmd->add_option("--planner", args.planner,
                   "planner type from the planner registry, flown in the closed loop (registered: " +

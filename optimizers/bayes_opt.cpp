@@ -46,104 +46,81 @@ double LogEi(double incumbent, double xi, double mean, double variance) {
   return std::log(sigma) + lh;
 }
 
-const char* KernelName(KernelChoice k) {
-  return k == KernelChoice::kMatern52 ? "matern52" : "squared_exponential";
-}
-
 }  // namespace
 
-void BayesOptOptions::Validate() const {
-  if (initial_design_size < 0) throw ConfigError("", "initial_design_size", "must be an integer >= 0");
-  if (!(exploration >= 0.0 && std::isfinite(exploration))) {
-    throw ConfigError("", "exploration", "must be a finite number >= 0");
-  }
-  if (acquisition_pool < 10) throw ConfigError("", "acquisition_pool", "must be an integer >= 10");
-  if (!(local_pool_fraction >= 0.0 && local_pool_fraction < 1.0)) {
-    throw ConfigError("", "local_pool_fraction", "must be a number in [0, 1)");
-  }
-  if (acquisition_starts < 0) throw ConfigError("", "acquisition_starts", "must be an integer >= 0");
-  if (acquisition_iterations < 1) throw ConfigError("", "acquisition_iterations", "must be an integer >= 1");
-  if (refit_every < 1) throw ConfigError("", "refit_every", "must be an integer >= 1");
-  if (hyper_restarts < 0) throw ConfigError("", "hyper_restarts", "must be an integer >= 0");
-  if (restart_period < 1) throw ConfigError("", "restart_period", "must be an integer >= 1");
-  if (!(default_noise_variance >= 0.0 && std::isfinite(default_noise_variance))) {
-    throw ConfigError("", "default_noise_variance", "must be a finite number >= 0");
-  }
-  if (!(discount > 0.0 && discount <= 1.0)) throw ConfigError("", "discount", "must be a number in (0, 1]");
-  if (!(noise_growth >= 0.0 && std::isfinite(noise_growth))) {
-    throw ConfigError("", "noise_growth", "must be a finite number >= 0");
-  }
-  if (!(moving_bounds.damping > 0.0 && moving_bounds.damping < 1.0)) {
-    throw ConfigError("", "moving_bounds.damping", "must be a number in (0, 1)");
-  }
-  if (!(moving_bounds.half_width > 0.0 && moving_bounds.half_width <= 1.0)) {
-    throw ConfigError("", "moving_bounds.half_width", "must be a number in (0, 1]");
-  }
-  gp.Validate();
+const Fields<MovingBoundsOptions>& MovingBoundsFields() {
+  static const Fields<MovingBoundsOptions> fields =
+      Fields<MovingBoundsOptions>()
+          .Flag("enabled", &MovingBoundsOptions::enabled,
+                "moving damped bounds (paper Sec. III-E); a `moving_bounds` map without this key "
+                "turns them on")
+          .Number("damping", &MovingBoundsOptions::damping, Range::OpenUnit(), "λ_b")
+          .Number("half_width", &MovingBoundsOptions::half_width, Range{0.0, 1.0, true, false},
+                  "r_b, fraction of each parameter's unit range");
+  return fields;
+}
+
+const Fields<BayesOptOptions>& BayesOptFields() {
+  using O = BayesOptOptions;
+  static const Fields<O> fields =
+      Fields<O>()
+          .Choice("kernel", &O::kernel, "kernel of the Gaussian-process surrogate")
+          .Integer("initial_design_size", &O::initial_design_size, Range::Closed(0, 1e6),
+                   "points before the model is used")
+          .Choice("initial_design", &O::initial_design, "how the initial design is drawn")
+          .Choice("batch_strategy", &O::batch_strategy,
+                  "how pending points in a batch are fantasised")
+          .Number("exploration", &O::exploration, Range::NonNegative(),
+                  "ξ in expected improvement (standardised units)")
+          .Integer("acquisition_pool", &O::acquisition_pool, Range::Closed(10, 1e7),
+                   "pool points scored per batch member")
+          .Number("local_pool_fraction", &O::local_pool_fraction, Range{0.0, 1.0, false, true},
+                  "share of the pool around the incumbent")
+          .Integer("acquisition_starts", &O::acquisition_starts, Range::Closed(0, 1e4),
+                   "local refinements per batch member")
+          .Integer("acquisition_iterations", &O::acquisition_iterations, Range::Closed(1, 1e5),
+                   "L-BFGS iterations per refinement")
+          .Integer("refit_every", &O::refit_every, Range::Closed(1, 1e6),
+                   "results between hyperparameter refits")
+          .Integer("hyper_restarts", &O::hyper_restarts, Range::Closed(0, 1e3),
+                   "random restarts on a restart refit")
+          .Integer("restart_period", &O::restart_period, Range::Closed(1, 1e6),
+                   "every n-th refit (and the first) restarts")
+          .Flag("fit_hyperparameters", &O::fit_hyperparameters, "false: keep `gp.initial_*`")
+          .Number("default_noise_variance", &O::default_noise_variance, Range::NonNegative(),
+                  "σ₀² when a result carries none (objective units²)")
+          .Number("discount", &O::discount, Range{0.0, 1.0, true, false},
+                  "λ_d: noise of old observations is divided by λ_d^n_d, n_d counting changes of "
+                  "the flying θ_s; 1: off")
+          .Number("noise_growth", &O::noise_growth, Range::NonNegative(),
+                  "relative noise growth per unit of age")
+          .Custom(
+              {"moving_bounds", "map", "see below", "",
+               "moving damped bounds (paper Sec. III-E), see below"},
+              [](const YamlMap& map, O& o) {
+                if (!map.Has("moving_bounds")) return;
+                o.moving_bounds.enabled = true;  // unless the map says otherwise
+                MovingBoundsFields().Read(map.Map("moving_bounds"), o.moving_bounds);
+              },
+              [](YAML::Emitter& out, const O& o) {
+                out << YAML::Key << "moving_bounds" << YAML::Value;
+                MovingBoundsFields().Write(out, o.moving_bounds);
+              })
+          .Nested("gp", &O::gp, GpFields(), "surrogate bounds and fit settings, see below")
+          .Integer("seed", &O::seed, Range::NonNegative(),
+                   "seed (an experiment derives one per trial)");
+  return fields;
+}
+
+void BayesOptOptions::Validate(const std::string& file, const std::string& prefix) const {
+  BayesOptFields().Check(*this, file, prefix);
+  MovingBoundsFields().Check(moving_bounds, file, prefix + "moving_bounds.");
+  gp.Validate(file, prefix + "gp.");
 }
 
 BayesOptOptions BayesOptOptions::FromYaml(const YamlMap& map) {
-  map.RejectUnknownKeys({"kernel", "initial_design_size", "initial_design", "batch_strategy", "exploration",
-                         "acquisition_pool", "local_pool_fraction", "acquisition_starts",
-                         "acquisition_iterations", "refit_every", "hyper_restarts", "restart_period",
-                         "fit_hyperparameters", "default_noise_variance", "discount", "noise_growth",
-                         "moving_bounds", "gp", "seed"});
-  BayesOptOptions o;
-  o.kernel = map.String("kernel", std::string("matern52"), {"matern52", "squared_exponential"}) == "matern52"
-                 ? KernelChoice::kMatern52
-                 : KernelChoice::kSquaredExponential;
-  o.initial_design_size = static_cast<int>(map.Integer("initial_design_size", o.initial_design_size, Range::Closed(0, 1e6)));
-  o.initial_design = map.String("initial_design", std::string("latin_hypercube"), {"latin_hypercube", "uniform"}) ==
-                             "uniform"
-                         ? InitialDesign::kUniform
-                         : InitialDesign::kLatinHypercube;
-  o.batch_strategy = map.String("batch_strategy", std::string("kriging_believer"),
-                                {"kriging_believer", "constant_liar"}) == "constant_liar"
-                         ? BatchStrategy::kConstantLiar
-                         : BatchStrategy::kKrigingBeliever;
-  o.exploration = map.Number("exploration", o.exploration, Range::NonNegative());
-  o.acquisition_pool = static_cast<int>(map.Integer("acquisition_pool", o.acquisition_pool, Range::Closed(10, 1e7)));
-  o.local_pool_fraction = map.Number("local_pool_fraction", o.local_pool_fraction, Range{0.0, 1.0, false, true});
-  o.acquisition_starts = static_cast<int>(map.Integer("acquisition_starts", o.acquisition_starts, Range::Closed(0, 1e4)));
-  o.acquisition_iterations =
-      static_cast<int>(map.Integer("acquisition_iterations", o.acquisition_iterations, Range::Closed(1, 1e5)));
-  o.refit_every = static_cast<int>(map.Integer("refit_every", o.refit_every, Range::Closed(1, 1e6)));
-  o.hyper_restarts = static_cast<int>(map.Integer("hyper_restarts", o.hyper_restarts, Range::Closed(0, 1e3)));
-  o.restart_period = static_cast<int>(map.Integer("restart_period", o.restart_period, Range::Closed(1, 1e6)));
-  o.fit_hyperparameters = map.Bool("fit_hyperparameters", o.fit_hyperparameters);
-  o.default_noise_variance = map.Number("default_noise_variance", o.default_noise_variance, Range::NonNegative());
-  o.discount = map.Number("discount", o.discount, Range{0.0, 1.0, true, false});
-  o.noise_growth = map.Number("noise_growth", o.noise_growth, Range::NonNegative());
-  if (map.Has("moving_bounds")) {
-    const YamlMap mb = map.Map("moving_bounds");
-    mb.RejectUnknownKeys({"enabled", "damping", "half_width"});
-    o.moving_bounds.enabled = mb.Bool("enabled", true);
-    o.moving_bounds.damping = mb.Number("damping", o.moving_bounds.damping, Range::OpenUnit());
-    o.moving_bounds.half_width = mb.Number("half_width", o.moving_bounds.half_width, Range{0.0, 1.0, true, false});
-  }
-  if (map.Has("gp")) {
-    const YamlMap g = map.Map("gp");
-    g.RejectUnknownKeys({"min_lengthscale", "max_lengthscale", "min_signal_std", "max_signal_std",
-                         "min_noise_std", "max_noise_std", "learn_noise", "initial_lengthscale",
-                         "initial_noise_std", "fit_iterations"});
-    auto& p = o.gp;
-    p.min_lengthscale = g.Number("min_lengthscale", p.min_lengthscale, Range::Positive());
-    p.max_lengthscale = g.Number("max_lengthscale", p.max_lengthscale, Range::Positive());
-    p.min_signal_std = g.Number("min_signal_std", p.min_signal_std, Range::Positive());
-    p.max_signal_std = g.Number("max_signal_std", p.max_signal_std, Range::Positive());
-    p.min_noise_std = g.Number("min_noise_std", p.min_noise_std, Range::Positive());
-    p.max_noise_std = g.Number("max_noise_std", p.max_noise_std, Range::Positive());
-    p.learn_noise = g.Bool("learn_noise", p.learn_noise);
-    p.initial_lengthscale = g.Number("initial_lengthscale", p.initial_lengthscale, Range::Positive());
-    p.initial_noise_std = g.Number("initial_noise_std", p.initial_noise_std, Range::Positive());
-    p.fit_iterations = static_cast<int>(g.Integer("fit_iterations", p.fit_iterations, Range::Closed(1, 1e5)));
-  }
-  o.seed = static_cast<std::uint64_t>(map.Integer("seed", 0, Range::NonNegative()));
-  try {
-    o.Validate();
-  } catch (const ConfigError& e) {
-    throw ConfigError(map.file(), map.KeyPath(e.key()), e.what());
-  }
+  const BayesOptOptions o = BayesOptFields().Read(map);
+  o.gp.Validate(map.file(), map.KeyPath("gp."));
   return o;
 }
 
@@ -546,7 +523,7 @@ nlohmann::json BayesOpt::SaveState() const {
   nlohmann::json j;
   j["method"] = "bayes_opt";
   j["dim"] = space_.Dim();
-  j["kernel"] = KernelName(options_.kernel);
+  j["kernel"] = ToString(options_.kernel);
   j["rng"] = detail::RngToString(rng_);
   j["next_id"] = next_id_;
   j["design_generated"] = design_generated_;
@@ -577,7 +554,7 @@ void BayesOpt::RestoreState(const nlohmann::json& state) {
   detail::CheckHeader(state, "bayes_opt", space_.Dim());
   const int d = space_.Dim();
   detail::WithJsonErrors([&] {
-    if (state.at("kernel").get<std::string>() != KernelName(options_.kernel)) {
+    if (state.at("kernel").get<std::string>() != ToString(options_.kernel)) {
       throw std::invalid_argument("BayesOpt::RestoreState: saved with kernel '" +
                                   state.at("kernel").get<std::string>() + "'");
     }

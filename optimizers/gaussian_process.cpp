@@ -12,27 +12,55 @@
 
 namespace quadtune::optimizers {
 
-void GaussianProcessOptions::Validate() const {
-  auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  if (!positive(min_lengthscale)) throw ConfigError("", "gp.min_lengthscale", "must be a number in (0, inf)");
-  if (!(std::isfinite(max_lengthscale) && max_lengthscale > min_lengthscale)) {
-    throw ConfigError("", "gp.max_lengthscale", "must be a finite number > gp.min_lengthscale");
+const Fields<GaussianProcessOptions>& GpFields() {
+  using O = GaussianProcessOptions;
+  static const Fields<O> fields =
+      Fields<O>()
+          .Number("min_lengthscale", &O::min_lengthscale, Range::Positive(),
+                  "smallest lengthscale (unit-cube widths)")
+          .Number("max_lengthscale", &O::max_lengthscale, Range::Positive(),
+                  "largest lengthscale, > `min_lengthscale`")
+          .Number("min_signal_std", &O::min_signal_std, Range::Positive(),
+                  "smallest signal standard deviation σ_f (standardised units)")
+          .Number("max_signal_std", &O::max_signal_std, Range::Positive(),
+                  "largest σ_f, > `min_signal_std`")
+          .Number("min_noise_std", &O::min_noise_std, Range::Positive(),
+                  "smallest noise standard deviation σ_n (standardised units; also the jitter "
+                  "that keeps the covariance positive definite)")
+          .Number("max_noise_std", &O::max_noise_std, Range::Positive(),
+                  "largest σ_n, ≥ `min_noise_std`")
+          .Flag("learn_noise", &O::learn_noise, "false: σ_n stays at `initial_noise_std`")
+          .Number("initial_lengthscale", &O::initial_lengthscale, Range::Positive(),
+                  "start of the first fit, inside the lengthscale bounds")
+          .Number("initial_noise_std", &O::initial_noise_std, Range::Positive(),
+                  "start of the first fit, inside the noise bounds")
+          .Integer("fit_iterations", &O::fit_iterations, Range::Closed(1, 1e5),
+                   "L-BFGS iterations per start");
+  return fields;
+}
+
+void GaussianProcessOptions::Validate(const std::string& file, const std::string& prefix) const {
+  GpFields().Check(*this, file, prefix);
+  if (!(max_lengthscale > min_lengthscale)) {
+    throw ConfigError(file, prefix + "max_lengthscale",
+                      "must be a finite number > " + prefix + "min_lengthscale");
   }
-  if (!positive(min_signal_std)) throw ConfigError("", "gp.min_signal_std", "must be a number in (0, inf)");
-  if (!(std::isfinite(max_signal_std) && max_signal_std > min_signal_std)) {
-    throw ConfigError("", "gp.max_signal_std", "must be a finite number > gp.min_signal_std");
+  if (!(max_signal_std > min_signal_std)) {
+    throw ConfigError(file, prefix + "max_signal_std",
+                      "must be a finite number > " + prefix + "min_signal_std");
   }
-  if (!positive(min_noise_std)) throw ConfigError("", "gp.min_noise_std", "must be a number in (0, inf)");
-  if (!(std::isfinite(max_noise_std) && max_noise_std >= min_noise_std)) {
-    throw ConfigError("", "gp.max_noise_std", "must be a finite number >= gp.min_noise_std");
+  if (!(max_noise_std >= min_noise_std)) {
+    throw ConfigError(file, prefix + "max_noise_std",
+                      "must be a finite number >= " + prefix + "min_noise_std");
   }
   if (!(initial_lengthscale >= min_lengthscale && initial_lengthscale <= max_lengthscale)) {
-    throw ConfigError("", "gp.initial_lengthscale", "must lie in [gp.min_lengthscale, gp.max_lengthscale]");
+    throw ConfigError(file, prefix + "initial_lengthscale",
+                      "must lie in [" + prefix + "min_lengthscale, " + prefix + "max_lengthscale]");
   }
   if (!(initial_noise_std >= min_noise_std && initial_noise_std <= max_noise_std)) {
-    throw ConfigError("", "gp.initial_noise_std", "must lie in [gp.min_noise_std, gp.max_noise_std]");
+    throw ConfigError(file, prefix + "initial_noise_std",
+                      "must lie in [" + prefix + "min_noise_std, " + prefix + "max_noise_std]");
   }
-  if (fit_iterations < 1) throw ConfigError("", "gp.fit_iterations", "must be an integer >= 1");
 }
 
 namespace {

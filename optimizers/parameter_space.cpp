@@ -16,10 +16,26 @@ bool IsIntegral(double v) { return std::isfinite(v) && std::floor(v) == v; }
 
 }  // namespace
 
+const Fields<Parameter>& ParameterFields() {
+  static const Fields<Parameter> fields =
+      Fields<Parameter>()
+          .Text("name", &Parameter::name, {}, "a tunable parameter of the planner; unique")
+          .Required()
+          .Number("lower", &Parameter::lower, Range::Any(), "lower search bound, < `upper`")
+          .Required()
+          .Number("upper", &Parameter::upper, Range::Any(), "upper search bound")
+          .Required()
+          .Choice("type", &Parameter::type, "integer parameters are rounded in issued candidates")
+          .Flag("log", &Parameter::log_scale, "search on a log scale (continuous, lower > 0)")
+          .OptionalNumber("default", &Parameter::default_value, Range::Any(),
+                          "value flown by method `default` and by untuned parameters, inside "
+                          "the bounds; absent: the planner's default");
+  return fields;
+}
+
 void Parameter::Validate(const std::string& file, const std::string& key_prefix) const {
   if (name.empty()) throw ConfigError(file, Join(key_prefix, "name"), "must not be empty");
-  if (!std::isfinite(lower)) throw ConfigError(file, Join(key_prefix, "lower"), "must be a finite number");
-  if (!std::isfinite(upper)) throw ConfigError(file, Join(key_prefix, "upper"), "must be a finite number");
+  ParameterFields().Check(*this, file, key_prefix.empty() ? "" : key_prefix + ".");
   if (!(lower < upper)) {
     throw ConfigError(file, Join(key_prefix, "upper"),
                       "parameter '" + name + "': upper bound " + std::to_string(upper) +
@@ -42,7 +58,7 @@ void Parameter::Validate(const std::string& file, const std::string& key_prefix)
   }
   if (default_value) {
     const double v = *default_value;
-    if (!std::isfinite(v) || v < lower || v > upper) {
+    if (v < lower || v > upper) {
       throw ConfigError(file, Join(key_prefix, "default"),
                         "parameter '" + name + "': default must lie in [" + std::to_string(lower) +
                             ", " + std::to_string(upper) + "]");
@@ -72,16 +88,7 @@ ParameterSpace ParameterSpace::FromYaml(const YamlMap& map) {
   std::vector<Parameter> params;
   std::set<std::string> names;
   for (const YamlMap& item : items) {
-    item.RejectUnknownKeys({"name", "lower", "upper", "type", "log", "default"});
-    Parameter p;
-    p.name = item.String("name");
-    p.lower = item.Number("lower");
-    p.upper = item.Number("upper");
-    p.type = item.String("type", std::string("continuous"), {"continuous", "integer"}) == "integer"
-                 ? ParameterType::kInteger
-                 : ParameterType::kContinuous;
-    p.log_scale = item.Bool("log", false);
-    if (item.Has("default")) p.default_value = item.Number("default");
+    Parameter p = ParameterFields().Read(item);
     p.Validate(item.file(), item.path());
     if (!names.insert(p.name).second) item.Fail("name", "duplicate parameter name '" + p.name + "'");
     params.push_back(std::move(p));
@@ -102,7 +109,7 @@ int ParameterSpace::IndexOf(const std::string& name) const {
   }
   std::string known;
   for (const auto& p : parameters_) known += (known.empty() ? "" : ", ") + p.name;
-  throw std::invalid_argument("unknown parameter '" + name + "'; known parameters: " + known);
+  throw ConfigError("", name, "unknown parameter '" + name + "'; known parameters: " + known);
 }
 
 Eigen::VectorXd ParameterSpace::Lower() const {
@@ -221,7 +228,10 @@ Eigen::VectorXd ParameterSpace::FromNamed(const std::map<std::string, double>& v
     seen[static_cast<std::size_t>(i)] = true;
   }
   for (std::size_t i = 0; i < seen.size(); ++i) {
-    if (!seen[i]) throw std::invalid_argument("missing value for parameter '" + parameters_[i].name + "'");
+    if (!seen[i]) {
+      throw ConfigError("", parameters_[i].name,
+                        "missing value for parameter '" + parameters_[i].name + "'");
+    }
   }
   return x;
 }

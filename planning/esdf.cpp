@@ -204,18 +204,20 @@ void DeepCellBox(std::span<const std::uint8_t> occupancy, const Eigen::Vector3i&
 
 // ---------------------------------------------------------------- options
 
-void EsdfOptions::Validate(const std::string& origin) const {
-  CheckInRange(max_distance, {0.0, 30.0, true, false}, origin, "max_distance");
+const Fields<EsdfOptions>& EsdfFields() {
+  static const Fields<EsdfOptions> fields =
+      Fields<EsdfOptions>()
+          .Number("max_distance", &EsdfOptions::max_distance, {0.0, 30.0, true, false},
+                  "truncation distance (m): distances are exact up to it and clamped beyond; "
+                  "above the planner's `clearance`")
+          .Flag("use_inflated_occupancy", &EsdfOptions::use_inflated_occupancy,
+                "build from the inflated occupancy instead of the raw hits");
+  return fields;
 }
 
-EsdfOptions EsdfOptions::FromYaml(const YamlMap& map) {
-  map.RejectUnknownKeys({"max_distance", "use_inflated_occupancy"});
-  EsdfOptions o;
-  o.max_distance = map.Number("max_distance", o.max_distance);
-  o.use_inflated_occupancy = map.Bool("use_inflated_occupancy", o.use_inflated_occupancy);
-  o.Validate(map.file());
-  return o;
-}
+void EsdfOptions::Validate(const std::string& origin) const { EsdfFields().Check(*this, origin); }
+
+EsdfOptions EsdfOptions::FromYaml(const YamlMap& map) { return EsdfFields().Read(map); }
 
 // ---------------------------------------------------------------- builder
 

@@ -139,41 +139,58 @@ LocalMapOptions LocalMapOptions::FromPlannerParams(const PlannerParams& params) 
   return o;
 }
 
-void LocalMapOptions::Validate(const std::string& origin) const {
-  CheckInRange(resolution, {0.0, 1.0, true, false}, origin, "resolution");
-  const char* axes[3] = {"size.x", "size.y", "size.z"};
+const Fields<LocalMapOptions>& LocalMapFields() {
+  using O = LocalMapOptions;
+  static const Fields<O> fields =
+      Fields<O>()
+          .Number("resolution", &O::resolution, {0.0, 1.0, true, false}, "cell side (m)")
+          .Vector3("size", &O::size,
+                   "window extent in x, y, z (m); each at least 2 and at most 4096 cells, at "
+                   "most 2^27 cells in all")
+          .Number("inflation", &O::inflation, Range::Any(),
+                  "obstacle inflation (m), in [0, 15·`resolution`]")
+          .Flag("ground_is_obstacle", &O::ground_is_obstacle,
+                "cells with centre below `ground_height` are occupied")
+          .Number("ground_height", &O::ground_height, Range::Any(),
+                  "height of the ground plane (m)")
+          .Number("max_range", &O::max_range, Range::Positive(),
+                  "hits farther than this from the sensor origin are ignored (m)")
+          .Flag("clear_free_space", &O::clear_free_space,
+                "free-space ray clearing: a raw-occupied cell is freed after "
+                "`misses_to_free` misses without a new hit")
+          .Integer("misses_to_free", &O::misses_to_free, Range::Closed(1, 100),
+                   "misses that free a raw-occupied cell");
+  return fields;
+}
+
+namespace {
+// The rules that tie size and inflation to the resolution; `prefix` leads every key.
+void CheckWindow(const LocalMapOptions& o, const std::string& file, const std::string& prefix) {
+  const double resolution = o.resolution;
+  const Eigen::Vector3d& size = o.size;
+  const std::string axes[3] = {prefix + "size.x", prefix + "size.y", prefix + "size.z"};
   double cells = 1.0;
   for (int k = 0; k < 3; ++k) {
-    CheckInRange(size[k], Range::Closed(2.0 * resolution, 4096.0 * resolution), origin, axes[k]);
+    CheckInRange(size[k], Range::Closed(2.0 * resolution, 4096.0 * resolution), file, axes[k]);
     cells *= std::round(size[k] / resolution);
   }
   if (cells > static_cast<double>(1 << 27)) {
-    throw ConfigError(origin, "size",
+    throw ConfigError(file, prefix + "size",
                       "the window holds " + std::to_string(cells) +
                           " cells; at most 2^27 are allowed (enlarge resolution or shrink size)");
   }
-  CheckInRange(inflation, Range::Closed(0.0, 15.0 * resolution), origin, "inflation");
-  CheckInRange(ground_height, Range::Any(), origin, "ground_height");
-  CheckInRange(max_range, {0.0, kInf, true, false}, origin, "max_range");
-  if (!(max_range > 0.0)) {
-    throw ConfigError(origin, "max_range", "must be > 0 (inf for no limit)");
-  }
-  CheckInRange(misses_to_free, Range::Closed(1, 100), origin, "misses_to_free");
+  CheckInRange(o.inflation, Range::Closed(0.0, 15.0 * resolution), file, prefix + "inflation");
+}
+}  // namespace
+
+void LocalMapOptions::Validate(const std::string& origin) const {
+  LocalMapFields().Check(*this, origin);
+  CheckWindow(*this, origin, "");
 }
 
 LocalMapOptions LocalMapOptions::FromYaml(const YamlMap& map) {
-  map.RejectUnknownKeys({"resolution", "size", "inflation", "ground_is_obstacle", "ground_height",
-                         "max_range", "clear_free_space", "misses_to_free"});
-  LocalMapOptions o;
-  o.resolution = map.Number("resolution", o.resolution);
-  o.size = map.Vector3("size", o.size);
-  o.inflation = map.Number("inflation", o.inflation);
-  o.ground_is_obstacle = map.Bool("ground_is_obstacle", o.ground_is_obstacle);
-  o.ground_height = map.Number("ground_height", o.ground_height);
-  o.max_range = map.Number("max_range", o.max_range);
-  o.clear_free_space = map.Bool("clear_free_space", o.clear_free_space);
-  o.misses_to_free = static_cast<int>(map.Integer("misses_to_free", o.misses_to_free));
-  o.Validate(map.file());
+  const LocalMapOptions o = LocalMapFields().Read(map);
+  CheckWindow(o, map.file(), map.path().empty() ? "" : map.path() + ".");
   return o;
 }
 

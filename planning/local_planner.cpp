@@ -44,11 +44,19 @@ PlanOutcome SolveQuery(const TrajectoryOptimizer& optimizer, const PlanningQuery
                        const PlannerParams& params, const LocalPlannerOptions& options) {
   PlanOutcome out;
   const int attempts = std::max(1, params.max_attempts);
+  // The parameters are checked once here; invalid ones take Solve()'s path, which reports them.
+  bool valid = true;
+  try {
+    params.Validate();
+  } catch (const ConfigError&) {
+    valid = false;
+  }
   PlannerParams attempt_params = params;
   for (int k = 0; k < attempts; ++k) {
     PlanRequest request = query.ToRequest(/*use_warm_start=*/k == 0);
     if (k >= 2) request.speed_scale = std::pow(options.retry_slowdown, k - 1);
-    PlanResult r = optimizer.Solve(request, query.field, attempt_params);
+    PlanResult r = valid ? optimizer.SolveValidated(request, query.field, attempt_params)
+                         : optimizer.Solve(request, query.field, attempt_params);
     if (r.status == PlanStatus::kCollision) attempt_params.w_col *= options.retry_collision_gain;
     out.attempts = k + 1;
     out.solve_time_s += r.solve_time_s;

@@ -102,44 +102,45 @@ double PolylineLength(const std::vector<Eigen::Vector3d>& p) {
 
 // ---------------------------------------------------------------- options
 
+const Fields<PathSearchOptions>& PathSearchFields() {
+  using O = PathSearchOptions;
+  static const Fields<O> fields =
+      Fields<O>()
+          .Integer("max_expansions", &O::max_expansions, Range::Closed(1, 1e8),
+                   "A* expansions before giving up")
+          .Number("search_margin", &O::search_margin, Range::Closed(0.0, 50.0),
+                  "widening of the search box in x and y (m)")
+          .Number("z_min", &O::z_min, Range::Any(),
+                  "lowest cell-centre height searched (m); the start and goal heights are "
+                  "always included")
+          .Number("z_max", &O::z_max, Range::Any(),
+                  "highest cell-centre height searched (m), > `z_min`")
+          .Number("heuristic_weight", &O::heuristic_weight, Range::Closed(1.0, 10.0),
+                  "f = g + w·h; w > 1 expands fewer cells, and the path is at most w times "
+                  "longer than the shortest")
+          .Number("start_escape_radius", &O::start_escape_radius, Range::Closed(0.0, 2.0),
+                  "an occupied start may step to the nearest free cell within this radius (m)")
+          .Integer("max_search_cells", &O::max_search_cells,
+                   Range::Closed(1, static_cast<double>(1 << 27)), "largest search box (cells)");
+  return fields;
+}
+
+namespace {
+// The cross-field rule: z_max above z_min.
+void CheckHeights(const PathSearchOptions& o, const std::string& file, const std::string& key) {
+  CheckInRange(o.z_max, {o.z_min, std::numeric_limits<double>::infinity(), true, false}, file, key);
+}
+}  // namespace
+
 void PathSearchOptions::Validate(const std::string& origin) const {
-  CheckInRange(max_expansions, Range::Closed(1, 1e8), origin, "max_expansions");
-  CheckInRange(search_margin, Range::Closed(0.0, 50.0), origin, "search_margin");
-  CheckInRange(z_min, Range::Any(), origin, "z_min");
-  CheckInRange(z_max, {z_min, std::numeric_limits<double>::infinity(), true, false}, origin,
-               "z_max");
-  CheckInRange(heuristic_weight, Range::Closed(1.0, 10.0), origin, "heuristic_weight");
-  CheckInRange(start_escape_radius, Range::Closed(0.0, 2.0), origin, "start_escape_radius");
-  CheckInRange(max_search_cells, Range::Closed(1, static_cast<double>(1 << 27)), origin,
-               "max_search_cells");
+  PathSearchFields().Check(*this, origin);
+  CheckHeights(*this, origin, "z_max");
 }
 
 PathSearchOptions PathSearchOptions::FromYaml(const YamlMap& map) {
-  map.RejectUnknownKeys({"max_expansions", "search_margin", "z_min", "z_max", "heuristic_weight",
-                         "start_escape_radius", "max_search_cells"});
-  PathSearchOptions o;
-  o.max_expansions = static_cast<int>(map.Integer("max_expansions", o.max_expansions));
-  o.search_margin = map.Number("search_margin", o.search_margin);
-  o.z_min = map.Number("z_min", o.z_min);
-  o.z_max = map.Number("z_max", o.z_max);
-  o.heuristic_weight = map.Number("heuristic_weight", o.heuristic_weight);
-  o.start_escape_radius = map.Number("start_escape_radius", o.start_escape_radius);
-  o.max_search_cells = static_cast<int>(map.Integer("max_search_cells", o.max_search_cells));
-  o.Validate(map.file());
+  const PathSearchOptions o = PathSearchFields().Read(map);
+  CheckHeights(o, map.file(), map.KeyPath("z_max"));
   return o;
-}
-
-const char* ToString(PathSearchStatus status) {
-  switch (status) {
-    case PathSearchStatus::kSuccess: return "kSuccess";
-    case PathSearchStatus::kNoFreeLocalGoal: return "kNoFreeLocalGoal";
-    case PathSearchStatus::kStartOccupied: return "kStartOccupied";
-    case PathSearchStatus::kGoalOccupied: return "kGoalOccupied";
-    case PathSearchStatus::kNoPath: return "kNoPath";
-    case PathSearchStatus::kExpansionLimit: return "kExpansionLimit";
-    case PathSearchStatus::kSearchBoxTooLarge: return "kSearchBoxTooLarge";
-  }
-  return "unknown";
 }
 
 // ---------------------------------------------------------------- free functions

@@ -181,15 +181,9 @@ PlanResult Invalid(std::string message) {
   return r;
 }
 
-// Why `request` with `params` cannot be planned (a PlanStatus::kInvalidInput message), if so;
-// `vf` is the requested final velocity.
-std::optional<std::string> RequestError(const PlanRequest& request, const PlannerParams& params,
-                                        const Eigen::Vector3d& vf) {
-  try {
-    params.Validate("PlannerParams");
-  } catch (const std::exception& e) {
-    return e.what();
-  }
+// Why `request` cannot be planned (a PlanStatus::kInvalidInput message), if so; `vf` is the
+// requested final velocity.
+std::optional<std::string> RequestError(const PlanRequest& request, const Eigen::Vector3d& vf) {
   if (!request.p0_W.allFinite() || !request.v0_W.allFinite() || !request.a0_W.allFinite() ||
       !request.goal_W.allFinite() || !vf.allFinite()) {
     return "start state or goal is not finite";
@@ -361,26 +355,6 @@ Ipopt::SmartPtr<Ipopt::IpoptApplication> NewPlannerIpoptApplication() {
   return a;
 }
 
-const char* ToString(PlanStatus status) {
-  switch (status) {
-    case PlanStatus::kSuccess:
-      return "success";
-    case PlanStatus::kCollision:
-      return "collision";
-    case PlanStatus::kDynamicsViolated:
-      return "dynamics_violated";
-    case PlanStatus::kMaxIterations:
-      return "max_iterations";
-    case PlanStatus::kSolverFailure:
-      return "solver_failure";
-    case PlanStatus::kNumericalError:
-      return "numerical_error";
-    case PlanStatus::kInvalidInput:
-      return "invalid_input";
-  }
-  return "unknown";
-}
-
 void TrajectoryOptimizerOptions::Validate(const std::string& origin) const {
   auto positive = [&](double v, const char* key) {
     if (!(v > 0.0) || !std::isfinite(v)) throw ConfigError(origin, key, "must be finite and > 0");
@@ -458,6 +432,17 @@ std::vector<double> TrajectoryOptimizer::AllocateTime(const std::vector<Eigen::V
 
 PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const DistanceField& field,
                                       const PlannerParams& params) const {
+  try {
+    params.Validate("PlannerParams");
+  } catch (const ConfigError& e) {
+    return Invalid(e.what());
+  }
+  return SolveValidated(request, field, params);
+}
+
+PlanResult TrajectoryOptimizer::SolveValidated(const PlanRequest& request,
+                                               const DistanceField& field,
+                                               const PlannerParams& params) const {
   const auto wall_start = std::chrono::steady_clock::now();
   auto elapsed = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
@@ -465,7 +450,7 @@ PlanResult TrajectoryOptimizer::Solve(const PlanRequest& request, const Distance
   try {
     const Eigen::Vector3d vf =
         request.speed_scale * request.goal_v_W.value_or(Eigen::Vector3d::Zero());
-    if (auto error = RequestError(request, params, vf)) return Invalid(std::move(*error));
+    if (auto error = RequestError(request, vf)) return Invalid(std::move(*error));
     const std::vector<Eigen::Vector3d> path = PathThrough(request);
     const std::vector<double> arc = ArcLengths(path);
     const double length = arc.back();

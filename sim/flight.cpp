@@ -37,24 +37,6 @@ void Mission::Validate(const std::string& origin) const {
   CheckInRange(start_yaw, Range::Any(), origin, "mission.start_yaw");
 }
 
-const char* ToString(FlightStatus status) {
-  switch (status) {
-    case FlightStatus::kCompleted:
-      return "completed";
-    case FlightStatus::kTimeout:
-      return "timeout";
-    case FlightStatus::kStalled:
-      return "stalled";
-    case FlightStatus::kDiverged:
-      return "diverged";
-    case FlightStatus::kError:
-      return "error";
-    case FlightStatus::kCancelled:
-      return "cancelled";
-  }
-  return "?";
-}
-
 physics::DepthSensorOptions FlightOptions::DefaultSensor() {
   physics::DepthSensorOptions s;
   s.width = 48;

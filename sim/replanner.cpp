@@ -23,22 +23,6 @@ using planning::Trajectory;
 using planning::TrajectoryBackend;
 using planning::TrajectoryOptimizer;
 
-const char* ToString(ReplanState state) {
-  switch (state) {
-    case ReplanState::kWaitMission:
-      return "wait_mission";
-    case ReplanState::kGenNewTraj:
-      return "gen_new_traj";
-    case ReplanState::kExecTraj:
-      return "exec_traj";
-    case ReplanState::kEmergencyStop:
-      return "emergency_stop";
-    case ReplanState::kDone:
-      return "done";
-  }
-  return "?";
-}
-
 void ReplannerOptions::Validate(const std::string& origin) const {
   CheckInRange(check_interval, Range::Positive(), origin, "check_interval");
   CheckInRange(check_dt, Range::Positive(), origin, "check_dt");

@@ -6,24 +6,6 @@
 
 namespace quadtune::sim {
 
-const char* ToString(MissionKind kind) {
-  switch (kind) {
-    case MissionKind::kGoAndReturn:
-      return "go_and_return";
-    case MissionKind::kGoTo:
-      return "go_to";
-  }
-  return "?";
-}
-
-MissionKind MissionKindFromString(const std::string& name, const std::string& origin,
-                                  const std::string& key) {
-  for (const MissionKind kind : {MissionKind::kGoAndReturn, MissionKind::kGoTo}) {
-    if (name == ToString(kind)) return kind;
-  }
-  throw ConfigError(origin, key, "unknown mission '" + name + "'; allowed: go_and_return, go_to");
-}
-
 Scenario Scenario::OverLayout(const layout::Layout& layout, MissionKind mission,
                               const physics::DroneDescription& drone, physics::WorldOptions world,
                               std::uint64_t seed,

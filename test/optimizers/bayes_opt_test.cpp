@@ -348,11 +348,42 @@ seed: 3
   }
 }
 
+TEST(BayesOpt, OptionsWrittenReadBackEqual) {
+  BayesOptOptions o;
+  o.kernel = KernelChoice::kSquaredExponential;
+  o.initial_design = InitialDesign::kUniform;
+  o.batch_strategy = BatchStrategy::kConstantLiar;
+  o.exploration = 0.1;
+  o.local_pool_fraction = 1.0 / 3.0;
+  o.discount = 0.7;
+  o.moving_bounds.damping = 0.55;  // enabled stays false: the written map says so
+  o.gp.max_lengthscale = 7.25;
+  o.gp.learn_noise = false;
+  o.seed = 12345678901234ull;
+  YAML::Emitter out;
+  SetExactDoubles(out);
+  BayesOptFields().Write(out, o);
+  const BayesOptOptions back = BayesOptOptions::FromYaml(YamlMap::FromString(out.c_str()));
+  EXPECT_EQ(back, o) << out.c_str();
+  EXPECT_FALSE(back.moving_bounds.enabled);
+  EXPECT_EQ(BayesOptOptions::FromYaml(YamlMap::FromString("{}")), BayesOptOptions{});
+}
+
+TEST(BayesOpt, CrossedGpBoundsNameTheKeyUnderItsMap) {
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
+      [&] {
+        BayesOptOptions::FromYaml(
+            YamlMap::FromString("bo: {gp: {min_lengthscale: 2, max_lengthscale: 1}}", "e.yaml")
+                .Map("bo"));
+      },
+      "bo.gp.max_lengthscale", {"e.yaml", "must be a finite number > bo.gp.min_lengthscale"}));
+}
+
 TEST(BayesOpt, RejectsDiscountOutsideUnitInterval) {
   BayesOptOptions o;
   o.discount = 0.0;
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOpt(MixedSpace(), o); }, "discount",
-                                                  {"must be a number"}));
+                                                  {"allowed: a number in (0, 1]"}));
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
       [&] { BayesOptOptions::FromYaml(YamlMap::FromString("discount: 1.5")); }, "discount",
       {"allowed: a number in (0, 1]"}));
@@ -362,7 +393,8 @@ TEST(BayesOpt, RejectsDampingOutsideUnitInterval) {
   BayesOptOptions o;
   o.moving_bounds.damping = 1.0;
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { BayesOpt(MixedSpace(), o); },
-                                                  "moving_bounds.damping", {"must be a number"}));
+                                                  "moving_bounds.damping",
+                                                  {"allowed: a number in (0, 1)"}));
 }
 
 TEST(BayesOpt, RejectsUnknownYamlKey) {

@@ -321,7 +321,7 @@ TEST(LocalMapOptions, ValidateRejectsEachBadValue) {
       {"allowed: a number in (0, inf)"}));
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
       [&] { bad([](auto& o) { o.misses_to_free = 0; }).Validate(); }, "misses_to_free",
-      {"allowed: a number in [1, 100]"}));
+      {"allowed: an integer in [1, 100]"}));
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
       [&] { bad([](auto& o) { o.ground_height = std::nan(""); }).Validate(); }, "ground_height",
       {"allowed: a finite number"}));

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "../config_error_util.hpp"
+#include "quadtune/planning/parameter_schema.hpp"
 
 namespace quadtune::planning {
 namespace {
@@ -49,6 +50,39 @@ TEST(PlannerParams, OutOfRangeNamesKey) {
   p.w_col = -1.0;
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { p.Validate(); }, "w_col",
                                                   {"allowed: a number in (0, inf)"}));
+}
+
+TEST(PlannerParams, WrittenParametersReadBackEqual) {
+  PlannerParams p;
+  p.w_col = 0.123456789012345;
+  p.n_pol = 9;
+  p.v_des = 1.0 / 3.0;
+  p.max_attempts = 1;
+  YAML::Emitter out;
+  SetExactDoubles(out);
+  PlannerParamsFields().Write(out, p);
+  EXPECT_EQ(PlannerParams::FromYaml(YamlMap::FromString(out.c_str(), "p.yaml")), p) << out.c_str();
+}
+
+TEST(PlannerParams, SchemaListsEveryFieldOnceWithItsRoleRangeAndDefault) {
+  const auto& schema = PlannerParameterSchema();
+  ASSERT_EQ(schema.size(), PlannerParamsFields().Keys().size());
+  std::vector<std::string> short_term, long_term;
+  for (std::size_t i = 0; i < schema.size(); ++i) {
+    const PlannerParameterInfo& row = schema[i];
+    EXPECT_EQ(row.name, PlannerParamsFields().Keys()[i]);
+    EXPECT_EQ(row.fallback, PlannerParams{}.Get(row.name)) << row.name;
+    EXPECT_EQ(row.integer, ParameterIsInteger(row.name));
+    EXPECT_TRUE(row.range.Contains(row.fallback)) << row.name;
+    EXPECT_FALSE(row.meaning.empty());
+    if (row.role == ParameterRole::kShortTerm) short_term.push_back(row.name);
+    if (row.role == ParameterRole::kLongTerm) long_term.push_back(row.name);
+  }
+  EXPECT_EQ(short_term, PlannerParams::ShortTermNames());
+  EXPECT_EQ(long_term, PlannerParams::LongTermNames());
+  EXPECT_EQ(short_term, (std::vector<std::string>{"w_col", "w_dyn", "n_pol"}));
+  EXPECT_EQ(long_term, (std::vector<std::string>{"v_des", "h_pl", "t_pl"}));
+  EXPECT_EQ(PlannerParamsFields().Docs()[2].type, "integer");
 }
 
 TEST(PlannerParams, FromYamlOverridesDefaultsAndRejectsUnknownKeys) {

@@ -235,7 +235,7 @@ TEST(PathSearchOptions, ValidateRejectsEachBadValue) {
   EXPECT_NO_THROW(PathSearchOptions{}.Validate());
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
       [&] { bad([](auto& o) { o.max_expansions = 0; }).Validate(); }, "max_expansions",
-      {"allowed: a number in [1, 1e+08]"}));
+      {"allowed: an integer in [1, 100000000]"}));
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
       [&] { bad([](auto& o) { o.search_margin = -1.0; }).Validate(); }, "search_margin",
       {"allowed: a number in [0, 50]"}));
@@ -253,10 +253,10 @@ TEST(PathSearchOptions, ValidateRejectsEachBadValue) {
       {"allowed: a number in [0, 2]"}));
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
       [&] { bad([](auto& o) { o.max_search_cells = 0; }).Validate(); }, "max_search_cells",
-      {"allowed: a number in [1, "}));
+      {"allowed: an integer in [1, "}));
   EXPECT_TRUE(::quadtune::test::ThrowsConfigError(
       [&] { PathSearcher(bad([](auto& o) { o.max_expansions = -3; })); }, "max_expansions",
-      {"allowed: a number in [1, 1e+08]"}));
+      {"allowed: an integer in [1, 100000000]"}));
   const PathSearchOptions y =
       PathSearchOptions::FromYaml(YamlMap::FromString("max_expansions: 500\nz_max: 2.5\n"));
   EXPECT_EQ(y.max_expansions, 500);

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "../config_error_util.hpp"
+#include "quadtune/common/fields.hpp"
 #include "quadtune/planning/trajectory_backend.hpp"
 #include "quadtune/planning/trajectory_optimizer.hpp"
 
@@ -36,12 +37,19 @@ Scenario Corridor(std::uint64_t layout_seed, std::uint64_t seed, MissionKind kin
   return Scenario::OverLayout(SparseCorridor(layout_seed), kind, ResearchDrone(), world, seed);
 }
 
-TEST(MissionKind, NamesRoundTripAndUnknownNamesThrow) {
+TEST(MissionKind, NamesRoundTripAndUnknownNamesAreRefused) {
   for (const MissionKind kind : {MissionKind::kGoAndReturn, MissionKind::kGoTo}) {
-    EXPECT_EQ(MissionKindFromString(ToString(kind)), kind);
+    EXPECT_EQ(FromString<MissionKind>(ToString(kind)), kind);
   }
-  EXPECT_TRUE(ThrowsConfigError([] { (void)MissionKindFromString("loop", "f.yaml"); }, "mission",
-                                {"loop", "go_and_return", "go_to"}));
+  EXPECT_STREQ(ToString(MissionKind::kGoAndReturn), "go_and_return");
+  EXPECT_STREQ(ToString(MissionKind::kGoTo), "go_to");
+  EXPECT_FALSE(FromString<MissionKind>("loop").has_value());
+  EXPECT_TRUE(ThrowsConfigError(
+      [] {
+        (void)ReadEnum<MissionKind>(YamlMap::FromString("mission: loop", "f.yaml"), "mission",
+                                    MissionKind::kGoAndReturn);
+      },
+      "mission", {"loop", "go_and_return", "go_to"}));
 }
 
 TEST(Scenario, OverLayoutTakesTheLayoutsMissionObstaclesAndTheSeed) {

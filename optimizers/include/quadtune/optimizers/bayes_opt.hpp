@@ -36,12 +36,14 @@
 /// Thread safety: one thread at a time (the engine serialises calls); instances independent.
 
 #include <Eigen/Core>
+#include <array>
 #include <deque>
 #include <map>
 #include <memory>
 #include <variant>
 #include <vector>
 
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/optimizers/gaussian_process.hpp"
@@ -51,17 +53,35 @@ namespace quadtune::optimizers {
 
 /// Kernel of the surrogate (each maps to a compile-time GaussianProcess<Kernel>).
 enum class KernelChoice { kMatern52, kSquaredExponential };
+constexpr auto EnumNames(KernelChoice) {
+  return std::array{
+      EnumName{KernelChoice::kMatern52, Matern52Kernel::kName.data()},
+      EnumName{KernelChoice::kSquaredExponential, SquaredExponentialKernel::kName.data()}};
+}
 /// How the initial design is drawn.
 enum class InitialDesign { kLatinHypercube, kUniform };
+constexpr auto EnumNames(InitialDesign) {
+  return std::array{EnumName{InitialDesign::kLatinHypercube, "latin_hypercube"},
+                    EnumName{InitialDesign::kUniform, "uniform"}};
+}
 /// How pending and batch points are fantasised.
 enum class BatchStrategy { kKrigingBeliever, kConstantLiar };
+constexpr auto EnumNames(BatchStrategy) {
+  return std::array{EnumName{BatchStrategy::kKrigingBeliever, "kriging_believer"},
+                    EnumName{BatchStrategy::kConstantLiar, "constant_liar"}};
+}
 
 /// Moving damped bounds (paper Sec. III-E).
 struct MovingBoundsOptions {
   bool enabled = false;     ///< off: the bounds stay where SetBounds put them (default: the space)
   double damping = 0.8;     ///< λ_b in (0, 1)
   double half_width = 0.1;  ///< r_b in (0, 1], a fraction of each parameter's unit range
+
+  friend bool operator==(const MovingBoundsOptions&, const MovingBoundsOptions&) = default;
 };
+
+/// The keys of a `moving_bounds:` map.
+const Fields<MovingBoundsOptions>& MovingBoundsFields();
 
 /// Settings of BayesOpt. Defaults suit 1–8 parameters and ≤ 300 evaluations.
 struct BayesOptOptions {
@@ -85,12 +105,19 @@ struct BayesOptOptions {
   GaussianProcessOptions gp;         ///< surrogate bounds and fit settings
   std::uint64_t seed = 0;            ///< explicit seed of every random choice
 
-  /// Throws ConfigError naming the key and its range.
-  void Validate() const;
-  /// Reads the keys named above (nested `moving_bounds:` and `gp:` maps); unknown keys and bad
+  /// Throws ConfigError(file, prefix + key, ...) naming the key and its range (the ranges of
+  /// BayesOptFields(), then the cross-field rules of GaussianProcessOptions::Validate).
+  void Validate(const std::string& file = "", const std::string& prefix = "") const;
+  /// Reads the keys of BayesOptFields() (nested `moving_bounds:` and `gp:` maps; giving
+  /// `moving_bounds:` turns moving bounds on unless it sets `enabled`); unknown keys and bad
   /// values throw ConfigError naming the file and key. Absent keys keep their defaults.
   static BayesOptOptions FromYaml(const YamlMap& map);
+
+  friend bool operator==(const BayesOptOptions&, const BayesOptOptions&) = default;
 };
+
+/// The keys of a `bo:` map: reading, writing and the configuration reference.
+const Fields<BayesOptOptions>& BayesOptFields();
 
 /// Ask/tell Bayesian optimisation (minimisation). See the file comment for the method.
 class BayesOpt final : public Optimizer {

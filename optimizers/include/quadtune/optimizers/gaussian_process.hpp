@@ -28,8 +28,10 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <string>
 #include <string_view>
 
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/random.hpp"
 #include "quadtune/optimizers/local_minimizer.hpp"
 
@@ -85,9 +87,16 @@ struct GaussianProcessOptions {
   double initial_noise_std = 1e-2;    ///< in [min_noise_std, max_noise_std]
   int fit_iterations = 60;         ///< L-BFGS iterations per start, >= 1
 
-  /// Throws ConfigError naming the key and its range.
-  void Validate() const;
+  /// Throws ConfigError(file, prefix + key, ...) for a value outside its range (GpFields())
+  /// or bounds that cross (max <= min, an initial value outside its bounds). The default
+  /// prefix is the options' key in a `bo:` map.
+  void Validate(const std::string& file = "", const std::string& prefix = "gp.") const;
+
+  friend bool operator==(const GaussianProcessOptions&, const GaussianProcessOptions&) = default;
 };
+
+/// The keys of a `gp:` map (inside `bo:`).
+const Fields<GaussianProcessOptions>& GpFields();
 
 /// Hyperparameters in log space.
 struct GpHyperparameters {

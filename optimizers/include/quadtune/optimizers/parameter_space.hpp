@@ -7,17 +7,23 @@
 /// is safe.
 
 #include <Eigen/Core>
+#include <array>
 #include <map>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/yaml.hpp"
 
 namespace quadtune::optimizers {
 
 /// Whether a parameter takes any real value in its bounds or only integers.
 enum class ParameterType { kContinuous, kInteger };
+constexpr auto EnumNames(ParameterType) {
+  return std::array{EnumName{ParameterType::kContinuous, "continuous"},
+                    EnumName{ParameterType::kInteger, "integer"}};
+}
 
 /// One tunable parameter, e.g. the paper's collision weight w_col (continuous, log scale) or the
 /// number of polynomial pieces n_pol (integer).
@@ -35,6 +41,9 @@ struct Parameter {
   void Validate(const std::string& file = "", const std::string& key_prefix = "") const;
 };
 
+/// The keys of one item of `parameters:` (the list itself is read by ParameterSpace::FromYaml).
+const Fields<Parameter>& ParameterFields();
+
 /// An ordered list of named parameters, and the conversions between their values ("original
 /// coordinates") and the unit cube [0, 1]^d ("unit coordinates").
 ///
@@ -51,9 +60,9 @@ class ParameterSpace {
   /// (also when `parameters` is empty).
   explicit ParameterSpace(std::vector<Parameter> parameters);
 
-  /// Reads `parameters:`, a sequence of maps with keys name, lower, upper, type
-  /// ("continuous" | "integer", default continuous), log (bool, default false) and default
-  /// (optional number), e.g.
+  /// Reads `parameters:`, a sequence of maps with the keys of ParameterFields(): name, lower,
+  /// upper, type ("continuous" | "integer", default continuous), log (bool, default false) and
+  /// default (optional number), e.g.
   ///
   ///     parameters:
   ///       - {name: w_col, lower: 0.05, upper: 5.0, log: true, default: 0.5}
@@ -73,7 +82,7 @@ class ParameterSpace {
   [[nodiscard]] const std::vector<Parameter>& Parameters() const { return parameters_; }
   /// Parameter names in order.
   [[nodiscard]] std::vector<std::string> Names() const;
-  /// Index of `name`; throws std::invalid_argument listing the known names when unknown.
+  /// Index of `name`; throws ConfigError (key `name`) listing the known names when unknown.
   [[nodiscard]] int IndexOf(const std::string& name) const;
 
   /// Lower / upper bounds in original coordinates.
@@ -98,14 +107,14 @@ class ParameterSpace {
   /// True when x has Dim() entries, each inside its bounds, integers integral.
   [[nodiscard]] bool Contains(const Eigen::VectorXd& x) const;
 
-  /// Named values → vector. Every parameter must be present; an unknown name throws
-  /// std::invalid_argument.
+  /// Named values → vector. Every parameter must be present; an unknown or missing name throws
+  /// ConfigError naming it.
   [[nodiscard]] Eigen::VectorXd FromNamed(const std::map<std::string, double>& values) const;
   /// Vector → named values (throws std::invalid_argument on a wrong size).
   [[nodiscard]] std::map<std::string, double> ToNamed(const Eigen::VectorXd& x) const;
 
   /// The sub-space of the named parameters, in the given order (e.g. θ_s or θ_l out of θ).
-  /// Unknown names throw std::invalid_argument.
+  /// Unknown names throw ConfigError (IndexOf); an empty list std::invalid_argument.
   [[nodiscard]] ParameterSpace Subspace(const std::vector<std::string>& names) const;
 
  private:

@@ -44,6 +44,7 @@
 #include <string>
 #include <vector>
 
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/planning/distance_field.hpp"
 #include "quadtune/planning/local_map.hpp"
@@ -65,11 +66,14 @@ struct EsdfOptions {
 
   /// Throws ConfigError(origin, key, allowed range) for the first bad field.
   void Validate(const std::string& origin = "") const;
-  /// Reads keys max_distance, use_inflated_occupancy over the defaults; validates.
+  /// Reads the keys of EsdfFields() over the defaults; bad values throw ConfigError.
   static EsdfOptions FromYaml(const YamlMap& map);
 
   friend bool operator==(const EsdfOptions&, const EsdfOptions&) = default;
 };
+
+/// The keys of an ESDF options map.
+const Fields<EsdfOptions>& EsdfFields();
 
 /// An immutable, copyable ESDF snapshot over a box of cells. See the file comment.
 class Esdf final : public DistanceField {

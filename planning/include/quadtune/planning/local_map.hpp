@@ -27,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/planning/parameters.hpp"
 
@@ -46,7 +47,7 @@ struct LocalMapOptions {
   double inflation = 0.1;
   bool ground_is_obstacle = true;  ///< cells with centre below ground_height are occupied
   double ground_height = 0.0;      ///< height of the ground plane (m), any finite value
-  /// Hits farther than this from the sensor origin are ignored (m), > 0 (inf: no limit).
+  /// Hits farther than this from the sensor origin are ignored (m), > 0 and finite.
   double max_range = 10.0;
   /// Free-space ray clearing: each ray lowers the evidence of the cells it crosses before its hit
   /// cell; a raw-occupied cell is freed after `misses_to_free` misses without a new hit. Costs
@@ -58,12 +59,14 @@ struct LocalMapOptions {
   static LocalMapOptions FromPlannerParams(const PlannerParams& params);
   /// Throws ConfigError(origin, key, allowed range) for the first bad field.
   void Validate(const std::string& origin = "") const;
-  /// Reads keys resolution, size ([x, y, z]), inflation, ground_is_obstacle, ground_height,
-  /// max_range, clear_free_space, misses_to_free over the defaults; validates.
+  /// Reads the keys of LocalMapFields() over the defaults; validates.
   static LocalMapOptions FromYaml(const YamlMap& map);
 
   friend bool operator==(const LocalMapOptions&, const LocalMapOptions&) = default;
 };
+
+/// The keys of a local map options map.
+const Fields<LocalMapOptions>& LocalMapFields();
 
 /// What one LocalMap::Insert did.
 struct InsertSummary {

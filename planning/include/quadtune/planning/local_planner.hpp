@@ -16,6 +16,7 @@
 /// recorded query is a faithful replay of the planner's decision problem.
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -36,6 +37,10 @@ enum class QuerySnapshot {
   kDistanceField,  ///< PlanningQuery::field: a distance field around the path (Ipopt back end)
   kOccupancy,      ///< PlanningQuery::occupancy: a copy of the local map (EGO back end)
 };
+constexpr auto EnumNames(QuerySnapshot) {
+  return std::array{EnumName{QuerySnapshot::kDistanceField, "distance_field"},
+                    EnumName{QuerySnapshot::kOccupancy, "occupancy"}};
+}
 
 /// A self-contained, copyable record of one planning problem (world frame W, SI units).
 ///

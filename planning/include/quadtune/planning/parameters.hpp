@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/yaml.hpp"
 
 namespace quadtune::planning {
@@ -43,7 +44,7 @@ struct PlannerParams {
   double w_time = 20.0;
   int max_attempts = 3;          ///< planning attempts per re-plan before it counts as failed, >= 1
 
-  /// Names of the tunable parameters, θ_s then θ_l.
+  /// Names of the tunable parameters, θ_s then θ_l (PlannerParameterSchema()'s roles).
   static const std::vector<std::string>& TunableNames();
   static const std::vector<std::string>& ShortTermNames();  ///< {w_col, w_dyn, n_pol}
   static const std::vector<std::string>& LongTermNames();   ///< {v_des, h_pl, t_pl}
@@ -54,13 +55,21 @@ struct PlannerParams {
   /// Does not validate: call Validate() after a batch of Sets.
   void Set(const std::string& name, double value);
 
-  /// Throws ConfigError(origin, key, allowed range) for the first out-of-range field.
+  /// Throws ConfigError(origin, key, allowed range) for the first out-of-range field. Called
+  /// where parameters enter (files, the command line, Set batches, the Replanner and a flight);
+  /// the back ends take validated parameters.
   void Validate(const std::string& origin = "") const;
 
-  /// Reads the keys present in `map` over the defaults; unknown keys and bad values throw.
+  /// Reads the keys of PlannerParamsFields() present in `map` over the defaults; unknown keys
+  /// and bad values throw ConfigError naming the file and key.
   static PlannerParams FromYaml(const YamlMap& map);
 
   friend bool operator==(const PlannerParams&, const PlannerParams&) = default;
 };
+
+/// The keys of a planner parameter map (`planner.fixed`, ...): reading, writing and the
+/// configuration reference; built from the table behind PlannerParameterSchema()
+/// (parameter_schema.hpp).
+const Fields<PlannerParams>& PlannerParamsFields();
 
 }  // namespace quadtune::planning

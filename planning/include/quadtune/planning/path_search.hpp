@@ -23,10 +23,13 @@
 /// const LocalMap from different PathSearchers are safe.
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "quadtune/common/enum_names.hpp"
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/planning/local_map.hpp"
 
@@ -47,11 +50,14 @@ struct PathSearchOptions {
 
   /// Throws ConfigError(origin, key, allowed range) for the first bad field.
   void Validate(const std::string& origin = "") const;
-  /// Reads the keys above over the defaults; validates.
+  /// Reads the keys of PathSearchFields() over the defaults; validates.
   static PathSearchOptions FromYaml(const YamlMap& map);
 
   friend bool operator==(const PathSearchOptions&, const PathSearchOptions&) = default;
 };
+
+/// The keys of a front-end options map.
+const Fields<PathSearchOptions>& PathSearchFields();
 
 /// Outcome of a front-end search.
 enum class PathSearchStatus {
@@ -65,8 +71,17 @@ enum class PathSearchStatus {
   kSearchBoxTooLarge,  ///< the search box exceeds max_search_cells
 };
 
-/// Name of a status, e.g. "kNoPath".
-[[nodiscard]] const char* ToString(PathSearchStatus status);
+/// Names of the statuses, e.g. "kNoPath".
+constexpr auto EnumNames(PathSearchStatus) {
+  return std::array{EnumName{PathSearchStatus::kSuccess, "kSuccess"},
+                    EnumName{PathSearchStatus::kNoFreeLocalGoal, "kNoFreeLocalGoal"},
+                    EnumName{PathSearchStatus::kStartOccupied, "kStartOccupied"},
+                    EnumName{PathSearchStatus::kGoalOccupied, "kGoalOccupied"},
+                    EnumName{PathSearchStatus::kNoPath, "kNoPath"},
+                    EnumName{PathSearchStatus::kExpansionLimit, "kExpansionLimit"},
+                    EnumName{PathSearchStatus::kSearchBoxTooLarge, "kSearchBoxTooLarge"}};
+}
+using quadtune::ToString;
 
 /// Result of PathSearcher::Search / Plan.
 struct PathSearchResult {

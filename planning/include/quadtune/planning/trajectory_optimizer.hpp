@@ -32,10 +32,12 @@
 /// thrown; only invalid Options throw (in the constructor).
 
 #include <Eigen/Core>
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "quadtune/common/enum_names.hpp"
 #include "quadtune/planning/distance_field.hpp"
 #include "quadtune/planning/min_jerk_problem.hpp"
 #include "quadtune/planning/parameters.hpp"
@@ -125,8 +127,17 @@ enum class PlanStatus {
   kInvalidInput,      ///< the request or parameters are invalid (nothing solved)
 };
 
-/// Short name of a status ("success", "collision", ...).
-const char* ToString(PlanStatus status);
+/// Short names ("success", "collision", ...), as stored with the results.
+constexpr auto EnumNames(PlanStatus) {
+  return std::array{EnumName{PlanStatus::kSuccess, "success"},
+                    EnumName{PlanStatus::kCollision, "collision"},
+                    EnumName{PlanStatus::kDynamicsViolated, "dynamics_violated"},
+                    EnumName{PlanStatus::kMaxIterations, "max_iterations"},
+                    EnumName{PlanStatus::kSolverFailure, "solver_failure"},
+                    EnumName{PlanStatus::kNumericalError, "numerical_error"},
+                    EnumName{PlanStatus::kInvalidInput, "invalid_input"}};
+}
+using quadtune::ToString;
 
 /// Summary of one solve.
 struct PlanResult {
@@ -171,6 +182,10 @@ class TrajectoryOptimizer {
   /// failures: they come back as the result's status and message.
   [[nodiscard]] PlanResult Solve(const PlanRequest& request, const DistanceField& field,
                                  const PlannerParams& params) const;
+  /// Solve() for `params` that passed PlannerParams::Validate(): the parameters are not checked
+  /// again (SolveQuery checks them once per query, not once per attempt).
+  [[nodiscard]] PlanResult SolveValidated(const PlanRequest& request, const DistanceField& field,
+                                          const PlannerParams& params) const;
 
   /// Solve()'s acceptance check, for a trajectory made elsewhere (result->trajectory, starting at
   /// p0_W): samples every check_dt and at the end set result->max_speed, max_acceleration,

@@ -14,12 +14,14 @@
 /// concurrently (the optimiser is shared read-only).
 
 #include <Eigen/Core>
+#include <array>
 #include <cstddef>
 #include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "quadtune/common/enum_names.hpp"
 #include "quadtune/physics/depth_sensor.hpp"
 #include "quadtune/physics/world.hpp"
 #include "quadtune/planning/local_map.hpp"
@@ -52,8 +54,16 @@ enum class FlightStatus {
   kError,      ///< an exception inside the flight (message says which)
   kCancelled,  ///< stopped by the cancel hook
 };
-/// Short name, e.g. "completed".
-const char* ToString(FlightStatus status);
+/// Short names, e.g. "completed", as stored with the results.
+constexpr auto EnumNames(FlightStatus) {
+  return std::array{EnumName{FlightStatus::kCompleted, "completed"},
+                    EnumName{FlightStatus::kTimeout, "timeout"},
+                    EnumName{FlightStatus::kStalled, "stalled"},
+                    EnumName{FlightStatus::kDiverged, "diverged"},
+                    EnumName{FlightStatus::kError, "error"},
+                    EnumName{FlightStatus::kCancelled, "cancelled"}};
+}
+using quadtune::ToString;
 
 /// Settings of a flight (not tuned by the experiments).
 struct FlightOptions {

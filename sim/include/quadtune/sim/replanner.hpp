@@ -29,12 +29,14 @@
 /// Thread safety: one Replanner per flight; not thread-safe.
 
 #include <Eigen/Core>
+#include <array>
 #include <functional>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "quadtune/common/enum_names.hpp"
 #include "quadtune/physics/controller.hpp"
 #include "quadtune/planning/local_map.hpp"
 #include "quadtune/planning/local_planner.hpp"
@@ -47,8 +49,15 @@ namespace quadtune::sim {
 
 /// States of the replanning FSM (see the file comment).
 enum class ReplanState { kWaitMission, kGenNewTraj, kExecTraj, kEmergencyStop, kDone };
-/// Short name of a state, e.g. "exec_traj".
-const char* ToString(ReplanState state);
+/// Short names of the states, e.g. "exec_traj".
+constexpr auto EnumNames(ReplanState) {
+  return std::array{EnumName{ReplanState::kWaitMission, "wait_mission"},
+                    EnumName{ReplanState::kGenNewTraj, "gen_new_traj"},
+                    EnumName{ReplanState::kExecTraj, "exec_traj"},
+                    EnumName{ReplanState::kEmergencyStop, "emergency_stop"},
+                    EnumName{ReplanState::kDone, "done"}};
+}
+using quadtune::ToString;
 
 /// A plan that a PlanAdapter hands to the Replanner to execute from `start_time` on.
 struct AdaptedPlan {

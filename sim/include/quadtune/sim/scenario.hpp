@@ -9,10 +9,12 @@
 /// Thread safety: a Scenario is a value; its obstacle geometry is immutable and may be shared by
 /// scenarios flown concurrently (in different Worlds). MakeWorld() touches only its arguments.
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
 
+#include "quadtune/common/enum_names.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/physics/quadrotor.hpp"
@@ -26,12 +28,11 @@ enum class MissionKind {
   kGoAndReturn,  ///< "go_and_return": to the layout's goal and back to its start (the paper's)
   kGoTo,         ///< "go_to": to the layout's goal only
 };
-/// "go_and_return" or "go_to".
-const char* ToString(MissionKind kind);
-/// The kind called `name` ("go_and_return" or "go_to"); anything else throws
-/// ConfigError(origin, key, ...) naming both allowed values.
-MissionKind MissionKindFromString(const std::string& name, const std::string& origin = "",
-                                  const std::string& key = "mission");
+/// The files' and the command line's spellings: "go_and_return", "go_to".
+constexpr auto EnumNames(MissionKind) {
+  return std::array{EnumName{MissionKind::kGoAndReturn, "go_and_return"},
+                    EnumName{MissionKind::kGoTo, "go_to"}};
+}
 
 /// One flight's surroundings. Fly(world, scenario.mission, ...) flies it in MakeWorld's world.
 struct Scenario {
