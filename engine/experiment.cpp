@@ -7,10 +7,10 @@
 #include <set>
 #include <sstream>
 
+#include "field_util.hpp"
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/text_file.hpp"
 #include "quadtune/engine/planner_registry.hpp"
-#include "field_util.hpp"
 
 #ifndef QUADTUNE_SOURCE_DIR
 #define QUADTUNE_SOURCE_DIR "."
@@ -96,8 +96,8 @@ void CheckAgainstSchema(const optimizers::ParameterSpace& space, const PlannerSc
       const auto check = [&](const char* part, double v) {
         if (!info.range.Contains(v)) {
           std::ostringstream s;
-          s << "got " << v << "; planner '" << type << "' can fly " << prm.name
-            << " only as " << allowed;
+          s << "got " << v << "; planner '" << type << "' can fly " << prm.name << " only as "
+            << allowed;
           throw ConfigError(origin, key + "." + part, s.str());
         }
       };
@@ -105,9 +105,9 @@ void CheckAgainstSchema(const optimizers::ParameterSpace& space, const PlannerSc
       check("upper", prm.upper);
       if (prm.default_value) check("default", *prm.default_value);
       if (info.integer && prm.type != optimizers::ParameterType::kInteger) {
-        throw ConfigError(origin, key + ".type",
-                          prm.name + " is an integer parameter of planner '" + type +
-                              "'; give type: integer");
+        throw ConfigError(
+            origin, key + ".type",
+            prm.name + " is an integer parameter of planner '" + type + "'; give type: integer");
       }
     }
   }
@@ -171,8 +171,8 @@ void CheckParameters(const YamlMap& map, Experiment& e) {
   const std::set<std::string> planner_long = NamesOf(schema.long_term);
   for (const auto& n : e.space.Names()) {
     if (!planner_short.count(n) && !planner_long.count(n)) {
-      map.Fail("parameters", "'" + n + "' is not a tunable parameter of planner '" +
-                                 e.planner_type + "'");
+      map.Fail("parameters",
+               "'" + n + "' is not a tunable parameter of planner '" + e.planner_type + "'");
     }
   }
   CheckAgainstSchema(e.space, schema, e.planner_type, e.file);
@@ -237,11 +237,11 @@ void WritePoint(YAML::Emitter& out, const std::string& key, const std::optional<
 void WriteParameters(YAML::Emitter& out, const optimizers::ParameterSpace& space) {
   out << YAML::Key << "parameters" << YAML::Value << YAML::BeginSeq;
   for (const auto& p : space.Parameters()) {
-    out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << p.name
-        << YAML::Key << "lower" << YAML::Value << p.lower << YAML::Key << "upper" << YAML::Value
-        << p.upper << YAML::Key << "type" << YAML::Value
-        << (p.type == optimizers::ParameterType::kInteger ? "integer" : "continuous")
-        << YAML::Key << "log" << YAML::Value << p.log_scale;
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << p.name << YAML::Key
+        << "lower" << YAML::Value << p.lower << YAML::Key << "upper" << YAML::Value << p.upper
+        << YAML::Key << "type" << YAML::Value
+        << (p.type == optimizers::ParameterType::kInteger ? "integer" : "continuous") << YAML::Key
+        << "log" << YAML::Value << p.log_scale;
     if (p.default_value) out << YAML::Key << "default" << YAML::Value << *p.default_value;
     out << YAML::EndMap;
   }
@@ -253,13 +253,12 @@ void ReadBudget(const YamlMap& map, Experiment& e) {
   const YamlMap b = map.Map("budget", true);
   BudgetFields().Read(b, e.budget);
   // Every trial of every method and repeat: a run that can never finish is refused.
-  const double total = static_cast<double>(e.budget.flights) *
-                       static_cast<double>(e.methods.size()) * e.repeats;
+  const double total =
+      static_cast<double>(e.budget.flights) * static_cast<double>(e.methods.size()) * e.repeats;
   if (total > kMaxTotalFlights) {
     std::ostringstream s;
-    s << "flights × methods × repeats = " << e.budget.flights << " × " << e.methods.size()
-      << " × " << e.repeats << " = " << total << " flights; at most " << kMaxTotalFlights
-      << " per run";
+    s << "flights × methods × repeats = " << e.budget.flights << " × " << e.methods.size() << " × "
+      << e.repeats << " = " << total << " flights; at most " << kMaxTotalFlights << " per run";
     b.Fail("flights", s.str());
   }
   if (e.budget.flight_batch == 0 && e.mode != TimingMode::kRealtime) {
@@ -281,7 +280,8 @@ const Fields<MapOptions>& MapsFields() {
                   "`per_repeat`: one map per repeat, flown by every flight of its trials; `pool`: "
                   "flight k flies map k mod `pool` of the repeat. In every mode flight k of every "
                   "method in repeat r flies the same map (common random numbers)")
-          .Integer("pool", &MapOptions::pool, Range::Closed(1, 1e6), "`pool` mode: maps per repeat");
+          .Integer("pool", &MapOptions::pool, Range::Closed(1, 1e6),
+                   "`pool` mode: maps per repeat");
   return fields;
 }
 
@@ -325,15 +325,16 @@ const Fields<Budget>& BudgetFields() {
   static const Fields<Budget> fields =
       Fields<Budget>()
           .Integer("flights", &Budget::flights, flights, "f_l evaluations (flights) per trial")
-          .Custom({"default_flights", "integer", "`flights`", DescribeInterval(flights),
-                   "flights of method `default`"},
-                  [](const YamlMap& b, Budget& budget) {
-                    budget.default_flights =
-                        static_cast<int>(b.Integer("default_flights", budget.flights, flights));
-                  },
-                  [](YAML::Emitter& out, const Budget& budget) {
-                    out << YAML::Key << "default_flights" << YAML::Value << budget.default_flights;
-                  })
+          .Custom(
+              {"default_flights", "integer", "`flights`", DescribeInterval(flights),
+               "flights of method `default`"},
+              [](const YamlMap& b, Budget& budget) {
+                budget.default_flights =
+                    static_cast<int>(b.Integer("default_flights", budget.flights, flights));
+              },
+              [](YAML::Emitter& out, const Budget& budget) {
+                out << YAML::Key << "default_flights" << YAML::Value << budget.default_flights;
+              })
           .Integer("flight_batch", &Budget::flight_batch, Range::Closed(0, 1024),
                    "flights asked and flown together (fixed, not the thread count); 0 (realtime "
                    "only): one per thread")
@@ -364,68 +365,74 @@ const Fields<Experiment>& ExperimentFields() {
                   "deterministic compute units, so stored results are identical at any thread or "
                   "rank count; `realtime` uses wall-clock time, as on board")
           .Integer("repeats", &E::repeats, Range::Closed(1, kMaxRepeats), "trials per method")
-          .Custom({"methods", "list", "required", CodeList(EnumNameList<Method>()),
-                   "methods compared; `bo_pso` is the paper's complementary tuner (BO on θ_l, "
-                   "PSO on θ_s)"},
-                  [](const YamlMap& map, E& e) { e.methods = ReadMethods(map); },
-                  [](YAML::Emitter& out, const E& e) {
-                    std::vector<std::string> names;
-                    for (Method m : e.methods) names.emplace_back(ToString(m));
-                    WriteNames(out, "methods", names);
-                  })
-          .Custom(MapDoc("planner", "the planner plug-in and its world, below", "required"),
-                  [](const YamlMap& map, E& e) {
-                    BuiltPlanner built = BuildPlanner(map.Map("planner"), e.base_dir);
-                    e.planner_type = built.type;
-                    e.planner = built.planner;
-                  },
-                  [](YAML::Emitter& out, const E& e) { WriteAsGiven(out, e.text, "planner"); })
-          .Custom({"parameters", "list", "required", "", "the tuned parameters, see below"},
-                  [](const YamlMap& map, E& e) {
-                    e.space = optimizers::ParameterSpace::FromYaml(map);
-                    CheckParameters(map, e);
-                  },
-                  [](YAML::Emitter& out, const E& e) { WriteParameters(out, e.space); })
-          .Custom({"short_term", "list of names", "required",
-                   "the planner's short-term parameters (ipopt: `w_col`, `w_dyn`, `n_pol`) that "
-                   "have bounds in `parameters`",
-                   "θ_s (PSO in `bo_pso`); every tuned parameter is in exactly one of "
-                   "`short_term`, `long_term`"},
-                  [](const YamlMap& map, E& e) {
-                    e.short_names = ReadSide(map, "short_term", SchemaOf(e).short_term, e.space);
-                  },
-                  [](YAML::Emitter& out, const E& e) { WriteNames(out, "short_term", e.short_names); })
-          .Custom({"long_term", "list of names", "required",
-                   "the planner's long-term parameters (ipopt: `v_des`, `h_pl`, `t_pl`) that have "
-                   "bounds in `parameters`",
-                   "θ_l (BO in `bo_pso`)"},
-                  [](const YamlMap& map, E& e) {
-                    e.long_names = ReadSide(map, "long_term", SchemaOf(e).long_term, e.space);
-                    if (e.short_names.size() + e.long_names.size() !=
-                        static_cast<std::size_t>(e.space.Dim())) {
-                      map.Fail("parameters",
-                               "every parameter must be listed in short_term or long_term");
-                    }
-                  },
-                  [](YAML::Emitter& out, const E& e) { WriteNames(out, "long_term", e.long_names); })
-          .Custom({"initial_short_term", "map name → number", "absent",
-                   "θ_s names, inside their bounds",
-                   "a given θ_s: `bo_pso` skips its first θ_s phase"},
-                  [](const YamlMap& map, E& e) {
-                    e.initial_short =
-                        ReadPoint(map, "initial_short_term", e.short_names, /*all=*/true, e.space);
-                  },
-                  [](YAML::Emitter& out, const E& e) {
-                    WritePoint(out, "initial_short_term", e.initial_short);
-                  })
-          .Custom({"start", "map name → number", "absent", "tuned names, inside their bounds",
-                   "a known good point (refinement, paper Sec. III-E): with "
-                   "`bo.moving_bounds.enabled`, BO begins inside start ± `half_width`; "
-                   "`bo_pso`'s PSO starts from its θ_s part"},
-                  [](const YamlMap& map, E& e) {
-                    e.start = ReadPoint(map, "start", e.space.Names(), /*all=*/false, e.space);
-                  },
-                  [](YAML::Emitter& out, const E& e) { WritePoint(out, "start", e.start); })
+          .Custom(
+              {"methods", "list", "required", CodeList(EnumNameList<Method>()),
+               "methods compared; `bo_pso` is the paper's complementary tuner (BO on θ_l, "
+               "PSO on θ_s)"},
+              [](const YamlMap& map, E& e) { e.methods = ReadMethods(map); },
+              [](YAML::Emitter& out, const E& e) {
+                std::vector<std::string> names;
+                for (Method m : e.methods) names.emplace_back(ToString(m));
+                WriteNames(out, "methods", names);
+              })
+          .Custom(
+              MapDoc("planner", "the planner plug-in and its world, below", "required"),
+              [](const YamlMap& map, E& e) {
+                BuiltPlanner built = BuildPlanner(map.Map("planner"), e.base_dir);
+                e.planner_type = built.type;
+                e.planner = built.planner;
+              },
+              [](YAML::Emitter& out, const E& e) { WriteAsGiven(out, e.text, "planner"); })
+          .Custom(
+              {"parameters", "list", "required", "", "the tuned parameters, see below"},
+              [](const YamlMap& map, E& e) {
+                e.space = optimizers::ParameterSpace::FromYaml(map);
+                CheckParameters(map, e);
+              },
+              [](YAML::Emitter& out, const E& e) { WriteParameters(out, e.space); })
+          .Custom(
+              {"short_term", "list of names", "required",
+               "the planner's short-term parameters (ipopt: `w_col`, `w_dyn`, `n_pol`) that "
+               "have bounds in `parameters`",
+               "θ_s (PSO in `bo_pso`); every tuned parameter is in exactly one of "
+               "`short_term`, `long_term`"},
+              [](const YamlMap& map, E& e) {
+                e.short_names = ReadSide(map, "short_term", SchemaOf(e).short_term, e.space);
+              },
+              [](YAML::Emitter& out, const E& e) { WriteNames(out, "short_term", e.short_names); })
+          .Custom(
+              {"long_term", "list of names", "required",
+               "the planner's long-term parameters (ipopt: `v_des`, `h_pl`, `t_pl`) that have "
+               "bounds in `parameters`",
+               "θ_l (BO in `bo_pso`)"},
+              [](const YamlMap& map, E& e) {
+                e.long_names = ReadSide(map, "long_term", SchemaOf(e).long_term, e.space);
+                if (e.short_names.size() + e.long_names.size() !=
+                    static_cast<std::size_t>(e.space.Dim())) {
+                  map.Fail("parameters",
+                           "every parameter must be listed in short_term or long_term");
+                }
+              },
+              [](YAML::Emitter& out, const E& e) { WriteNames(out, "long_term", e.long_names); })
+          .Custom(
+              {"initial_short_term", "map name → number", "absent",
+               "θ_s names, inside their bounds", "a given θ_s: `bo_pso` skips its first θ_s phase"},
+              [](const YamlMap& map, E& e) {
+                e.initial_short =
+                    ReadPoint(map, "initial_short_term", e.short_names, /*all=*/true, e.space);
+              },
+              [](YAML::Emitter& out, const E& e) {
+                WritePoint(out, "initial_short_term", e.initial_short);
+              })
+          .Custom(
+              {"start", "map name → number", "absent", "tuned names, inside their bounds",
+               "a known good point (refinement, paper Sec. III-E): with "
+               "`bo.moving_bounds.enabled`, BO begins inside start ± `half_width`; "
+               "`bo_pso`'s PSO starts from its θ_s part"},
+              [](const YamlMap& map, E& e) {
+                e.start = ReadPoint(map, "start", e.space.Names(), /*all=*/false, e.space);
+              },
+              [](YAML::Emitter& out, const E& e) { WritePoint(out, "start", e.start); })
           .Nested("objective", &E::objective, ObjectiveFields(), "weights of f_s and f_l, below")
           .Nested("maps", &E::maps, MapsFields(), "which map each flight flies, below")
           .Nested("validation", &E::validation, ValidationFields(),
@@ -439,14 +446,15 @@ const Fields<Experiment>& ExperimentFields() {
                   })
           .Nested("pso", &E::pso, optimizers::PsoFields(),
                   "[PSO](#pso) settings (seed derived per trial)")
-          .Custom(MapDoc("bo",
-                         "[Bayesian optimisation](#bayesian-optimisation) settings (seed derived "
-                         "per trial)",
-                         "see below"),
-                  [](const YamlMap& map, E& e) {
-                    if (map.Has("bo")) e.bo = optimizers::BayesOptOptions::FromYaml(map.Map("bo"));
-                  },
-                  [](YAML::Emitter& out, const E& e) { WriteAsGiven(out, e.text, "bo"); });
+          .Custom(
+              MapDoc("bo",
+                     "[Bayesian optimisation](#bayesian-optimisation) settings (seed derived "
+                     "per trial)",
+                     "see below"),
+              [](const YamlMap& map, E& e) {
+                if (map.Has("bo")) e.bo = optimizers::BayesOptOptions::FromYaml(map.Map("bo"));
+              },
+              [](YAML::Emitter& out, const E& e) { WriteAsGiven(out, e.text, "bo"); });
   return fields;
 }
 

@@ -35,16 +35,17 @@ const Fields<ObjectiveOptions>& ObjectiveFields() {
   using O = ObjectiveOptions;
   static const Fields<O> fields =
       Fields<O>()
-          .Custom(MapDoc("short_term", "weights of f_s, below"),
-                  [](const YamlMap& map, O& o) {
-                    const YamlMap s = map.Map("short_term", /*optional=*/true);
-                    ObjectiveShortTermFields().Read(s, o);
-                    if (!s.Has("w_c")) {
-                      o.w_c = o.short_kind == O::ShortKind::kSolveTime ? 0.0
-                                                                       : O::kDefaultClearanceWeight;
-                    }
-                  },
-                  WriteSection("short_term", ObjectiveShortTermFields()))
+          .Custom(
+              MapDoc("short_term", "weights of f_s, below"),
+              [](const YamlMap& map, O& o) {
+                const YamlMap s = map.Map("short_term", /*optional=*/true);
+                ObjectiveShortTermFields().Read(s, o);
+                if (!s.Has("w_c")) {
+                  o.w_c =
+                      o.short_kind == O::ShortKind::kSolveTime ? 0.0 : O::kDefaultClearanceWeight;
+                }
+              },
+              WriteSection("short_term", ObjectiveShortTermFields()))
           .Custom(MapDoc("long_term", "weights of f_l, below"),
                   ReadSection("long_term", ObjectiveLongTermFields()),
                   WriteSection("long_term", ObjectiveLongTermFields()))

@@ -59,114 +59,126 @@ const Fields<IpoptPlannerSection>& IpoptPlannerFields() {
   const auto unwritten = [](YAML::Emitter&, const S&) {};
   static const Fields<S> fields =
       Fields<S>()
-          .Custom({"type", "string", "`ipopt`",
-                   "a registered type: `ipopt`, `ego`, or one a program registers "
-                   "([own-planner.md](own-planner.md))",
-                   "`ipopt`: the full stack; `ego`: the EGO-Planner-style back end in the same "
-                   "closed loop. The test program `quadtune_test_cli` also has the test planners "
-                   "`toy` (a cheap 1-D plug-in) and `sleep` (a scale model of the Ipopt "
-                   "planner's wall times), [testing.md](testing.md#test-planners-and-the-test-"
-                   "program)"},
-                  [](const YamlMap& p, S& s) { s.type = p.String("type", s.type); },
-                  [](YAML::Emitter& out, const S& s) { WriteText(out, "type", s.type); })
-          .Custom({"drone", "path", "`drones/research_1kg.yaml`", "an existing [drone](#drone) file",
-                   "ipopt: the drone flown"},
-                  [](const YamlMap& p, S& s) {
-                    s.drone = p.String("drone", s.drone);
-                    const std::string drone = ResolvePath(s.drone, s.base_dir);
-                    if (!std::filesystem::exists(drone)) {
-                      p.Fail("drone", "file '" + drone +
-                                          "' not found (searched next to the experiment and in "
-                                          "assets/)");
-                    }
-                    s.options.drone = physics::LoadDroneDescription(drone);
-                  },
-                  [](YAML::Emitter& out, const S& s) { WriteText(out, "drone", s.drone); })
-          .Custom({"layout", "map", "one of `layout`, `layout_file` required",
-                   "[layout options](#layout)",
-                   "ipopt: the forest; give exactly one of `layout`, `layout_file`"},
-                  [](const YamlMap& p, S& s) {
-                    if (p.Has("layout") && p.Has("layout_file")) {
-                      p.Fail("layout_file", "give either layout or layout_file");
-                    }
-                    if (!p.Has("layout") && !p.Has("layout_file")) {
-                      p.Fail("layout", "missing: give layout (generator options) or layout_file");
-                    }
-                    if (p.Has("layout")) {
-                      s.layout_file.clear();
-                      s.options.layout = layout::LayoutOptions::FromYaml(p.Map("layout"));
-                    }
-                  },
-                  [](YAML::Emitter& out, const S& s) {
-                    if (!s.layout_file.empty()) return;
-                    out << YAML::Key << "layout" << YAML::Value;
-                    s.options.layout.ToYaml(out);
-                  })
-          .Custom({"layout_file", "path", "one of `layout`, `layout_file` required",
-                   "a [layout options](#layout) file", "ipopt: the forest, from a file"},
-                  [](const YamlMap& p, S& s) {
-                    if (!p.Has("layout_file")) return;
-                    s.layout_file = p.String("layout_file");
-                    s.options.layout = layout::LayoutOptions::LoadFile(
-                        ExistingFile(p, "layout_file", s.base_dir, ""));
-                  },
-                  [](YAML::Emitter& out, const S& s) {
-                    if (!s.layout_file.empty()) WriteText(out, "layout_file", s.layout_file);
-                  })
-          .Custom({"world", "map", "ideal world", "[world options](#world)",
-                   "ipopt: the world's seed is set per flight; collisions are always "
-                   "pass-through (counted, not stopping the drone)"},
-                  [](const YamlMap& p, S& s) {
-                    if (p.Has("world")) s.options.world = physics::WorldOptions::FromYaml(p.Map("world"));
-                    s.options.world.collision_response = physics::CollisionResponse::kPassThrough;
-                  },
-                  unwritten)
-          .Custom({"mission", "string", "`go_and_return`", "`go_and_return`, `go_to`",
-                   "ipopt: the mission over the layout's start and goal"},
-                  [](const YamlMap& p, S& s) {
-                    s.options.mission = sim::MissionKindFromString(
-                        p.String("mission", std::string(sim::ToString(s.options.mission)),
-                                 {"go_and_return", "go_to"}),
-                        p.file(), "planner.mission");
-                  },
-                  [](YAML::Emitter& out, const S& s) {
-                    WriteText(out, "mission", sim::ToString(s.options.mission));
-                  })
-          .Custom({"max_time", "number", FormatNumber(kDefaultMaxTime),
-                   DescribeInterval(Range::Positive()),
-                   "ipopt: flight time limit; a flight past it fails (s)"},
-                  [](const YamlMap& p, S& s) {
-                    s.options.flight.max_time = p.Number("max_time", kDefaultMaxTime, Range::Positive());
-                  },
-                  [](YAML::Emitter& out, const S& s) {
-                    out << YAML::Key << "max_time" << YAML::Value << s.options.flight.max_time;
-                  })
-          .Custom({"fixed", "map", "planner defaults", "[planner parameters](#planner-parameters)",
-                   "ipopt: values of parameters not tuned"},
-                  [](const YamlMap& p, S& s) {
-                    if (p.Has("fixed")) s.options.base = planning::PlannerParams::FromYaml(p.Map("fixed"));
-                  },
-                  unwritten)
-          .Custom({"safety_nets", "bool", "true", "",
-                   "ipopt: `false` plans as the paper's planners do: one back-end attempt per "
-                   "re-plan (`max_attempts` 1; `fixed.max_attempts` is then refused), no 10× "
-                   "collision-weight retries, no stop-and-go fallback"},
-                  [](const YamlMap& p, S& s) {
-                    s.safety_nets = p.Bool("safety_nets", s.safety_nets);
-                    if (s.safety_nets) return;
-                    // Plan as the paper's planners do: one back-end attempt per re-plan, no
-                    // collision-weight escalation, no stop-and-go fallback (a failed re-plan is a
-                    // failure, n_s = 1).
-                    if (p.Has("fixed") && p.Map("fixed").Has("max_attempts")) {
-                      p.Fail("safety_nets", "false sets max_attempts to 1; remove fixed.max_attempts");
-                    }
-                    s.options.base.max_attempts = 1;
-                    s.options.flight.planner.retry_collision_gain = 1.0;
-                    s.options.flight.replanner.fallback_speed = 0.0;
-                  },
-                  [](YAML::Emitter& out, const S& s) {
-                    out << YAML::Key << "safety_nets" << YAML::Value << s.safety_nets;
-                  });
+          .Custom(
+              {"type", "string", "`ipopt`",
+               "a registered type: `ipopt`, `ego`, or one a program registers "
+               "([own-planner.md](own-planner.md))",
+               "`ipopt`: the full stack; `ego`: the EGO-Planner-style back end in the same "
+               "closed loop. The test program `quadtune_test_cli` also has the test planners "
+               "`toy` (a cheap 1-D plug-in) and `sleep` (a scale model of the Ipopt "
+               "planner's wall times), [testing.md](testing.md#test-planners-and-the-test-"
+               "program)"},
+              [](const YamlMap& p, S& s) { s.type = p.String("type", s.type); },
+              [](YAML::Emitter& out, const S& s) { WriteText(out, "type", s.type); })
+          .Custom(
+              {"drone", "path", "`drones/research_1kg.yaml`", "an existing [drone](#drone) file",
+               "ipopt: the drone flown"},
+              [](const YamlMap& p, S& s) {
+                s.drone = p.String("drone", s.drone);
+                const std::string drone = ResolvePath(s.drone, s.base_dir);
+                if (!std::filesystem::exists(drone)) {
+                  p.Fail("drone", "file '" + drone +
+                                      "' not found (searched next to the experiment and in "
+                                      "assets/)");
+                }
+                s.options.drone = physics::LoadDroneDescription(drone);
+              },
+              [](YAML::Emitter& out, const S& s) { WriteText(out, "drone", s.drone); })
+          .Custom(
+              {"layout", "map", "one of `layout`, `layout_file` required",
+               "[layout options](#layout)",
+               "ipopt: the forest; give exactly one of `layout`, `layout_file`"},
+              [](const YamlMap& p, S& s) {
+                if (p.Has("layout") && p.Has("layout_file")) {
+                  p.Fail("layout_file", "give either layout or layout_file");
+                }
+                if (!p.Has("layout") && !p.Has("layout_file")) {
+                  p.Fail("layout", "missing: give layout (generator options) or layout_file");
+                }
+                if (p.Has("layout")) {
+                  s.layout_file.clear();
+                  s.options.layout = layout::LayoutOptions::FromYaml(p.Map("layout"));
+                }
+              },
+              [](YAML::Emitter& out, const S& s) {
+                if (!s.layout_file.empty()) return;
+                out << YAML::Key << "layout" << YAML::Value;
+                s.options.layout.ToYaml(out);
+              })
+          .Custom(
+              {"layout_file", "path", "one of `layout`, `layout_file` required",
+               "a [layout options](#layout) file", "ipopt: the forest, from a file"},
+              [](const YamlMap& p, S& s) {
+                if (!p.Has("layout_file")) return;
+                s.layout_file = p.String("layout_file");
+                s.options.layout =
+                    layout::LayoutOptions::LoadFile(ExistingFile(p, "layout_file", s.base_dir, ""));
+              },
+              [](YAML::Emitter& out, const S& s) {
+                if (!s.layout_file.empty()) WriteText(out, "layout_file", s.layout_file);
+              })
+          .Custom(
+              {"world", "map", "ideal world", "[world options](#world)",
+               "ipopt: the world's seed is set per flight; collisions are always "
+               "pass-through (counted, not stopping the drone)"},
+              [](const YamlMap& p, S& s) {
+                if (p.Has("world"))
+                  s.options.world = physics::WorldOptions::FromYaml(p.Map("world"));
+                s.options.world.collision_response = physics::CollisionResponse::kPassThrough;
+              },
+              unwritten)
+          .Custom(
+              {"mission", "string", "`go_and_return`", "`go_and_return`, `go_to`",
+               "ipopt: the mission over the layout's start and goal"},
+              [](const YamlMap& p, S& s) {
+                s.options.mission = sim::MissionKindFromString(
+                    p.String("mission", std::string(sim::ToString(s.options.mission)),
+                             {"go_and_return", "go_to"}),
+                    p.file(), "planner.mission");
+              },
+              [](YAML::Emitter& out, const S& s) {
+                WriteText(out, "mission", sim::ToString(s.options.mission));
+              })
+          .Custom(
+              {"max_time", "number", FormatNumber(kDefaultMaxTime),
+               DescribeInterval(Range::Positive()),
+               "ipopt: flight time limit; a flight past it fails (s)"},
+              [](const YamlMap& p, S& s) {
+                s.options.flight.max_time =
+                    p.Number("max_time", kDefaultMaxTime, Range::Positive());
+              },
+              [](YAML::Emitter& out, const S& s) {
+                out << YAML::Key << "max_time" << YAML::Value << s.options.flight.max_time;
+              })
+          .Custom(
+              {"fixed", "map", "planner defaults", "[planner parameters](#planner-parameters)",
+               "ipopt: values of parameters not tuned"},
+              [](const YamlMap& p, S& s) {
+                if (p.Has("fixed"))
+                  s.options.base = planning::PlannerParams::FromYaml(p.Map("fixed"));
+              },
+              unwritten)
+          .Custom(
+              {"safety_nets", "bool", "true", "",
+               "ipopt: `false` plans as the paper's planners do: one back-end attempt per "
+               "re-plan (`max_attempts` 1; `fixed.max_attempts` is then refused), no 10× "
+               "collision-weight retries, no stop-and-go fallback"},
+              [](const YamlMap& p, S& s) {
+                s.safety_nets = p.Bool("safety_nets", s.safety_nets);
+                if (s.safety_nets) return;
+                // Plan as the paper's planners do: one back-end attempt per re-plan, no
+                // collision-weight escalation, no stop-and-go fallback (a failed re-plan is a
+                // failure, n_s = 1).
+                if (p.Has("fixed") && p.Map("fixed").Has("max_attempts")) {
+                  p.Fail("safety_nets", "false sets max_attempts to 1; remove fixed.max_attempts");
+                }
+                s.options.base.max_attempts = 1;
+                s.options.flight.planner.retry_collision_gain = 1.0;
+                s.options.flight.replanner.fallback_speed = 0.0;
+              },
+              [](YAML::Emitter& out, const S& s) {
+                out << YAML::Key << "safety_nets" << YAML::Value << s.safety_nets;
+              });
   return fields;
 }
 

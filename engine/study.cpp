@@ -10,11 +10,11 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "field_util.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/engine/validation.hpp"
-#include "field_util.hpp"
 
 namespace quadtune::engine {
 namespace {
@@ -61,56 +61,56 @@ const Fields<Study>& StudySweepFields() {
       Fields<Study>()
           .Text("key", &Study::sweep_key, {}, "a dotted experiment key; one study point per value")
           .Required()
-          .Custom({"values", "list", "required", "YAML scalars", "the values `key` takes"},
-                  [](const YamlMap& sweep, Study& s) {
-                    const YAML::Node values = sweep.node()["values"];
-                    if (!values || !values.IsSequence() || values.size() == 0) {
-                      sweep.Fail("values",
-                                 "must be a non-empty list of values for '" + s.sweep_key + "'");
+          .Custom(
+              {"values", "list", "required", "YAML scalars", "the values `key` takes"},
+              [](const YamlMap& sweep, Study& s) {
+                const YAML::Node values = sweep.node()["values"];
+                if (!values || !values.IsSequence() || values.size() == 0) {
+                  sweep.Fail("values",
+                             "must be a non-empty list of values for '" + s.sweep_key + "'");
+                }
+                s.sweep_values.clear();
+                for (const auto& v : values) s.sweep_values.push_back(YamlEmit(v));
+              },
+              [](YAML::Emitter& out, const Study& s) {
+                out << YAML::Key << "values" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+                for (const auto& v : s.sweep_values) out << YAML::Load(v);
+                out << YAML::EndSeq;
+              })
+          .Custom(
+              {"labels", "list of strings", "the values", "one per value",
+               "names of the points (output folders)"},
+              [](const YamlMap& sweep, Study& s) {
+                const YAML::Node values = sweep.node()["values"];
+                const YAML::Node labels = sweep.node()["labels"];
+                s.labels.clear();
+                if (labels) {
+                  if (!labels.IsSequence() || labels.size() != values.size()) {
+                    sweep.Fail("labels", "must list one label per value (" +
+                                             std::to_string(values.size()) + ")");
+                  }
+                  for (const auto& l : labels) {
+                    if (!l.IsScalar()) {
+                      sweep.Fail("labels", "must be a list of names (plain text), one per value");
                     }
-                    s.sweep_values.clear();
-                    for (const auto& v : values) s.sweep_values.push_back(YamlEmit(v));
-                  },
-                  [](YAML::Emitter& out, const Study& s) {
-                    out << YAML::Key << "values" << YAML::Value << YAML::Flow << YAML::BeginSeq;
-                    for (const auto& v : s.sweep_values) out << YAML::Load(v);
-                    out << YAML::EndSeq;
-                  })
-          .Custom({"labels", "list of strings", "the values", "one per value",
-                   "names of the points (output folders)"},
-                  [](const YamlMap& sweep, Study& s) {
-                    const YAML::Node values = sweep.node()["values"];
-                    const YAML::Node labels = sweep.node()["labels"];
-                    s.labels.clear();
-                    if (labels) {
-                      if (!labels.IsSequence() || labels.size() != values.size()) {
-                        sweep.Fail("labels", "must list one label per value (" +
-                                                 std::to_string(values.size()) + ")");
-                      }
-                      for (const auto& l : labels) {
-                        if (!l.IsScalar()) {
-                          sweep.Fail("labels",
-                                     "must be a list of names (plain text), one per value");
-                        }
-                        s.labels.push_back(l.as<std::string>());
-                      }
-                    } else {
-                      for (const auto& v : values) {
-                        s.labels.push_back(v.IsScalar() ? v.as<std::string>() : YamlEmit(v));
-                      }
+                    s.labels.push_back(l.as<std::string>());
+                  }
+                } else {
+                  for (const auto& v : values) {
+                    s.labels.push_back(v.IsScalar() ? v.as<std::string>() : YamlEmit(v));
+                  }
+                }
+                for (std::size_t i = 0; i < s.labels.size(); ++i) {
+                  for (std::size_t j = 0; j < i; ++j) {
+                    if (Slug(s.labels[i]) == Slug(s.labels[j])) {
+                      sweep.Fail("labels", "two points are both named '" + Slug(s.labels[i]) + "'");
                     }
-                    for (std::size_t i = 0; i < s.labels.size(); ++i) {
-                      for (std::size_t j = 0; j < i; ++j) {
-                        if (Slug(s.labels[i]) == Slug(s.labels[j])) {
-                          sweep.Fail("labels",
-                                     "two points are both named '" + Slug(s.labels[i]) + "'");
-                        }
-                      }
-                    }
-                  },
-                  [](YAML::Emitter& out, const Study& s) {
-                    out << YAML::Key << "labels" << YAML::Value << YAML::Flow << s.labels;
-                  });
+                  }
+                }
+              },
+              [](YAML::Emitter& out, const Study& s) {
+                out << YAML::Key << "labels" << YAML::Value << YAML::Flow << s.labels;
+              });
   return fields;
 }
 
@@ -120,14 +120,15 @@ const Fields<StudyStage>& StudyStageFields() {
           .Text("name", &StudyStage::name, {},
                 "the stage's name (its output folder): letters, digits, '-', '_' or '.'; unique")
           .Required()
-          .Custom({"override", "map", "absent", "experiment keys", "this stage's changes"},
-                  [](const YamlMap& st, StudyStage& stage) {
-                    if (st.Has("override")) stage.override_yaml = YamlEmit(st.Map("override").node());
-                  },
-                  [](YAML::Emitter& out, const StudyStage& stage) {
-                    if (stage.override_yaml.empty()) return;
-                    out << YAML::Key << "override" << YAML::Value << YAML::Load(stage.override_yaml);
-                  })
+          .Custom(
+              {"override", "map", "absent", "experiment keys", "this stage's changes"},
+              [](const YamlMap& st, StudyStage& stage) {
+                if (st.Has("override")) stage.override_yaml = YamlEmit(st.Map("override").node());
+              },
+              [](YAML::Emitter& out, const StudyStage& stage) {
+                if (stage.override_yaml.empty()) return;
+                out << YAML::Key << "override" << YAML::Value << YAML::Load(stage.override_yaml);
+              })
           .Text("start_from", &StudyStage::start_from, {},
                 "an earlier stage's name: the experiment's `start:` is that stage's recommended "
                 "point");
@@ -148,78 +149,82 @@ const Fields<Study>& StudyFields() {
           .Text("name", &Study::name, {}, "name stored in study.json")
           .Integer("seed", &Study::seed, Range::Closed(0, 9.0e15),
                    "stored in study.json; each experiment keeps its own seed")
-          .Custom({"experiment", "path", "required", "an [experiment](#experiment) file",
-                   "the base experiment (relative to the study file)"},
-                  [](const YamlMap& map, Study& s) {
-                    // The base, with `override` merged onto it.
-                    s.experiment_file = map.String("experiment");
-                    const std::string dir = fs::path(s.file).parent_path().string();
-                    const std::string base_file =
-                        ResolvePath(s.experiment_file, dir.empty() ? "." : dir);
-                    if (!fs::exists(base_file)) {
-                      map.Fail("experiment", "file '" + base_file +
-                                                 "' not found (relative to the study file)");
-                    }
-                    const YamlMap base = YamlMap::LoadFile(base_file);
-                    s.base_dir = fs::path(base_file).parent_path().string();
-                    if (s.base_dir.empty()) s.base_dir = ".";
-                    YAML::Node merged = base.node();
-                    if (map.Has("override")) {
-                      merged = YamlDeepMerge(merged, map.Map("override").node());
-                    }
-                    s.base_text = YamlEmit(merged);
-                  },
-                  [](YAML::Emitter& out, const Study& s) {
-                    out << YAML::Key << "experiment" << YAML::Value << s.experiment_file;
-                  })
+          .Custom(
+              {"experiment", "path", "required", "an [experiment](#experiment) file",
+               "the base experiment (relative to the study file)"},
+              [](const YamlMap& map, Study& s) {
+                // The base, with `override` merged onto it.
+                s.experiment_file = map.String("experiment");
+                const std::string dir = fs::path(s.file).parent_path().string();
+                const std::string base_file =
+                    ResolvePath(s.experiment_file, dir.empty() ? "." : dir);
+                if (!fs::exists(base_file)) {
+                  map.Fail("experiment",
+                           "file '" + base_file + "' not found (relative to the study file)");
+                }
+                const YamlMap base = YamlMap::LoadFile(base_file);
+                s.base_dir = fs::path(base_file).parent_path().string();
+                if (s.base_dir.empty()) s.base_dir = ".";
+                YAML::Node merged = base.node();
+                if (map.Has("override")) {
+                  merged = YamlDeepMerge(merged, map.Map("override").node());
+                }
+                s.base_text = YamlEmit(merged);
+              },
+              [](YAML::Emitter& out, const Study& s) {
+                out << YAML::Key << "experiment" << YAML::Value << s.experiment_file;
+              })
           // Merged by the `experiment` reader; base_text holds it merged, so nothing writes it.
-          .Custom({"override", "map", "absent", "experiment keys",
-                   "deep-merged onto the base (maps merge, anything else is replaced)"},
-                  [](const YamlMap&, Study&) {}, [](YAML::Emitter&, const Study&) {})
-          .Custom(MapDoc("sweep", "one study point per value, below", "absent"),
-                  [](const YamlMap& map, Study& s) {
-                    if (map.Has("sweep")) {
-                      StudySweepFields().Read(map.Map("sweep"), s);
-                    } else {
-                      s.labels = {"all"};
+          .Custom(
+              {"override", "map", "absent", "experiment keys",
+               "deep-merged onto the base (maps merge, anything else is replaced)"},
+              [](const YamlMap&, Study&) {}, [](YAML::Emitter&, const Study&) {})
+          .Custom(
+              MapDoc("sweep", "one study point per value, below", "absent"),
+              [](const YamlMap& map, Study& s) {
+                if (map.Has("sweep")) {
+                  StudySweepFields().Read(map.Map("sweep"), s);
+                } else {
+                  s.labels = {"all"};
+                }
+              },
+              [](YAML::Emitter& out, const Study& s) {
+                if (s.sweep_key.empty()) return;
+                out << YAML::Key << "sweep" << YAML::Value;
+                StudySweepFields().Write(out, s);
+              })
+          .Custom(
+              {"stages", "list", "one stage `tuning`", "", "run in order per point, below"},
+              [](const YamlMap& map, Study& s) {
+                for (const YamlMap& st : map.Maps("stages")) {
+                  const StudyStage stage = StudyStageFields().Read(st);
+                  if (stage.name.empty() || Slug(stage.name) != stage.name) {
+                    st.Fail("name", "must be a non-empty name of letters, digits, '-', '_' or '.'");
+                  }
+                  for (const auto& earlier : s.stages) {
+                    if (earlier.name == stage.name) {
+                      st.Fail("name", "stage '" + stage.name + "' is defined twice");
                     }
-                  },
-                  [](YAML::Emitter& out, const Study& s) {
-                    if (s.sweep_key.empty()) return;
-                    out << YAML::Key << "sweep" << YAML::Value;
-                    StudySweepFields().Write(out, s);
-                  })
-          .Custom({"stages", "list", "one stage `tuning`", "", "run in order per point, below"},
-                  [](const YamlMap& map, Study& s) {
-                    for (const YamlMap& st : map.Maps("stages")) {
-                      const StudyStage stage = StudyStageFields().Read(st);
-                      if (stage.name.empty() || Slug(stage.name) != stage.name) {
-                        st.Fail("name", "must be a non-empty name of letters, digits, '-', '_' or '.'");
-                      }
-                      for (const auto& earlier : s.stages) {
-                        if (earlier.name == stage.name) {
-                          st.Fail("name", "stage '" + stage.name + "' is defined twice");
-                        }
-                      }
-                      if (!stage.start_from.empty()) {
-                        bool found = false;
-                        for (const auto& earlier : s.stages) {
-                          found = found || earlier.name == stage.start_from;
-                        }
-                        if (!found) {
-                          st.Fail("start_from",
-                                  "must name an earlier stage, got '" + stage.start_from + "'");
-                        }
-                      }
-                      s.stages.push_back(stage);
+                  }
+                  if (!stage.start_from.empty()) {
+                    bool found = false;
+                    for (const auto& earlier : s.stages) {
+                      found = found || earlier.name == stage.start_from;
                     }
-                    if (s.stages.empty()) s.stages.push_back({"tuning", "", ""});
-                  },
-                  [](YAML::Emitter& out, const Study& s) {
-                    out << YAML::Key << "stages" << YAML::Value << YAML::BeginSeq;
-                    for (const auto& stage : s.stages) StudyStageFields().Write(out, stage);
-                    out << YAML::EndSeq;
-                  })
+                    if (!found) {
+                      st.Fail("start_from",
+                              "must name an earlier stage, got '" + stage.start_from + "'");
+                    }
+                  }
+                  s.stages.push_back(stage);
+                }
+                if (s.stages.empty()) s.stages.push_back({"tuning", "", ""});
+              },
+              [](YAML::Emitter& out, const Study& s) {
+                out << YAML::Key << "stages" << YAML::Value << YAML::BeginSeq;
+                for (const auto& stage : s.stages) StudyStageFields().Write(out, stage);
+                out << YAML::EndSeq;
+              })
           .Custom(MapDoc("validation", "validation flights of the tuned parameters, below"),
                   ReadSection("validation", StudyValidationFields()),
                   WriteSection("validation", StudyValidationFields()));
@@ -230,11 +235,11 @@ Study Study::LoadFile(const std::string& path) { return LoadFile(path, {}); }
 
 Study Study::LoadFile(const std::string& path, const std::vector<std::string>& assignments) {
   const YamlMap original = YamlMap::LoadFile(path);  // file errors name the file and the line
-  const YamlMap map = assignments.empty()
-                          ? original
-                          : YamlMap::FromString(ApplyAssignments(YamlEmit(original.node()),
-                                                                 assignments, path),
-                                                path);
+  const YamlMap map =
+      assignments.empty()
+          ? original
+          : YamlMap::FromString(ApplyAssignments(YamlEmit(original.node()), assignments, path),
+                                path);
   Study s;
   s.file = path;
   StudyFields().Read(map, s);

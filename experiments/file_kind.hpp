@@ -13,11 +13,10 @@ namespace quadtune::cli {
 
 enum class FileKind { kExperiment, kStudy, kAdaptation, kDrone, kLayout, kUnknown };
 constexpr auto EnumNames(FileKind) {
-  return std::array{EnumName{FileKind::kExperiment, "experiment"},
-                    EnumName{FileKind::kStudy, "study"},
-                    EnumName{FileKind::kAdaptation, "adaptation"},
-                    EnumName{FileKind::kDrone, "drone"}, EnumName{FileKind::kLayout, "layout"},
-                    EnumName{FileKind::kUnknown, "unknown"}};
+  return std::array{
+      EnumName{FileKind::kExperiment, "experiment"}, EnumName{FileKind::kStudy, "study"},
+      EnumName{FileKind::kAdaptation, "adaptation"}, EnumName{FileKind::kDrone, "drone"},
+      EnumName{FileKind::kLayout, "layout"},         EnumName{FileKind::kUnknown, "unknown"}};
 }
 
 /// "experiment file (for `quadtune run`)", "study file (for `quadtune study`)", …

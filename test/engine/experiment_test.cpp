@@ -1,3 +1,5 @@
+#include "quadtune/engine/experiment.hpp"
+
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -5,7 +7,6 @@
 #include <string>
 
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/experiment.hpp"
 #include "quadtune/engine/online_adaptation.hpp"
 #include "quadtune/engine/study.hpp"
 #include "quadtune/engine/tuner.hpp"
@@ -160,7 +161,6 @@ TEST(ExperimentErrors, ResumeWithAnotherConfiguration) {
   }
 }
 
-
 // The field lists' Write of a loaded experiment reads back as the same experiment: writing the
 // reread one gives the same text.
 std::string Written(const Experiment& e) {
@@ -223,8 +223,7 @@ TEST(EnumNames, EngineSpellingsAreTheStoredOnes) {
   EXPECT_FALSE(FromString<Method>("annealing").has_value());
   EXPECT_STREQ(ToString(MapMode::kPerRepeat), "per_repeat");
   EXPECT_STREQ(ToString(TimingMode::kRealtime), "realtime");
-  EXPECT_STREQ(ToString(ObjectiveOptions::ShortKind::kChangingEnvironment),
-               "changing_environment");
+  EXPECT_STREQ(ToString(ObjectiveOptions::ShortKind::kChangingEnvironment), "changing_environment");
   EXPECT_STREQ(ToString(EvalStatus::kCancelled), "cancelled");
   EXPECT_STREQ(ToString(RunStatus::kCompleted), "completed");
   EXPECT_STREQ(ToString(AdaptationSegment::Outcome::kNoSuccess), "no_success");

@@ -34,7 +34,6 @@
 #include <vector>
 
 #include "quadtune/common/enum_names.hpp"
-
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/yaml.hpp"
 

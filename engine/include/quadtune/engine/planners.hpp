@@ -58,7 +58,7 @@ struct IpoptPlannerSection {
   std::string base_dir = ".";  ///< folder relative file names resolve against (not a key)
   std::string type = "ipopt";  ///< `type` (the registry dispatches on it)
   std::string drone = "drones/research_1kg.yaml";  ///< `drone` as written
-  std::string layout_file;     ///< `layout_file` as written; "" when `layout` gives the options
+  std::string layout_file;  ///< `layout_file` as written; "" when `layout` gives the options
   bool safety_nets = true;
   IpoptPlannerOptions options;
 };
