@@ -878,7 +878,7 @@ RunSummary RunWorker(const MpiSession& mpi, const Experiment& e, const Distribut
       const int repeat = a.at("repeat").get<int>();
       store->Begin(a.at("trial_id").get<std::int64_t>(), method, repeat, rows);
       TrialSummary trial;
-      if (!runner->Run(*MethodFromString(method), repeat, trial)) stopped();
+      if (!runner->Run(*FromString<Method>(method), repeat, trial)) stopped();
       next = Json{{"type", "next"},
                   {"index", a.at("index").get<int>()},
                   {"summary", ToJson(trial)},

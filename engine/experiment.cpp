@@ -7,6 +7,7 @@
 #include <set>
 #include <sstream>
 
+#include "field_util.hpp"
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/text_file.hpp"
 #include "quadtune/engine/planner_registry.hpp"
@@ -16,24 +17,6 @@
 #endif
 
 namespace quadtune::engine {
-
-const char* ToString(Method method) {
-  switch (method) {
-    case Method::kDefault: return "default";
-    case Method::kRandom: return "random";
-    case Method::kPso: return "pso";
-    case Method::kBo: return "bo";
-    case Method::kBoPso: return "bo_pso";
-  }
-  return "?";
-}
-
-std::optional<Method> MethodFromString(const std::string& name) {
-  for (Method m : {Method::kDefault, Method::kRandom, Method::kPso, Method::kBo, Method::kBoPso}) {
-    if (name == ToString(m)) return m;
-  }
-  return std::nullopt;
-}
 
 std::string ResolvePath(const std::string& relative, const std::string& base_dir) {
   namespace fs = std::filesystem;
@@ -45,15 +28,6 @@ std::string ResolvePath(const std::string& relative, const std::string& base_dir
     if (fs::exists(c)) return c.string();
   }
   return relative;
-}
-
-const char* ToString(MapMode mode) {
-  switch (mode) {
-    case MapMode::kPerFlight: return "per_flight";
-    case MapMode::kPerRepeat: return "per_repeat";
-    case MapMode::kPool: return "pool";
-  }
-  return "?";
 }
 
 std::uint64_t Experiment::MapSeed(int repeat) const {
@@ -104,10 +78,10 @@ std::vector<std::string> StringList(const YamlMap& map, const std::string& key) 
 
 /// Every tuning box must lie inside what the planner type can fly (its registered schema), and an
 /// integer parameter of the planner must be tuned as an integer.
-void CheckAgainstSchema(const optimizers::ParameterSpace& space, const BuiltPlanner& planner,
-                        const std::string& origin) {
-  std::vector<ParameterInfo> schema = planner.schema.short_term;
-  schema.insert(schema.end(), planner.schema.long_term.begin(), planner.schema.long_term.end());
+void CheckAgainstSchema(const optimizers::ParameterSpace& space, const PlannerSchema& registered,
+                        const std::string& type, const std::string& origin) {
+  std::vector<ParameterInfo> schema = registered.short_term;
+  schema.insert(schema.end(), registered.long_term.begin(), registered.long_term.end());
   for (int i = 0; i < space.Dim(); ++i) {
     const auto& prm = space.At(i);
     const std::string key = "parameters." + std::to_string(i);
@@ -122,8 +96,8 @@ void CheckAgainstSchema(const optimizers::ParameterSpace& space, const BuiltPlan
       const auto check = [&](const char* part, double v) {
         if (!info.range.Contains(v)) {
           std::ostringstream s;
-          s << "got " << v << "; planner '" << planner.type << "' can fly " << prm.name
-            << " only as " << allowed;
+          s << "got " << v << "; planner '" << type << "' can fly " << prm.name << " only as "
+            << allowed;
           throw ConfigError(origin, key + "." + part, s.str());
         }
       };
@@ -131,9 +105,9 @@ void CheckAgainstSchema(const optimizers::ParameterSpace& space, const BuiltPlan
       check("upper", prm.upper);
       if (prm.default_value) check("default", *prm.default_value);
       if (info.integer && prm.type != optimizers::ParameterType::kInteger) {
-        throw ConfigError(origin, key + ".type",
-                          prm.name + " is an integer parameter of planner '" + planner.type +
-                              "'; give type: integer");
+        throw ConfigError(
+            origin, key + ".type",
+            prm.name + " is an integer parameter of planner '" + type + "'; give type: integer");
       }
     }
   }
@@ -165,10 +139,11 @@ std::vector<Method> ReadMethods(const YamlMap& map) {
   std::vector<Method> methods;
   std::set<Method> seen;
   for (const auto& name : StringList(map, "methods")) {
-    const auto m = MethodFromString(name);
+    const auto m = FromString<Method>(name);
     if (!m) {
-      map.Fail("methods",
-               "unknown method '" + name + "', allowed: default, random, pso, bo, bo_pso");
+      std::string allowed;
+      for (const auto& n : EnumNameList<Method>()) allowed += (allowed.empty() ? "" : ", ") + n;
+      map.Fail("methods", "unknown method '" + name + "', allowed: " + allowed);
     }
     if (!seen.insert(*m).second) map.Fail("methods", "method '" + name + "' listed twice");
     methods.push_back(*m);
@@ -176,131 +151,120 @@ std::vector<Method> ReadMethods(const YamlMap& map) {
   return methods;
 }
 
-// Which parameters are short- and long-term (each must be the planner's and in e.space), and
-// the optional `initial_short_term` and `start` points.
-void ReadParameterRoles(const YamlMap& map, const BuiltPlanner& built, const std::string& origin,
-                        Experiment& e) {
-  std::set<std::string> planner_short, planner_long;
-  for (const auto& p : built.schema.short_term) planner_short.insert(p.name);
-  for (const auto& p : built.schema.long_term) planner_long.insert(p.name);
-  const auto space_names = e.space.Names();
-  for (const auto& n : space_names) {
+// The registered schema of the experiment's planner type (read before the parameters).
+PlannerSchema SchemaOf(const Experiment& e) {
+  const std::optional<PlannerType> type = FindPlanner(e.planner_type);
+  QT_DEMAND(type.has_value(), "planner type '" + e.planner_type + "' is not registered");
+  return type->schema;
+}
+
+std::set<std::string> NamesOf(const std::vector<ParameterInfo>& side) {
+  std::set<std::string> names;
+  for (const auto& p : side) names.insert(p.name);
+  return names;
+}
+
+// Every tuned parameter must be one of the planner's, inside what it can fly.
+void CheckParameters(const YamlMap& map, Experiment& e) {
+  const PlannerSchema schema = SchemaOf(e);
+  const std::set<std::string> planner_short = NamesOf(schema.short_term);
+  const std::set<std::string> planner_long = NamesOf(schema.long_term);
+  for (const auto& n : e.space.Names()) {
     if (!planner_short.count(n) && !planner_long.count(n)) {
-      map.Fail("parameters", "'" + n + "' is not a tunable parameter of planner '" +
-                                 built.type + "'");
+      map.Fail("parameters",
+               "'" + n + "' is not a tunable parameter of planner '" + e.planner_type + "'");
     }
   }
-  CheckAgainstSchema(e.space, built, origin);
-  auto read_side = [&](const char* key, const std::set<std::string>& allowed) {
-    std::vector<std::string> names = StringList(map, key);
-    std::set<std::string> unique;
-    for (const auto& n : names) {
-      if (!allowed.count(n)) {
-        std::string list;
-        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-        map.Fail(key, "'" + n + "' is not allowed here; allowed: " + list);
-      }
-      if (std::find(space_names.begin(), space_names.end(), n) == space_names.end()) {
-        map.Fail(key, "'" + n + "' has no bounds in parameters");
-      }
-      if (!unique.insert(n).second) map.Fail(key, "'" + n + "' listed twice");
-    }
-    // Keep space order.
-    std::vector<std::string> ordered;
-    for (const auto& n : space_names) {
-      if (unique.count(n)) ordered.push_back(n);
-    }
-    return ordered;
-  };
-  e.short_names = read_side("short_term", planner_short);
-  e.long_names = read_side("long_term", planner_long);
-  if (e.short_names.size() + e.long_names.size() != space_names.size()) {
-    map.Fail("parameters", "every parameter must be listed in short_term or long_term");
-  }
-  if (map.Has("initial_short_term")) {
-    const YamlMap init = map.Map("initial_short_term");
-    init.RejectUnknownKeys(e.short_names);
-    ParamValues values;
-    for (const auto& n : e.short_names) {
-      const auto& prm = e.space.At(e.space.IndexOf(n));
-      values[n] = init.Number(n, std::nullopt, Range::Closed(prm.lower, prm.upper));
-    }
-    e.initial_short = values;
-  }
-  if (map.Has("start")) {
-    const YamlMap start = map.Map("start");
-    start.RejectUnknownKeys(space_names);
-    ParamValues values;
-    for (const auto& n : space_names) {
-      if (!start.Has(n)) continue;
-      const auto& prm = e.space.At(e.space.IndexOf(n));
-      values[n] = start.Number(n, std::nullopt, Range::Closed(prm.lower, prm.upper));
-    }
-    e.start = values;
-  }
+  CheckAgainstSchema(e.space, schema, e.planner_type, e.file);
 }
 
-// The `maps`, `validation` and `recommend` sections.
-void ReadMapsAndValidation(const YamlMap& map, Experiment& e) {
-  const YamlMap m = map.Map("maps", true);
-  m.RejectUnknownKeys({"mode", "pool"});
-  const std::string mode =
-      m.String("mode", std::string(ToString(e.maps.mode)), {"per_flight", "per_repeat", "pool"});
-  for (MapMode candidate : {MapMode::kPerFlight, MapMode::kPerRepeat, MapMode::kPool}) {
-    if (mode == ToString(candidate)) e.maps.mode = candidate;
+// `short_term` or `long_term`: names of the planner's side that have bounds, each once, in space
+// order.
+std::vector<std::string> ReadSide(const YamlMap& map, const char* key,
+                                  const std::vector<ParameterInfo>& side,
+                                  const optimizers::ParameterSpace& space) {
+  const std::set<std::string> allowed = NamesOf(side);
+  const auto space_names = space.Names();
+  std::set<std::string> unique;
+  for (const auto& n : StringList(map, key)) {
+    if (!allowed.count(n)) {
+      std::string list;
+      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+      map.Fail(key, "'" + n + "' is not allowed here; allowed: " + list);
+    }
+    if (std::find(space_names.begin(), space_names.end(), n) == space_names.end()) {
+      map.Fail(key, "'" + n + "' has no bounds in parameters");
+    }
+    if (!unique.insert(n).second) map.Fail(key, "'" + n + "' listed twice");
   }
-  e.maps.pool = static_cast<int>(m.Integer("pool", e.maps.pool, Range::Closed(1, 1e6)));
-  const YamlMap v = map.Map("validation", true);
-  v.RejectUnknownKeys({"maps"});
-  e.validation.maps = static_cast<int>(v.Integer("maps", e.validation.maps, Range::Closed(0, 1e5)));
-  const YamlMap r = map.Map("recommend", true);
-  r.RejectUnknownKeys({"candidates", "flights", "clearance", "z", "emergency_stops", "backoff"});
-  e.recommend.candidates =
-      static_cast<int>(r.Integer("candidates", e.recommend.candidates, Range::Closed(0, 1000)));
-  e.recommend.flights =
-      static_cast<int>(r.Integer("flights", e.recommend.flights, Range::Closed(1, 1000)));
-  e.recommend.clearance = r.Number("clearance", e.recommend.clearance, Range::Closed(0, 100));
-  e.recommend.z = r.Number("z", e.recommend.z, Range::Closed(0, 10));
-  e.recommend.emergency_stops = r.Bool("emergency_stops", e.recommend.emergency_stops);
-  e.recommend.backoff =
-      static_cast<int>(r.Integer("backoff", e.recommend.backoff, Range::Closed(0, 100)));
+  std::vector<std::string> ordered;
+  for (const auto& n : space_names) {
+    if (unique.count(n)) ordered.push_back(n);
+  }
+  return ordered;
 }
 
-// The `budget` section (after `methods`, `repeats` and `mode`, which bound it).
+// A point over `names` (`initial_short_term`: all of them; `start`: any of them), each inside its
+// bounds; absent key → empty.
+std::optional<ParamValues> ReadPoint(const YamlMap& map, const char* key,
+                                     const std::vector<std::string>& names, bool all,
+                                     const optimizers::ParameterSpace& space) {
+  if (!map.Has(key)) return std::nullopt;
+  const YamlMap point = map.Map(key);
+  point.RejectUnknownKeys(names);
+  ParamValues values;
+  for (const auto& n : names) {
+    if (!all && !point.Has(n)) continue;
+    const auto& prm = space.At(space.IndexOf(n));
+    values[n] = point.Number(n, std::nullopt, Range::Closed(prm.lower, prm.upper));
+  }
+  return values;
+}
+
+void WriteNames(YAML::Emitter& out, const std::string& key, const std::vector<std::string>& names) {
+  out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginSeq;
+  for (const auto& n : names) out << n;
+  out << YAML::EndSeq;
+}
+
+void WritePoint(YAML::Emitter& out, const std::string& key, const std::optional<ParamValues>& p) {
+  if (!p) return;
+  out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginMap;
+  for (const auto& [name, value] : *p) out << YAML::Key << name << YAML::Value << value;
+  out << YAML::EndMap;
+}
+
+void WriteParameters(YAML::Emitter& out, const optimizers::ParameterSpace& space) {
+  out << YAML::Key << "parameters" << YAML::Value << YAML::BeginSeq;
+  for (const auto& p : space.Parameters()) {
+    out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << p.name << YAML::Key
+        << "lower" << YAML::Value << p.lower << YAML::Key << "upper" << YAML::Value << p.upper
+        << YAML::Key << "type" << YAML::Value
+        << (p.type == optimizers::ParameterType::kInteger ? "integer" : "continuous") << YAML::Key
+        << "log" << YAML::Value << p.log_scale;
+    if (p.default_value) out << YAML::Key << "default" << YAML::Value << *p.default_value;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+}
+
+// The `budget` section, then its checks against `methods`, `repeats` and `mode`.
 void ReadBudget(const YamlMap& map, Experiment& e) {
   const YamlMap b = map.Map("budget", true);
-  b.RejectUnknownKeys({"flights", "default_flights", "flight_batch", "short_evals_per_flight", "queries_per_eval",
-                       "query_window", "short_term_while_flying"});
-  e.budget.flights =
-      static_cast<int>(b.Integer("flights", e.budget.flights, Range::Closed(1, kMaxFlights)));
-  e.budget.default_flights = static_cast<int>(
-      b.Integer("default_flights", e.budget.flights, Range::Closed(1, kMaxFlights)));
-  {
-    // Every trial of every method and repeat: a run that can never finish is refused.
-    const double total = static_cast<double>(e.budget.flights) *
-                         static_cast<double>(e.methods.size()) * e.repeats;
-    if (total > kMaxTotalFlights) {
-      std::ostringstream s;
-      s << "flights × methods × repeats = " << e.budget.flights << " × " << e.methods.size()
-        << " × " << e.repeats << " = " << total << " flights; at most " << kMaxTotalFlights
-        << " per run";
-      b.Fail("flights", s.str());
-    }
+  BudgetFields().Read(b, e.budget);
+  // Every trial of every method and repeat: a run that can never finish is refused.
+  const double total =
+      static_cast<double>(e.budget.flights) * static_cast<double>(e.methods.size()) * e.repeats;
+  if (total > kMaxTotalFlights) {
+    std::ostringstream s;
+    s << "flights × methods × repeats = " << e.budget.flights << " × " << e.methods.size() << " × "
+      << e.repeats << " = " << total << " flights; at most " << kMaxTotalFlights << " per run";
+    b.Fail("flights", s.str());
   }
-  e.budget.flight_batch =
-      static_cast<int>(b.Integer("flight_batch", e.budget.flight_batch, Range::Closed(0, 1024)));
   if (e.budget.flight_batch == 0 && e.mode != TimingMode::kRealtime) {
     b.Fail("flight_batch", "0 (one per thread) needs mode: realtime; reproducible runs need a "
                            "fixed batch, an integer in [1, 1024]");
   }
-  e.budget.short_evals_per_flight = static_cast<int>(
-      b.Integer("short_evals_per_flight", e.budget.short_evals_per_flight,
-                Range::Closed(0, kMaxShortEvalsPerFlight)));
-  e.budget.queries_per_eval = static_cast<int>(
-      b.Integer("queries_per_eval", e.budget.queries_per_eval, Range::Closed(1, 1e4)));
-  e.budget.query_window =
-      static_cast<int>(b.Integer("query_window", e.budget.query_window, Range::Closed(1, 1e7)));
-  e.budget.short_term_while_flying = b.Bool("short_term_while_flying", false);
   if (e.budget.short_term_while_flying && e.mode != TimingMode::kRealtime) {
     b.Fail("short_term_while_flying", "true needs mode: realtime (it depends on wall-clock time)");
   }
@@ -308,35 +272,199 @@ void ReadBudget(const YamlMap& map, Experiment& e) {
 
 }  // namespace
 
+const Fields<MapOptions>& MapsFields() {
+  static const Fields<MapOptions> fields =
+      Fields<MapOptions>()
+          .Choice("mode", &MapOptions::mode,
+                  "`per_flight`: every flight on a fresh map of the layout's density; "
+                  "`per_repeat`: one map per repeat, flown by every flight of its trials; `pool`: "
+                  "flight k flies map k mod `pool` of the repeat. In every mode flight k of every "
+                  "method in repeat r flies the same map (common random numbers)")
+          .Integer("pool", &MapOptions::pool, Range::Closed(1, 1e6),
+                   "`pool` mode: maps per repeat");
+  return fields;
+}
+
+const Fields<ValidationOptions>& ValidationFields() {
+  static const Fields<ValidationOptions> fields = Fields<ValidationOptions>().Integer(
+      "maps", &ValidationOptions::maps, Range::Closed(0, 1e5),
+      "held-out maps (derived under a seed tag no tuning map uses); each method's recommended "
+      "point and the defaults fly all of them at the end of `quadtune run`; 0: no validation. "
+      "Studies skip it in their runs and validate themselves (`validation.flights`)");
+  return fields;
+}
+
+const Fields<RecommendOptions>& RecommendFields() {
+  using R = RecommendOptions;
+  static const Fields<R> fields =
+      Fields<R>()
+          .Integer("candidates", &R::candidates, Range::Closed(0, 1000),
+                   "candidates tried; 0: no re-flights, the first candidate is recommended")
+          .Integer("flights", &R::flights, Range::Closed(1, 1000),
+                   "re-flights per candidate, flown `budget.flight_batch` at a time; a candidate "
+                   "is dropped at the first batch with a failing flight (unfinished, a collision, "
+                   "an emergency stop)")
+          .Number("clearance", &R::clearance, Range::Closed(0, 100),
+                  "a candidate passes when all its re-flights pass and their smallest clearances "
+                  "c keep mean(c) − z·sd(c) ≥ `clearance` (m)")
+          .Number("z", &R::z, Range::Closed(0, 10),
+                  "the margin's width in standard deviations: under a normal fit of c, a "
+                  "collision on a new map has probability below Φ(−z) (2.33: 1%)")
+          .Flag("emergency_stops", &R::emergency_stops,
+                "false: a re-flight with an emergency stop fails its candidate (most collisions "
+                "on new maps follow an emergency stop)")
+          .Integer("backoff", &R::backoff, Range::Closed(0, 100),
+                   "after the ranked candidates, this many points between the first candidate "
+                   "and the defaults: u_d + α (u_best − u_d) in the unit cube of the parameter "
+                   "box, α = 1 − i / (backoff + 1), i = 1 … backoff");
+  return fields;
+}
+
+const Fields<Budget>& BudgetFields() {
+  static const Range flights = Range::Closed(1, kMaxFlights);
+  static const Fields<Budget> fields =
+      Fields<Budget>()
+          .Integer("flights", &Budget::flights, flights, "f_l evaluations (flights) per trial")
+          .Custom(
+              {"default_flights", "integer", "`flights`", DescribeInterval(flights),
+               "flights of method `default`"},
+              [](const YamlMap& b, Budget& budget) {
+                budget.default_flights =
+                    static_cast<int>(b.Integer("default_flights", budget.flights, flights));
+              },
+              [](YAML::Emitter& out, const Budget& budget) {
+                out << YAML::Key << "default_flights" << YAML::Value << budget.default_flights;
+              })
+          .Integer("flight_batch", &Budget::flight_batch, Range::Closed(0, 1024),
+                   "flights asked and flown together (fixed, not the thread count); 0 (realtime "
+                   "only): one per thread")
+          .Integer("short_evals_per_flight", &Budget::short_evals_per_flight,
+                   Range::Closed(0, kMaxShortEvalsPerFlight),
+                   "θ_s candidates (PSO) scored per flight in `bo_pso`")
+          .Integer("queries_per_eval", &Budget::queries_per_eval, Range::Closed(1, 1e4),
+                   "recorded planning queries re-solved per θ_s candidate")
+          .Integer("query_window", &Budget::query_window, Range::Closed(1, 1e7),
+                   "most recent recorded queries kept")
+          .Flag("short_term_while_flying", &Budget::short_term_while_flying,
+                "realtime only: PSO keeps running generations until the round's flights have "
+                "landed");
+  return fields;
+}
+
+const Fields<Experiment>& ExperimentFields() {
+  using E = Experiment;
+  static const Fields<E> fields =
+      Fields<E>()
+          .Text("name", &E::name, {}, "name stored with the results")
+          .Integer("seed", &E::seed, Range::Closed(0, 9.0e15),
+                   "master seed; every random stream derives from it")
+          .Integer("threads", &E::threads, Range::Closed(1, 1024),
+                   "worker threads (`--threads` overrides)")
+          .Choice("mode", &E::mode,
+                  "how solve time t_c is taken: `reproducible` derives it from the solver's "
+                  "deterministic compute units, so stored results are identical at any thread or "
+                  "rank count; `realtime` uses wall-clock time, as on board")
+          .Integer("repeats", &E::repeats, Range::Closed(1, kMaxRepeats), "trials per method")
+          .Custom(
+              {"methods", "list", "required", CodeList(EnumNameList<Method>()),
+               "methods compared; `bo_pso` is the paper's complementary tuner (BO on θ_l, "
+               "PSO on θ_s)"},
+              [](const YamlMap& map, E& e) { e.methods = ReadMethods(map); },
+              [](YAML::Emitter& out, const E& e) {
+                std::vector<std::string> names;
+                for (Method m : e.methods) names.emplace_back(ToString(m));
+                WriteNames(out, "methods", names);
+              })
+          .Custom(
+              MapDoc("planner", "the planner plug-in and its world, below", "required"),
+              [](const YamlMap& map, E& e) {
+                BuiltPlanner built = BuildPlanner(map.Map("planner"), e.base_dir);
+                e.planner_type = built.type;
+                e.planner = built.planner;
+              },
+              [](YAML::Emitter& out, const E& e) { WriteAsGiven(out, e.text, "planner"); })
+          .Custom(
+              {"parameters", "list", "required", "", "the tuned parameters, see below"},
+              [](const YamlMap& map, E& e) {
+                e.space = optimizers::ParameterSpace::FromYaml(map);
+                CheckParameters(map, e);
+              },
+              [](YAML::Emitter& out, const E& e) { WriteParameters(out, e.space); })
+          .Custom(
+              {"short_term", "list of names", "required",
+               "the planner's short-term parameters (ipopt: `w_col`, `w_dyn`, `n_pol`) that "
+               "have bounds in `parameters`",
+               "θ_s (PSO in `bo_pso`); every tuned parameter is in exactly one of "
+               "`short_term`, `long_term`"},
+              [](const YamlMap& map, E& e) {
+                e.short_names = ReadSide(map, "short_term", SchemaOf(e).short_term, e.space);
+              },
+              [](YAML::Emitter& out, const E& e) { WriteNames(out, "short_term", e.short_names); })
+          .Custom(
+              {"long_term", "list of names", "required",
+               "the planner's long-term parameters (ipopt: `v_des`, `h_pl`, `t_pl`) that have "
+               "bounds in `parameters`",
+               "θ_l (BO in `bo_pso`)"},
+              [](const YamlMap& map, E& e) {
+                e.long_names = ReadSide(map, "long_term", SchemaOf(e).long_term, e.space);
+                if (e.short_names.size() + e.long_names.size() !=
+                    static_cast<std::size_t>(e.space.Dim())) {
+                  map.Fail("parameters",
+                           "every parameter must be listed in short_term or long_term");
+                }
+              },
+              [](YAML::Emitter& out, const E& e) { WriteNames(out, "long_term", e.long_names); })
+          .Custom(
+              {"initial_short_term", "map name → number", "absent",
+               "θ_s names, inside their bounds", "a given θ_s: `bo_pso` skips its first θ_s phase"},
+              [](const YamlMap& map, E& e) {
+                e.initial_short =
+                    ReadPoint(map, "initial_short_term", e.short_names, /*all=*/true, e.space);
+              },
+              [](YAML::Emitter& out, const E& e) {
+                WritePoint(out, "initial_short_term", e.initial_short);
+              })
+          .Custom(
+              {"start", "map name → number", "absent", "tuned names, inside their bounds",
+               "a known good point (refinement, paper Sec. III-E): with "
+               "`bo.moving_bounds.enabled`, BO begins inside start ± `half_width`; "
+               "`bo_pso`'s PSO starts from its θ_s part"},
+              [](const YamlMap& map, E& e) {
+                e.start = ReadPoint(map, "start", e.space.Names(), /*all=*/false, e.space);
+              },
+              [](YAML::Emitter& out, const E& e) { WritePoint(out, "start", e.start); })
+          .Nested("objective", &E::objective, ObjectiveFields(), "weights of f_s and f_l, below")
+          .Nested("maps", &E::maps, MapsFields(), "which map each flight flies, below")
+          .Nested("validation", &E::validation, ValidationFields(),
+                  "held-out validation after the trials, below")
+          .Nested("recommend", &E::recommend, RecommendFields(),
+                  "how a trial picks the point it hands back, below")
+          .Custom(MapDoc("budget", "budgets of one trial, below", "see below"), ReadBudget,
+                  [](YAML::Emitter& out, const E& e) {
+                    out << YAML::Key << "budget" << YAML::Value;
+                    BudgetFields().Write(out, e.budget);
+                  })
+          .Nested("pso", &E::pso, optimizers::PsoFields(),
+                  "[PSO](#pso) settings (seed derived per trial)")
+          .Custom(
+              MapDoc("bo",
+                     "[Bayesian optimisation](#bayesian-optimisation) settings (seed derived "
+                     "per trial)",
+                     "see below"),
+              [](const YamlMap& map, E& e) {
+                if (map.Has("bo")) e.bo = optimizers::BayesOptOptions::FromYaml(map.Map("bo"));
+              },
+              [](YAML::Emitter& out, const E& e) { WriteAsGiven(out, e.text, "bo"); });
+  return fields;
+}
+
 Experiment Experiment::FromString(const std::string& text, const std::string& origin,
                                   const std::string& base_dir) {
-  const YamlMap map = YamlMap::FromString(text, origin);
-  map.RejectUnknownKeys({"name", "seed", "threads", "mode", "repeats", "methods", "planner",
-                         "parameters", "short_term", "long_term", "initial_short_term", "start",
-                         "objective", "maps", "validation", "recommend", "budget", "pso", "bo"});
   Experiment e;
   e.file = origin;
   e.text = text;
-  e.name = map.String("name", std::string("experiment"));
-  e.seed = static_cast<std::uint64_t>(map.Integer("seed", 1, Range::Closed(0, 9.0e15)));
-  e.threads = static_cast<int>(map.Integer("threads", 2, Range::Closed(1, 1024)));
-  e.mode =
-      map.String("mode", std::string("reproducible"), {"reproducible", "realtime"}) == "realtime"
-          ? TimingMode::kRealtime
-          : TimingMode::kReproducible;
-  e.repeats = static_cast<int>(map.Integer("repeats", 1, Range::Closed(1, kMaxRepeats)));
-  e.methods = ReadMethods(map);
-  BuiltPlanner built = BuildPlanner(map.Map("planner"), base_dir);
-  e.planner_type = built.type;
-  e.planner = built.planner;
-  e.space = optimizers::ParameterSpace::FromYaml(map);
-  ReadParameterRoles(map, built, origin, e);
-  e.objective = ObjectiveOptions::FromYaml(map.Map("objective", true));
-  e.objective.Validate(origin);
-  ReadMapsAndValidation(map, e);
-  ReadBudget(map, e);
-  if (map.Has("pso")) e.pso = optimizers::PsoOptions::FromYaml(map.Map("pso"));
-  if (map.Has("bo")) e.bo = optimizers::BayesOptOptions::FromYaml(map.Map("bo"));
+  e.base_dir = base_dir;
+  ExperimentFields().Read(YamlMap::FromString(text, origin), e);
   return e;
 }
 

@@ -2,44 +2,66 @@
 
 #include <algorithm>
 
+#include "field_util.hpp"
+
 namespace quadtune::engine {
 
+const Fields<ObjectiveOptions>& ObjectiveShortTermFields() {
+  using O = ObjectiveOptions;
+  static const Fields<O> fields =
+      Fields<O>()
+          .Choice("kind", &O::short_kind, "which f_s")
+          .Number("w_t", &O::w_t, Range::NonNegative(), "weight of J_t (or t_exe)")
+          .Number("w_s", &O::w_s, Range::NonNegative(), "weight of n_s (failed attempts)")
+          .Number("w_tau", &O::w_tau, Range::NonNegative(), "real-time penalty weight (1/s²)")
+          .Number("tau_t", &O::tau_t, Range::Positive(), "real-time threshold τ_t (s)")
+          .Number("w_p", &O::w_p, Range::NonNegative(), "jerk weight (changing environment)")
+          .Number("w_c", &O::w_c, Range::NonNegative(),
+                  "clearance weight; absent: 0 for `solve_time`, 100 for "
+                  "`changing_environment`")
+          .Number("clearance", &O::clearance, Range::Positive(), "desired clearance C (m)")
+          .Number("unit_time", &O::unit_time, Range::Positive(),
+                  "seconds per compute unit (reproducible mode) (s)");
+  return fields;
+}
+
+const Fields<ObjectiveOptions>& ObjectiveLongTermFields() {
+  static const Fields<ObjectiveOptions> fields = Fields<ObjectiveOptions>().Number(
+      "w_e", &ObjectiveOptions::w_e, Range::NonNegative(), "cost per emergency stop (s)");
+  return fields;
+}
+
+const Fields<ObjectiveOptions>& ObjectiveFields() {
+  using O = ObjectiveOptions;
+  static const Fields<O> fields =
+      Fields<O>()
+          .Custom(
+              MapDoc("short_term", "weights of f_s, below"),
+              [](const YamlMap& map, O& o) {
+                const YamlMap s = map.Map("short_term", /*optional=*/true);
+                ObjectiveShortTermFields().Read(s, o);
+                if (!s.Has("w_c")) {
+                  o.w_c =
+                      o.short_kind == O::ShortKind::kSolveTime ? 0.0 : O::kDefaultClearanceWeight;
+                }
+              },
+              WriteSection("short_term", ObjectiveShortTermFields()))
+          .Custom(MapDoc("long_term", "weights of f_l, below"),
+                  ReadSection("long_term", ObjectiveLongTermFields()),
+                  WriteSection("long_term", ObjectiveLongTermFields()))
+          .Number("failure_value", &O::failure_value, Range::Positive(),
+                  "value told to an optimiser for a failed evaluation");
+  return fields;
+}
+
 void ObjectiveOptions::Validate(const std::string& file) const {
-  CheckInRange(w_t, Range::NonNegative(), file, "objective.short_term.w_t");
-  CheckInRange(w_s, Range::NonNegative(), file, "objective.short_term.w_s");
-  CheckInRange(w_tau, Range::NonNegative(), file, "objective.short_term.w_tau");
-  CheckInRange(tau_t, Range::Positive(), file, "objective.short_term.tau_t");
-  CheckInRange(w_p, Range::NonNegative(), file, "objective.short_term.w_p");
-  CheckInRange(w_c, Range::NonNegative(), file, "objective.short_term.w_c");
-  CheckInRange(clearance, Range::Positive(), file, "objective.short_term.clearance");
-  CheckInRange(unit_time, Range::Positive(), file, "objective.short_term.unit_time");
-  CheckInRange(w_e, Range::NonNegative(), file, "objective.long_term.w_e");
-  CheckInRange(failure_value, Range::Positive(), file, "objective.failure_value");
+  ObjectiveShortTermFields().Check(*this, file, "objective.short_term.");
+  ObjectiveLongTermFields().Check(*this, file, "objective.long_term.");
+  ObjectiveFields().Check(*this, file, "objective.");
 }
 
 ObjectiveOptions ObjectiveOptions::FromYaml(const YamlMap& map) {
-  ObjectiveOptions o;
-  map.RejectUnknownKeys({"short_term", "long_term", "failure_value"});
-  const YamlMap s = map.Map("short_term", true);
-  s.RejectUnknownKeys({"kind", "w_t", "w_s", "w_tau", "tau_t", "w_p", "w_c", "clearance", "unit_time"});
-  o.short_kind = s.String("kind", "solve_time", {"solve_time", "changing_environment"}) == "solve_time"
-                     ? ShortKind::kSolveTime
-                     : ShortKind::kChangingEnvironment;
-  o.w_t = s.Number("w_t", o.w_t, Range::NonNegative());
-  o.w_s = s.Number("w_s", o.w_s, Range::NonNegative());
-  o.w_tau = s.Number("w_tau", o.w_tau, Range::NonNegative());
-  o.tau_t = s.Number("tau_t", o.tau_t, Range::Positive());
-  o.w_p = s.Number("w_p", o.w_p, Range::NonNegative());
-  o.w_c = s.Number("w_c",
-                   o.short_kind == ShortKind::kSolveTime ? 0.0 : kDefaultClearanceWeight,
-                   Range::NonNegative());
-  o.clearance = s.Number("clearance", o.clearance, Range::Positive());
-  o.unit_time = s.Number("unit_time", o.unit_time, Range::Positive());
-  const YamlMap l = map.Map("long_term", true);
-  l.RejectUnknownKeys({"w_e"});
-  o.w_e = l.Number("w_e", o.w_e, Range::NonNegative());
-  o.failure_value = map.Number("failure_value", o.failure_value, Range::Positive());
-  return o;
+  return ObjectiveFields().Read(map);
 }
 
 ObjectiveValue LongTermObjective(const FlightRecord& f, const ObjectiveOptions& o) {

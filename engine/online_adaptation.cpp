@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "field_util.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/text_file.hpp"
@@ -69,15 +70,6 @@ std::string CheckBrakingEnvelope(const planning::Trajectory& trajectory, double 
 
 }  // namespace
 
-const char* ToString(AdaptationSegment::Outcome outcome) {
-  switch (outcome) {
-    case AdaptationSegment::Outcome::kAdopted: return "adopted";
-    case AdaptationSegment::Outcome::kNoSuccess: return "no_success";
-    case AdaptationSegment::Outcome::kSuperseded: return "superseded";
-  }
-  return "?";
-}
-
 // ---------------------------------------------------------------------------------------------
 // AdaptationOptions
 
@@ -99,13 +91,74 @@ optimizers::BayesOptOptions AdaptationOptions::DefaultBayesOpt() {
   return o;
 }
 
+const Fields<AdaptationOptions>& AdaptationFields() {
+  using A = AdaptationOptions;
+  static const Fields<A> fields =
+      Fields<A>()
+          .Number("lookahead", &A::lookahead, {0.0, 20.0, true, false},
+                  "R: arc length from a trajectory's start to P_s (m)")
+          .Custom(
+              {"v_des_bounds", "[lo, hi]", "[1, 6]", "0 < lo < hi ≤ 15",
+               "bounds of the adapted v_des (m/s)"},
+              [](const YamlMap& map, A& o) {
+                if (!map.Has("v_des_bounds")) return;
+                const std::vector<double> b = map.Numbers("v_des_bounds", 2);
+                if (!(b[0] > 0.0) || !(b[1] > b[0]) || !(b[1] <= 15.0)) {
+                  map.Fail("v_des_bounds", "expected [lo, hi] with 0 < lo < hi <= 15 (m/s)");
+                }
+                o.v_min = b[0];
+                o.v_max = b[1];
+              },
+              [](YAML::Emitter& out, const A& o) {
+                out << YAML::Key << "v_des_bounds" << YAML::Value << YAML::Flow << YAML::BeginSeq
+                    << o.v_min << o.v_max << YAML::EndSeq;
+              })
+          .Integer("trials_per_segment", &A::trials_per_segment, Range::Closed(1, 200),
+                   "BO trials per P_s")
+          .Number("min_remaining", &A::min_remaining, Range::NonNegative(),
+                  "trajectory needed after P_s to start a segment (m)")
+          .Number("braking_fraction", &A::braking_fraction, {0.0, 1.0, true, false},
+                  "a plan starting faster than its v_des brakes at this fraction of a_max")
+          .Custom(
+              {"objective", "map", "w_t 1, w_p 0.01, w_c 100, C 0.5 m, failure value 50",
+               "[objective](#objective); `short_term.kind` must be `changing_environment`",
+               "f_s of a trial"},
+              [](const YamlMap& map, A& o) {
+                if (!map.Has("objective")) return;
+                const YamlMap obj = map.Map("objective");
+                ObjectiveFields().Read(obj, o.objective);  // over DefaultObjective()
+                if (o.objective.short_kind != ObjectiveOptions::ShortKind::kChangingEnvironment) {
+                  obj.Map("short_term", true)
+                      .Fail("kind", "must be changing_environment for online adaptation");
+                }
+              },
+              [](YAML::Emitter& out, const A& o) {
+                out << YAML::Key << "objective" << YAML::Value;
+                ObjectiveFields().Write(out, o.objective);
+              })
+          // bo is written by nothing here: BayesOptOptions has no writer.
+          .Custom(
+              {"bo", "map", "3 initial points, `noise_growth` 1", "[BO](#bayesian-optimisation)",
+               "its seed is replaced per segment"},
+              [](const YamlMap& map, A& o) {
+                if (!map.Has("bo")) return;
+                const YamlMap bo = map.Map("bo");
+                o.bo = optimizers::BayesOptOptions::FromYaml(bo);
+                const optimizers::BayesOptOptions d = AdaptationOptions::DefaultBayesOpt();
+                if (!bo.Has("initial_design_size"))
+                  o.bo.initial_design_size = d.initial_design_size;
+                if (!bo.Has("noise_growth")) o.bo.noise_growth = d.noise_growth;
+                if (bo.Has("seed"))
+                  bo.Fail("seed", "the BO seeds derive from the experiment's seed");
+              },
+              [](YAML::Emitter&, const A&) {});
+  return fields;
+}
+
 void AdaptationOptions::Validate(const std::string& file) const {
-  CheckInRange(lookahead, {0.0, 20.0, true, false}, file, Key("lookahead"));
+  AdaptationFields().Check(*this, file, "adaptation.");
   CheckInRange(v_min, Range::Positive(), file, Key("v_des_bounds"));
   CheckInRange(v_max, {v_min, 15.0, true, false}, file, Key("v_des_bounds"));
-  CheckInRange(trials_per_segment, Range::Closed(1, 200), file, Key("trials_per_segment"));
-  CheckInRange(min_remaining, Range::NonNegative(), file, Key("min_remaining"));
-  CheckInRange(braking_fraction, {0.0, 1.0, true, false}, file, Key("braking_fraction"));
   objective.Validate(file);
   if (objective.short_kind != ObjectiveOptions::ShortKind::kChangingEnvironment) {
     throw ConfigError(file, Key("objective.short_term.kind"),
@@ -116,43 +169,7 @@ void AdaptationOptions::Validate(const std::string& file) const {
 
 AdaptationOptions AdaptationOptions::FromYaml(const YamlMap& map) {
   AdaptationOptions o;
-  map.RejectUnknownKeys({"lookahead", "v_des_bounds", "trials_per_segment", "min_remaining",
-                         "braking_fraction", "objective", "bo"});
-  o.lookahead = map.Number("lookahead", o.lookahead, {0.0, 20.0, true, false});
-  if (map.Has("v_des_bounds")) {
-    const std::vector<double> b = map.Numbers("v_des_bounds", 2);
-    if (!(b[0] > 0.0) || !(b[1] > b[0]) || !(b[1] <= 15.0)) {
-      map.Fail("v_des_bounds", "expected [lo, hi] with 0 < lo < hi <= 15 (m/s)");
-    }
-    o.v_min = b[0];
-    o.v_max = b[1];
-  }
-  o.trials_per_segment = static_cast<int>(
-      map.Integer("trials_per_segment", o.trials_per_segment, Range::Closed(1, 200)));
-  o.min_remaining = map.Number("min_remaining", o.min_remaining, Range::NonNegative());
-  o.braking_fraction =
-      map.Number("braking_fraction", o.braking_fraction, {0.0, 1.0, true, false});
-  if (map.Has("objective")) {
-    const YamlMap obj = map.Map("objective");
-    o.objective = ObjectiveOptions::FromYaml(obj);
-    // Keys absent from the file keep this experiment's defaults, not the engine's.
-    const ObjectiveOptions d = DefaultObjective();
-    const YamlMap s = obj.Map("short_term", true);
-    if (!s.Has("kind")) o.objective.short_kind = d.short_kind;
-    if (!s.Has("w_c")) o.objective.w_c = d.w_c;
-    if (!obj.Has("failure_value")) o.objective.failure_value = d.failure_value;
-    if (o.objective.short_kind != ObjectiveOptions::ShortKind::kChangingEnvironment) {
-      s.Fail("kind", "must be changing_environment for online adaptation");
-    }
-  }
-  if (map.Has("bo")) {
-    const YamlMap bo = map.Map("bo");
-    o.bo = optimizers::BayesOptOptions::FromYaml(bo);
-    const optimizers::BayesOptOptions d = DefaultBayesOpt();
-    if (!bo.Has("initial_design_size")) o.bo.initial_design_size = d.initial_design_size;
-    if (!bo.Has("noise_growth")) o.bo.noise_growth = d.noise_growth;
-    if (bo.Has("seed")) bo.Fail("seed", "the BO seeds derive from the experiment's seed");
-  }
+  AdaptationFields().Read(map, o);
   o.Validate(map.file());
   return o;
 }
@@ -355,59 +372,133 @@ AdaptExperiment AdaptExperiment::LoadFile(const std::string& path) {
   return FromString(text, path, dir.empty() ? "." : dir);
 }
 
+const Fields<AdaptExperiment>& AdaptExperimentFields() {
+  using E = AdaptExperiment;
+  // world and planner are written by nothing here: WorldOptions and PlannerParams have no writer.
+  const auto unwritten = [](YAML::Emitter&, const E&) {};
+  static const Fields<E> fields =
+      Fields<E>()
+          .Text("name", &E::name, {}, "name of the experiment")
+          .Integer("seed", &E::seed, Range::Closed(0, 9.0e15),
+                   "layout, world and BO seeds (`--seed` overrides)")
+          .Custom(
+              {"drone", "path", "`drones/research_1kg.yaml`", "a [drone](#drone) file",
+               "the drone flown"},
+              [](const YamlMap& map, E& e) {
+                e.drone_file = ResolvePath(
+                    map.String("drone", std::string("drones/research_1kg.yaml")), e.base_dir);
+                if (!std::filesystem::exists(e.drone_file)) {
+                  map.Fail("drone", "file '" + e.drone_file +
+                                        "' not found (searched next to the experiment and in "
+                                        "assets/)");
+                }
+                e.drone = physics::LoadDroneDescription(e.drone_file);
+              },
+              [](YAML::Emitter& out, const E& e) {
+                out << YAML::Key << "drone" << YAML::Value << e.drone_file;
+              })
+          .Custom(
+              {"layout_file", "path", "one of `layout`, `layout_file` required",
+               "a [layout options](#layout) file", "usually a zoned layout"},
+              [](const YamlMap& map, E& e) {
+                if (map.Has("layout") == map.Has("layout_file")) {
+                  map.Fail("layout_file",
+                           "give exactly one of layout (generator options) or layout_file");
+                }
+                if (!map.Has("layout_file")) return;
+                e.layout_file = ResolvePath(map.String("layout_file"), e.base_dir);
+                if (!std::filesystem::exists(e.layout_file)) {
+                  map.Fail("layout_file", "file '" + e.layout_file + "' not found");
+                }
+                e.layout = layout::LayoutOptions::LoadFile(e.layout_file);
+              },
+              [](YAML::Emitter& out, const E& e) {
+                if (e.layout_file == e.file) return;
+                out << YAML::Key << "layout_file" << YAML::Value << e.layout_file;
+              })
+          .Custom(
+              {"layout", "map", "one of `layout`, `layout_file` required",
+               "[layout options](#layout)", "the layout's generator options, in the file"},
+              [](const YamlMap& map, E& e) {
+                if (!map.Has("layout")) return;
+                e.layout_file = e.file;
+                e.layout = layout::LayoutOptions::FromYaml(map.Map("layout"));
+              },
+              [](YAML::Emitter& out, const E& e) {
+                if (e.layout_file != e.file) return;
+                out << YAML::Key << "layout" << YAML::Value;
+                e.layout.ToYaml(out);
+              })
+          .Custom(
+              {"world", "map", "ideal world", "[world options](#world)",
+               "seed replaced by `seed`; pass-through collisions"},
+              [](const YamlMap& map, E& e) {
+                if (map.Has("world")) e.world = physics::WorldOptions::FromYaml(map.Map("world"));
+                e.world.collision_response = physics::CollisionResponse::kPassThrough;
+              },
+              unwritten)
+          .Number("max_time", &E::max_time, Range::Positive(), "flight time limit (s)")
+          .Custom(
+              {"planner", "map", "`type: ipopt`, planner defaults",
+               "`type`: a registered type flown in the closed loop: `ipopt`, `ego`, or one a "
+               "program registers with a back end ([own-planner.md](own-planner.md)); the "
+               "other keys: [planner parameters](#planner-parameters)",
+               "`type`: the planner every flight and every trial plans with; another type is "
+               "refused, naming the key and the types allowed. The other keys: fixed "
+               "parameters; `v_des` is the adapted flight's start value"},
+              [](const YamlMap& map, E& e) {
+                if (map.Has("planner")) {
+                  // `type` picks the closed-loop planner; the other keys are PlannerParams.
+                  const YamlMap planner = map.Map("planner");
+                  e.planner_type = planner.String("type", e.planner_type);
+                  (void)BuildClosedLoopBackend(e.planner_type, e.file, planner.KeyPath("type"));
+                  YAML::Node params = YAML::Clone(planner.node());
+                  params.remove("type");
+                  e.params = planning::PlannerParams::FromYaml(
+                      YamlMap(params, planner.file(), planner.path()));
+                }
+                e.params.Validate(e.file);
+                sim::FlightOptions{}.planner.CheckParams(e.params, e.file);  // as the flights plan
+              },
+              unwritten)
+          .Custom(
+              {"baselines", "list", "[2]", "each in (0, 15]",
+               "fixed v_des flown on the same map and seed for comparison (m/s)"},
+              [](const YamlMap& map, E& e) {
+                if (!map.Has("baselines")) return;
+                e.baselines = map.Numbers("baselines");
+                for (double v : e.baselines) {
+                  if (!(v > 0.0 && v <= 15.0)) {
+                    map.Fail("baselines", "each v_des must lie in (0, 15] (m/s)");
+                  }
+                }
+              },
+              [](YAML::Emitter& out, const E& e) {
+                out << YAML::Key << "baselines" << YAML::Value << YAML::Flow << e.baselines;
+              })
+          .Custom(
+              MapDoc("adaptation", "the online adaptation, below", "see below"),
+              [](const YamlMap& map, E& e) {
+                e.adaptation = AdaptationOptions::FromYaml(map.Map("adaptation", true));
+                if (e.params.v_des < e.adaptation.v_min || e.params.v_des > e.adaptation.v_max) {
+                  map.Fail("planner",
+                           "v_des (the adapted flight's start value) must lie in "
+                           "adaptation.v_des_bounds");
+                }
+              },
+              [](YAML::Emitter& out, const E& e) {
+                out << YAML::Key << "adaptation" << YAML::Value;
+                AdaptationFields().Write(out, e.adaptation);
+              });
+  return fields;
+}
+
 AdaptExperiment AdaptExperiment::FromString(const std::string& text, const std::string& origin,
                                             const std::string& base_dir) {
-  const YamlMap map = YamlMap::FromString(text, origin);
-  map.RejectUnknownKeys({"name", "seed", "drone", "layout_file", "layout", "world", "max_time",
-                         "planner", "baselines", "adaptation"});
   AdaptExperiment e;
   e.file = origin;
-  e.name = map.String("name", e.name);
-  e.seed = static_cast<std::uint64_t>(map.Integer("seed", 1, Range::Closed(0, 9.0e15)));
-  e.drone_file = ResolvePath(map.String("drone", std::string("drones/research_1kg.yaml")), base_dir);
-  if (!std::filesystem::exists(e.drone_file)) {
-    map.Fail("drone", "file '" + e.drone_file + "' not found (searched next to the experiment "
-                      "and in assets/)");
-  }
-  e.drone = physics::LoadDroneDescription(e.drone_file);
-  if (map.Has("layout") == map.Has("layout_file")) {
-    map.Fail("layout_file", "give exactly one of layout (generator options) or layout_file");
-  }
-  if (map.Has("layout_file")) {
-    e.layout_file = ResolvePath(map.String("layout_file"), base_dir);
-    if (!std::filesystem::exists(e.layout_file)) {
-      map.Fail("layout_file", "file '" + e.layout_file + "' not found");
-    }
-    e.layout = layout::LayoutOptions::LoadFile(e.layout_file);
-  } else {
-    e.layout_file = origin;
-    e.layout = layout::LayoutOptions::FromYaml(map.Map("layout"));
-  }
-  if (map.Has("world")) e.world = physics::WorldOptions::FromYaml(map.Map("world"));
-  e.world.collision_response = physics::CollisionResponse::kPassThrough;
-  e.max_time = map.Number("max_time", e.max_time, Range::Positive());
-  if (map.Has("planner")) {
-    // `type` picks the closed-loop planner; the other keys are PlannerParams.
-    const YamlMap planner = map.Map("planner");
-    e.planner_type = planner.String("type", e.planner_type);
-    (void)BuildClosedLoopBackend(e.planner_type, origin, planner.KeyPath("type"));
-    YAML::Node params = YAML::Clone(planner.node());
-    params.remove("type");
-    e.params = planning::PlannerParams::FromYaml(YamlMap(params, planner.file(), planner.path()));
-  }
-  e.params.Validate(origin);
-  sim::FlightOptions{}.planner.CheckParams(e.params, origin);  // as the flights plan
-  if (map.Has("baselines")) {
-    e.baselines = map.Numbers("baselines");
-    for (double v : e.baselines) {
-      if (!(v > 0.0 && v <= 15.0)) map.Fail("baselines", "each v_des must lie in (0, 15] (m/s)");
-    }
-  }
-  e.adaptation = AdaptationOptions::FromYaml(map.Map("adaptation", true));
-  if (e.params.v_des < e.adaptation.v_min || e.params.v_des > e.adaptation.v_max) {
-    map.Fail("planner", "v_des (the adapted flight's start value) must lie in adaptation."
-                        "v_des_bounds");
-  }
+  e.base_dir = base_dir;
+  AdaptExperimentFields().Read(YamlMap::FromString(text, origin), e);
   e.SetSeed(e.seed);
   return e;
 }

@@ -17,15 +17,6 @@
 
 namespace quadtune::engine {
 
-const char* ToString(EvalStatus status) {
-  switch (status) {
-    case EvalStatus::kOk: return "ok";
-    case EvalStatus::kFailed: return "failed";
-    case EvalStatus::kCancelled: return "cancelled";
-  }
-  return "?";
-}
-
 ParamValues Planner::Defaults() const {
   ParamValues values;
   for (const auto& p : ShortTermParameters()) values[p.name] = p.default_value;
@@ -45,47 +36,169 @@ std::vector<ParameterInfo> PlannerParamsInfo(const planning::PlannerParams& valu
   return out;
 }
 
+namespace {
+
+constexpr double kDefaultMaxTime = 60.0;  // planner.max_time (s)
+
+// `key` of `p`, resolved against `base_dir`; it must exist.
+std::string ExistingFile(const YamlMap& p, const std::string& key, const std::string& base_dir,
+                         const std::string& where) {
+  const std::string path = ResolvePath(p.String(key), base_dir);
+  if (!std::filesystem::exists(path)) p.Fail(key, "file '" + path + "' not found" + where);
+  return path;
+}
+
+void WriteText(YAML::Emitter& out, const char* key, const std::string& value) {
+  out << YAML::Key << key << YAML::Value << value;
+}
+
+}  // namespace
+
+const Fields<IpoptPlannerSection>& IpoptPlannerFields() {
+  using S = IpoptPlannerSection;
+  // world and fixed are written by nothing here: WorldOptions and PlannerParams have no writer.
+  const auto unwritten = [](YAML::Emitter&, const S&) {};
+  static const Fields<S> fields =
+      Fields<S>()
+          .Custom(
+              {"type", "string", "`ipopt`",
+               "a registered type: `ipopt`, `ego`, or one a program registers "
+               "([own-planner.md](own-planner.md))",
+               "`ipopt`: the full stack; `ego`: the EGO-Planner-style back end in the same "
+               "closed loop. The test program `quadtune_test_cli` also has the test planners "
+               "`toy` (a cheap 1-D plug-in) and `sleep` (a scale model of the Ipopt "
+               "planner's wall times), [testing.md](testing.md#test-planners-and-the-test-"
+               "program)"},
+              [](const YamlMap& p, S& s) { s.type = p.String("type", s.type); },
+              [](YAML::Emitter& out, const S& s) { WriteText(out, "type", s.type); })
+          .Custom(
+              {"drone", "path", "`drones/research_1kg.yaml`", "an existing [drone](#drone) file",
+               "ipopt: the drone flown"},
+              [](const YamlMap& p, S& s) {
+                s.drone = p.String("drone", s.drone);
+                const std::string drone = ResolvePath(s.drone, s.base_dir);
+                if (!std::filesystem::exists(drone)) {
+                  p.Fail("drone", "file '" + drone +
+                                      "' not found (searched next to the experiment and in "
+                                      "assets/)");
+                }
+                s.options.drone = physics::LoadDroneDescription(drone);
+              },
+              [](YAML::Emitter& out, const S& s) { WriteText(out, "drone", s.drone); })
+          .Custom(
+              {"layout", "map", "one of `layout`, `layout_file` required",
+               "[layout options](#layout)",
+               "ipopt: the forest; give exactly one of `layout`, `layout_file`"},
+              [](const YamlMap& p, S& s) {
+                if (p.Has("layout") && p.Has("layout_file")) {
+                  p.Fail("layout_file", "give either layout or layout_file");
+                }
+                if (!p.Has("layout") && !p.Has("layout_file")) {
+                  p.Fail("layout", "missing: give layout (generator options) or layout_file");
+                }
+                if (p.Has("layout")) {
+                  s.layout_file.clear();
+                  s.options.layout = layout::LayoutOptions::FromYaml(p.Map("layout"));
+                }
+              },
+              [](YAML::Emitter& out, const S& s) {
+                if (!s.layout_file.empty()) return;
+                out << YAML::Key << "layout" << YAML::Value;
+                s.options.layout.ToYaml(out);
+              })
+          .Custom(
+              {"layout_file", "path", "one of `layout`, `layout_file` required",
+               "a [layout options](#layout) file", "ipopt: the forest, from a file"},
+              [](const YamlMap& p, S& s) {
+                if (!p.Has("layout_file")) return;
+                s.layout_file = p.String("layout_file");
+                s.options.layout =
+                    layout::LayoutOptions::LoadFile(ExistingFile(p, "layout_file", s.base_dir, ""));
+              },
+              [](YAML::Emitter& out, const S& s) {
+                if (!s.layout_file.empty()) WriteText(out, "layout_file", s.layout_file);
+              })
+          .Custom(
+              {"world", "map", "ideal world", "[world options](#world)",
+               "ipopt: the world's seed is set per flight; collisions are always "
+               "pass-through (counted, not stopping the drone)"},
+              [](const YamlMap& p, S& s) {
+                if (p.Has("world"))
+                  s.options.world = physics::WorldOptions::FromYaml(p.Map("world"));
+                s.options.world.collision_response = physics::CollisionResponse::kPassThrough;
+              },
+              unwritten)
+          .Custom(
+              {"mission", "string", "`go_and_return`", "`go_and_return`, `go_to`",
+               "ipopt: the mission over the layout's start and goal"},
+              [](const YamlMap& p, S& s) {
+                s.options.mission = sim::MissionKindFromString(
+                    p.String("mission", std::string(sim::ToString(s.options.mission)),
+                             {"go_and_return", "go_to"}),
+                    p.file(), "planner.mission");
+              },
+              [](YAML::Emitter& out, const S& s) {
+                WriteText(out, "mission", sim::ToString(s.options.mission));
+              })
+          .Custom(
+              {"max_time", "number", FormatNumber(kDefaultMaxTime),
+               DescribeInterval(Range::Positive()),
+               "ipopt: flight time limit; a flight past it fails (s)"},
+              [](const YamlMap& p, S& s) {
+                s.options.flight.max_time =
+                    p.Number("max_time", kDefaultMaxTime, Range::Positive());
+              },
+              [](YAML::Emitter& out, const S& s) {
+                out << YAML::Key << "max_time" << YAML::Value << s.options.flight.max_time;
+              })
+          .Custom(
+              {"fixed", "map", "planner defaults", "[planner parameters](#planner-parameters)",
+               "ipopt: values of parameters not tuned"},
+              [](const YamlMap& p, S& s) {
+                if (p.Has("fixed"))
+                  s.options.base = planning::PlannerParams::FromYaml(p.Map("fixed"));
+              },
+              unwritten)
+          .Custom(
+              {"safety_nets", "bool", "true", "",
+               "ipopt: `false` plans as the paper's planners do: one back-end attempt per "
+               "re-plan (`max_attempts` 1; `fixed.max_attempts` is then refused), no 10× "
+               "collision-weight retries, no stop-and-go fallback"},
+              [](const YamlMap& p, S& s) {
+                s.safety_nets = p.Bool("safety_nets", s.safety_nets);
+                if (s.safety_nets) return;
+                // Plan as the paper's planners do: one back-end attempt per re-plan, no
+                // collision-weight escalation, no stop-and-go fallback (a failed re-plan is a
+                // failure, n_s = 1).
+                if (p.Has("fixed") && p.Map("fixed").Has("max_attempts")) {
+                  p.Fail("safety_nets", "false sets max_attempts to 1; remove fixed.max_attempts");
+                }
+                s.options.base.max_attempts = 1;
+                s.options.flight.planner.retry_collision_gain = 1.0;
+                s.options.flight.replanner.fallback_speed = 0.0;
+              },
+              [](YAML::Emitter& out, const S& s) {
+                out << YAML::Key << "safety_nets" << YAML::Value << s.safety_nets;
+              });
+  return fields;
+}
+
 IpoptPlannerOptions IpoptPlannerOptions::FromYaml(const YamlMap& p, const std::string& base_dir,
                                                   const std::vector<std::string>& extra_keys) {
-  std::vector<std::string> allowed{"type",     "drone", "layout", "layout_file", "world",
-                                   "mission",  "max_time", "fixed", "safety_nets"};
+  std::vector<std::string> allowed = IpoptPlannerFields().Keys();
   allowed.insert(allowed.end(), extra_keys.begin(), extra_keys.end());
   p.RejectUnknownKeys(allowed);
-  IpoptPlannerOptions o;
-  const std::string drone =
-      ResolvePath(p.String("drone", std::string("drones/research_1kg.yaml")), base_dir);
-  if (!std::filesystem::exists(drone)) {
-    p.Fail("drone", "file '" + drone + "' not found (searched next to the experiment and in assets/)");
+  // The caller's own keys, removed from a copy, so that the field list sees only its keys.
+  YAML::Node own = YAML::Clone(p.node());
+  if (own.IsMap()) {
+    for (const auto& key : extra_keys) own.remove(key);
   }
-  o.drone = physics::LoadDroneDescription(drone);
-  if (p.Has("layout") && p.Has("layout_file")) p.Fail("layout_file", "give either layout or layout_file");
-  if (p.Has("layout_file")) {
-    const std::string lf = ResolvePath(p.String("layout_file"), base_dir);
-    if (!std::filesystem::exists(lf)) p.Fail("layout_file", "file '" + lf + "' not found");
-    o.layout = layout::LayoutOptions::LoadFile(lf);
-  } else if (p.Has("layout")) {
-    o.layout = layout::LayoutOptions::FromYaml(p.Map("layout"));
-  } else {
-    p.Fail("layout", "missing: give layout (generator options) or layout_file");
-  }
-  if (p.Has("world")) o.world = physics::WorldOptions::FromYaml(p.Map("world"));
-  o.world.collision_response = physics::CollisionResponse::kPassThrough;
-  o.mission = ReadEnum<sim::MissionKind>(p, "mission", sim::MissionKind::kGoAndReturn);
-  o.flight.max_time = p.Number("max_time", 60.0, Range::Positive());
-  if (p.Has("fixed")) o.base = planning::PlannerParams::FromYaml(p.Map("fixed"));
-  if (!p.Bool("safety_nets", true)) {
-    // Plan as the paper's planners do: one back-end attempt per re-plan, no collision-weight
-    // escalation, no stop-and-go fallback (a failed re-plan is a failure, n_s = 1).
-    if (p.Has("fixed") && p.Map("fixed").Has("max_attempts")) {
-      p.Fail("safety_nets", "false sets max_attempts to 1; remove fixed.max_attempts");
-    }
-    o.base.max_attempts = 1;
-    o.flight.planner.retry_collision_gain = 1.0;
-    o.flight.replanner.fallback_speed = 0.0;
-  }
-  o.base.Validate(p.file());
-  o.flight.planner.CheckParams(o.base, p.file());
-  return o;
+  IpoptPlannerSection s;
+  s.base_dir = base_dir;
+  IpoptPlannerFields().Read(YamlMap(own, p.file(), p.path()), s);
+  s.options.base.Validate(p.file());
+  s.options.flight.planner.CheckParams(s.options.base, p.file());
+  return s.options;
 }
 
 namespace {

@@ -8,6 +8,7 @@
 #include <map>
 #include <sstream>
 
+#include "field_util.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/yaml.hpp"
@@ -40,92 +41,193 @@ struct Candidate {
 
 }  // namespace
 
+const Fields<Study>& StudySweepFields() {
+  static const Fields<Study> fields =
+      Fields<Study>()
+          .Text("key", &Study::sweep_key, {}, "a dotted experiment key; one study point per value")
+          .Required()
+          .Custom(
+              {"values", "list", "required", "YAML scalars", "the values `key` takes"},
+              [](const YamlMap& sweep, Study& s) {
+                const YAML::Node values = sweep.node()["values"];
+                if (!values || !values.IsSequence() || values.size() == 0) {
+                  sweep.Fail("values",
+                             "must be a non-empty list of values for '" + s.sweep_key + "'");
+                }
+                s.sweep_values.clear();
+                for (const auto& v : values) s.sweep_values.push_back(YamlEmit(v));
+              },
+              [](YAML::Emitter& out, const Study& s) {
+                out << YAML::Key << "values" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+                for (const auto& v : s.sweep_values) out << YAML::Load(v);
+                out << YAML::EndSeq;
+              })
+          .Custom(
+              {"labels", "list of strings", "the values", "one per value",
+               "names of the points (output folders)"},
+              [](const YamlMap& sweep, Study& s) {
+                const YAML::Node values = sweep.node()["values"];
+                const YAML::Node labels = sweep.node()["labels"];
+                s.labels.clear();
+                if (labels) {
+                  if (!labels.IsSequence() || labels.size() != values.size()) {
+                    sweep.Fail("labels", "must list one label per value (" +
+                                             std::to_string(values.size()) + ")");
+                  }
+                  for (const auto& l : labels) {
+                    if (!l.IsScalar()) {
+                      sweep.Fail("labels", "must be a list of names (plain text), one per value");
+                    }
+                    s.labels.push_back(l.as<std::string>());
+                  }
+                } else {
+                  for (const auto& v : values) {
+                    s.labels.push_back(v.IsScalar() ? v.as<std::string>() : YamlEmit(v));
+                  }
+                }
+                for (std::size_t i = 0; i < s.labels.size(); ++i) {
+                  for (std::size_t j = 0; j < i; ++j) {
+                    if (Slug(s.labels[i]) == Slug(s.labels[j])) {
+                      sweep.Fail("labels", "two points are both named '" + Slug(s.labels[i]) + "'");
+                    }
+                  }
+                }
+              },
+              [](YAML::Emitter& out, const Study& s) {
+                out << YAML::Key << "labels" << YAML::Value << YAML::Flow << s.labels;
+              });
+  return fields;
+}
+
+const Fields<StudyStage>& StudyStageFields() {
+  static const Fields<StudyStage> fields =
+      Fields<StudyStage>()
+          .Text("name", &StudyStage::name, {},
+                "the stage's name (its output folder): letters, digits, '-', '_' or '.'; unique")
+          .Required()
+          .Custom(
+              {"override", "map", "absent", "experiment keys", "this stage's changes"},
+              [](const YamlMap& st, StudyStage& stage) {
+                if (st.Has("override")) stage.override_yaml = YamlEmit(st.Map("override").node());
+              },
+              [](YAML::Emitter& out, const StudyStage& stage) {
+                if (stage.override_yaml.empty()) return;
+                out << YAML::Key << "override" << YAML::Value << YAML::Load(stage.override_yaml);
+              })
+          .Text("start_from", &StudyStage::start_from, {},
+                "an earlier stage's name: the experiment's `start:` is that stage's recommended "
+                "point");
+  return fields;
+}
+
+const Fields<Study>& StudyValidationFields() {
+  static const Fields<Study> fields = Fields<Study>().Integer(
+      "flights", &Study::validation_flights, Range::Closed(0, 100000),
+      "held-out maps each recommended point (and the defaults) flies, in the last stage's "
+      "world; 0: none");
+  return fields;
+}
+
+const Fields<Study>& StudyFields() {
+  static const Fields<Study> fields =
+      Fields<Study>()
+          .Text("name", &Study::name, {}, "name stored in study.json")
+          .Integer("seed", &Study::seed, Range::Closed(0, 9.0e15),
+                   "stored in study.json; each experiment keeps its own seed")
+          .Custom(
+              {"experiment", "path", "required", "an [experiment](#experiment) file",
+               "the base experiment (relative to the study file)"},
+              [](const YamlMap& map, Study& s) {
+                // The base, with `override` merged onto it.
+                s.experiment_file = map.String("experiment");
+                const std::string dir = fs::path(s.file).parent_path().string();
+                const std::string base_file =
+                    ResolvePath(s.experiment_file, dir.empty() ? "." : dir);
+                if (!fs::exists(base_file)) {
+                  map.Fail("experiment",
+                           "file '" + base_file + "' not found (relative to the study file)");
+                }
+                const YamlMap base = YamlMap::LoadFile(base_file);
+                s.base_dir = fs::path(base_file).parent_path().string();
+                if (s.base_dir.empty()) s.base_dir = ".";
+                YAML::Node merged = base.node();
+                if (map.Has("override")) {
+                  merged = YamlDeepMerge(merged, map.Map("override").node());
+                }
+                s.base_text = YamlEmit(merged);
+              },
+              [](YAML::Emitter& out, const Study& s) {
+                out << YAML::Key << "experiment" << YAML::Value << s.experiment_file;
+              })
+          // Merged by the `experiment` reader; base_text holds it merged, so nothing writes it.
+          .Custom(
+              {"override", "map", "absent", "experiment keys",
+               "deep-merged onto the base (maps merge, anything else is replaced)"},
+              [](const YamlMap&, Study&) {}, [](YAML::Emitter&, const Study&) {})
+          .Custom(
+              MapDoc("sweep", "one study point per value, below", "absent"),
+              [](const YamlMap& map, Study& s) {
+                if (map.Has("sweep")) {
+                  StudySweepFields().Read(map.Map("sweep"), s);
+                } else {
+                  s.labels = {"all"};
+                }
+              },
+              [](YAML::Emitter& out, const Study& s) {
+                if (s.sweep_key.empty()) return;
+                out << YAML::Key << "sweep" << YAML::Value;
+                StudySweepFields().Write(out, s);
+              })
+          .Custom(
+              {"stages", "list", "one stage `tuning`", "", "run in order per point, below"},
+              [](const YamlMap& map, Study& s) {
+                for (const YamlMap& st : map.Maps("stages")) {
+                  const StudyStage stage = StudyStageFields().Read(st);
+                  if (stage.name.empty() || Slug(stage.name) != stage.name) {
+                    st.Fail("name", "must be a non-empty name of letters, digits, '-', '_' or '.'");
+                  }
+                  for (const auto& earlier : s.stages) {
+                    if (earlier.name == stage.name) {
+                      st.Fail("name", "stage '" + stage.name + "' is defined twice");
+                    }
+                  }
+                  if (!stage.start_from.empty()) {
+                    bool found = false;
+                    for (const auto& earlier : s.stages) {
+                      found = found || earlier.name == stage.start_from;
+                    }
+                    if (!found) {
+                      st.Fail("start_from",
+                              "must name an earlier stage, got '" + stage.start_from + "'");
+                    }
+                  }
+                  s.stages.push_back(stage);
+                }
+                if (s.stages.empty()) s.stages.push_back({"tuning", "", ""});
+              },
+              [](YAML::Emitter& out, const Study& s) {
+                out << YAML::Key << "stages" << YAML::Value << YAML::BeginSeq;
+                for (const auto& stage : s.stages) StudyStageFields().Write(out, stage);
+                out << YAML::EndSeq;
+              })
+          .Custom(MapDoc("validation", "validation flights of the tuned parameters, below"),
+                  ReadSection("validation", StudyValidationFields()),
+                  WriteSection("validation", StudyValidationFields()));
+  return fields;
+}
+
 Study Study::LoadFile(const std::string& path) { return LoadFile(path, {}); }
 
 Study Study::LoadFile(const std::string& path, const std::vector<std::string>& assignments) {
   const YamlMap original = YamlMap::LoadFile(path);  // file errors name the file and the line
-  const YamlMap map = assignments.empty()
-                          ? original
-                          : YamlMap::FromString(ApplyAssignments(YamlEmit(original.node()),
-                                                                 assignments, path),
-                                                path);
-  map.RejectUnknownKeys({"name", "seed", "experiment", "override", "sweep", "stages", "validation"});
+  const YamlMap map =
+      assignments.empty()
+          ? original
+          : YamlMap::FromString(ApplyAssignments(YamlEmit(original.node()), assignments, path),
+                                path);
   Study s;
   s.file = path;
-  s.name = map.String("name", std::string("study"));
-  s.seed = static_cast<std::uint64_t>(map.Integer("seed", 1, Range::Closed(0, 9.0e15)));
-  const std::string dir = fs::path(path).parent_path().string();
-  const std::string base_file = ResolvePath(map.String("experiment"), dir.empty() ? "." : dir);
-  if (!fs::exists(base_file)) {
-    map.Fail("experiment", "file '" + base_file + "' not found (relative to the study file)");
-  }
-  const YamlMap base = YamlMap::LoadFile(base_file);
-  s.base_dir = fs::path(base_file).parent_path().string();
-  if (s.base_dir.empty()) s.base_dir = ".";
-  YAML::Node merged = base.node();
-  if (map.Has("override")) merged = YamlDeepMerge(merged, map.Map("override").node());
-  s.base_text = YamlEmit(merged);
-
-  if (map.Has("sweep")) {
-    const YamlMap sweep = map.Map("sweep");
-    sweep.RejectUnknownKeys({"key", "values", "labels"});
-    s.sweep_key = sweep.String("key");
-    const YAML::Node values = sweep.node()["values"];
-    if (!values || !values.IsSequence() || values.size() == 0) {
-      sweep.Fail("values", "must be a non-empty list of values for '" + s.sweep_key + "'");
-    }
-    for (const auto& v : values) s.sweep_values.push_back(YamlEmit(v));
-    const YAML::Node labels = sweep.node()["labels"];
-    if (labels) {
-      if (!labels.IsSequence() || labels.size() != values.size()) {
-        sweep.Fail("labels", "must list one label per value (" + std::to_string(values.size()) + ")");
-      }
-      for (const auto& l : labels) {
-        if (!l.IsScalar()) sweep.Fail("labels", "must be a list of names (plain text), one per value");
-        s.labels.push_back(l.as<std::string>());
-      }
-    } else {
-      for (const auto& v : values) s.labels.push_back(v.IsScalar() ? v.as<std::string>() : YamlEmit(v));
-    }
-    for (std::size_t i = 0; i < s.labels.size(); ++i) {
-      for (std::size_t j = 0; j < i; ++j) {
-        if (Slug(s.labels[i]) == Slug(s.labels[j])) {
-          sweep.Fail("labels", "two points are both named '" + Slug(s.labels[i]) + "'");
-        }
-      }
-    }
-  } else {
-    s.labels = {"all"};
-  }
-
-  const auto stage_maps = map.Maps("stages");
-  for (std::size_t i = 0; i < stage_maps.size(); ++i) {
-    const YamlMap& st = stage_maps[i];
-    st.RejectUnknownKeys({"name", "override", "start_from"});
-    StudyStage stage;
-    stage.name = st.String("name");
-    if (stage.name.empty() || Slug(stage.name) != stage.name) {
-      st.Fail("name", "must be a non-empty name of letters, digits, '-', '_' or '.'");
-    }
-    for (const auto& earlier : s.stages) {
-      if (earlier.name == stage.name) st.Fail("name", "stage '" + stage.name + "' is defined twice");
-    }
-    stage.start_from = st.String("start_from", std::string());
-    if (!stage.start_from.empty()) {
-      bool found = false;
-      for (const auto& earlier : s.stages) found = found || earlier.name == stage.start_from;
-      if (!found) st.Fail("start_from", "must name an earlier stage, got '" + stage.start_from + "'");
-    }
-    if (st.Has("override")) stage.override_yaml = YamlEmit(st.Map("override").node());
-    s.stages.push_back(stage);
-  }
-  if (s.stages.empty()) s.stages.push_back({"tuning", "", ""});
-
-  const YamlMap validation = map.Map("validation", true);
-  validation.RejectUnknownKeys({"flights"});
-  s.validation_flights =
-      static_cast<int>(validation.Integer("flights", 20, Range::Closed(0, 100000)));
-
+  StudyFields().Read(map, s);
   // Every point and stage must load: all configuration errors before any work.
   for (std::size_t p = 0; p < s.labels.size(); ++p) {
     for (std::size_t k = 0; k < s.stages.size(); ++k) (void)s.Build(p, k);

@@ -138,7 +138,7 @@ void WriteSegmentsCsv(const std::string& path, const engine::AdaptFlight& f,
         << s.p_s_W.y() << ',' << s.p_s_W.z() << ',' << ZoneOf(options, s.p_s_W.x()) << ','
         << s.speed_s << ',' << s.v_des_before << ',' << s.v_des << ',' << s.trials << ','
         << s.successes << ',' << s.best_trial << ',' << s.best_f_s << ','
-        << engine::ToString(s.outcome) << '\n';
+        << quadtune::ToString(s.outcome) << '\n';
   }
 }
 
@@ -207,7 +207,7 @@ int RunAdapt(const AdaptArgs& a) {
                     "({}/{} trials ok, best f_s {:.2f})",
                     s.index, s.p_s_W.x(),
                     z >= 0 ? fmt::format("{:.1f} m", layout.options.zones[z].spacing) : "-",
-                    s.v_des_before, s.v_des, engine::ToString(s.outcome), s.successes,
+                    s.v_des_before, s.v_des, quadtune::ToString(s.outcome), s.successes,
                     s.trials, s.best_f_s);
               });
           walls[i] =

@@ -12,7 +12,7 @@ int WorkPlan::AddTrials(const engine::Experiment& e, int run) {
   for (int repeat = 0; repeat < e.repeats; ++repeat) {
     for (const engine::Method m : e.methods) {
       PlannedTrial t;
-      t.method = engine::ToString(m);
+      t.method = quadtune::ToString(m);
       t.repeat = repeat;
       t.run = run;
       const bool is_default = m == engine::Method::kDefault;

@@ -4,11 +4,20 @@
 ///
 /// Reads the file; no other side effects. Thread safety: none needed.
 
+#include <array>
 #include <string>
+
+#include "quadtune/common/enum_names.hpp"
 
 namespace quadtune::cli {
 
 enum class FileKind { kExperiment, kStudy, kAdaptation, kDrone, kLayout, kUnknown };
+constexpr auto EnumNames(FileKind) {
+  return std::array{
+      EnumName{FileKind::kExperiment, "experiment"}, EnumName{FileKind::kStudy, "study"},
+      EnumName{FileKind::kAdaptation, "adaptation"}, EnumName{FileKind::kDrone, "drone"},
+      EnumName{FileKind::kLayout, "layout"},         EnumName{FileKind::kUnknown, "unknown"}};
+}
 
 /// "experiment file (for `quadtune run`)", "study file (for `quadtune study`)", …
 [[nodiscard]] std::string Describe(FileKind kind);

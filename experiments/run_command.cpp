@@ -113,7 +113,7 @@ int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& sto
   namespace fs = std::filesystem;
   if (tty) std::fprintf(stderr, "\n");
   nlohmann::json j;
-  j["status"] = s.status == engine::RunStatus::kCompleted ? "completed" : "cancelled";
+  j["status"] = quadtune::ToString(s.status);
   j["wall_s"] = s.wall_s;
   j["threads"] = s.threads;
   if (s.ranks > 1) j["ranks"] = s.ranks;

@@ -122,7 +122,7 @@ int RunStudyCommand(const StudyArgs& a) {
   }
   if (tty) std::fprintf(stderr, "\n");
   nlohmann::json j;
-  j["status"] = s.status == engine::RunStatus::kCompleted ? "completed" : "cancelled";
+  j["status"] = quadtune::ToString(s.status);
   j["wall_s"] = s.wall_s;
   j["flights"] = s.flights;
   j["resolves"] = s.resolves;

@@ -111,7 +111,7 @@ void WriteSweepCsv(const std::vector<Group>& groups, const fs::path& path) {
         const auto it = f.objective.terms.find(t);
         out << ',' << (it == f.objective.terms.end() ? std::string("nan") : Num(it->second));
       }
-      out << ',' << engine::ToString(f.status) << ',' << f.map_seed << ',' << f.flight_seed << ','
+      out << ',' << quadtune::ToString(f.status) << ',' << f.map_seed << ',' << f.flight_seed << ','
           << CsvText(f.message) << '\n';
     }
   }

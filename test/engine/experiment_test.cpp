@@ -1,3 +1,5 @@
+#include "quadtune/engine/experiment.hpp"
+
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -5,7 +7,8 @@
 #include <string>
 
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/online_adaptation.hpp"
+#include "quadtune/engine/study.hpp"
 #include "quadtune/engine/tuner.hpp"
 #include "test_util.hpp"
 
@@ -156,6 +159,74 @@ TEST(ExperimentErrors, ResumeWithAnotherConfiguration) {
   } catch (const ConfigError& e) {
     EXPECT_EQ(e.key(), "--resume");
   }
+}
+
+// The field lists' Write of a loaded experiment reads back as the same experiment: writing the
+// reread one gives the same text.
+std::string Written(const Experiment& e) {
+  YAML::Emitter out;
+  SetExactDoubles(out);
+  ExperimentFields().Write(out, e);
+  return out.c_str();
+}
+
+TEST(ExperimentFields, WriteThenReadGivesTheSameExperiment) {
+  const std::string root = QUADTUNE_SOURCE_DIR;
+  std::vector<Experiment> loaded{
+      Experiment::FromString(test::ToyYaml() + "start: {speed: 1.5}\n", "exp.yaml"),
+      Experiment::LoadFile(root + "/experiments/default.yaml"),
+      Experiment::LoadFile(root + "/experiments/tiny.yaml")};
+  for (const Experiment& e : loaded) {
+    const std::string text = Written(e);
+    const Experiment again = Experiment::FromString(text, "w.yaml", e.base_dir);
+    EXPECT_EQ(Written(again), text) << e.file;
+    EXPECT_EQ(again.methods, e.methods);
+    EXPECT_EQ(again.space.Names(), e.space.Names());
+    EXPECT_EQ(again.start, e.start);
+    EXPECT_EQ(again.budget.default_flights, e.budget.default_flights);
+    EXPECT_EQ(again.objective.w_c, e.objective.w_c);
+    EXPECT_EQ(again.maps.mode, e.maps.mode);
+    EXPECT_EQ(again.pso.num_particles, e.pso.num_particles);
+  }
+}
+
+TEST(ExperimentFields, EveryKeyHasATypeAndAMeaning) {
+  const auto check = [](const std::vector<FieldDoc>& rows, const std::string& list) {
+    EXPECT_FALSE(rows.empty()) << list;
+    for (const FieldDoc& row : rows) {
+      EXPECT_FALSE(row.type.empty()) << list << "." << row.key;
+      EXPECT_FALSE(row.meaning.empty()) << list << "." << row.key;
+    }
+  };
+  check(ExperimentFields().Docs(), "experiment");
+  check(MapsFields().Docs(), "maps");
+  check(ValidationFields().Docs(), "validation");
+  check(RecommendFields().Docs(), "recommend");
+  check(BudgetFields().Docs(), "budget");
+  check(IpoptPlannerFields().Docs(), "planner");
+  check(ObjectiveFields().Docs(), "objective");
+  check(ObjectiveShortTermFields().Docs(), "objective.short_term");
+  check(ObjectiveLongTermFields().Docs(), "objective.long_term");
+  check(StudyFields().Docs(), "study");
+  check(StudySweepFields().Docs(), "study.sweep");
+  check(StudyStageFields().Docs(), "study.stages");
+  check(StudyValidationFields().Docs(), "study.validation");
+  check(AdaptExperimentFields().Docs(), "adaptation experiment");
+  check(AdaptationFields().Docs(), "adaptation");
+  EXPECT_EQ(BudgetFields().Docs()[1].fallback, "`flights`");
+  EXPECT_EQ(ExperimentFields().Docs()[3].allowed, "`reproducible`, `realtime`");
+}
+
+TEST(EnumNames, EngineSpellingsAreTheStoredOnes) {
+  EXPECT_STREQ(ToString(Method::kBoPso), "bo_pso");
+  EXPECT_EQ(FromString<Method>("default"), Method::kDefault);
+  EXPECT_FALSE(FromString<Method>("annealing").has_value());
+  EXPECT_STREQ(ToString(MapMode::kPerRepeat), "per_repeat");
+  EXPECT_STREQ(ToString(TimingMode::kRealtime), "realtime");
+  EXPECT_STREQ(ToString(ObjectiveOptions::ShortKind::kChangingEnvironment), "changing_environment");
+  EXPECT_STREQ(ToString(EvalStatus::kCancelled), "cancelled");
+  EXPECT_STREQ(ToString(RunStatus::kCompleted), "completed");
+  EXPECT_STREQ(ToString(AdaptationSegment::Outcome::kNoSuccess), "no_success");
 }
 
 }  // namespace

@@ -68,6 +68,7 @@
 #include <string>
 #include <vector>
 
+#include "quadtune/common/fields.hpp"
 #include "quadtune/engine/objectives.hpp"
 #include "quadtune/engine/planner.hpp"
 #include "quadtune/engine/planners.hpp"
@@ -85,9 +86,11 @@ enum class Method {
   kBo,       ///< Bayesian optimisation over all parameters, scored by f_l
   kBoPso,    ///< BO on θ_l by f_l + PSO on θ_s by f_s on recorded queries (the paper's method)
 };
-const char* ToString(Method method);
-/// Parses "default" | "random" | "pso" | "bo" | "bo_pso"; nullopt otherwise.
-std::optional<Method> MethodFromString(const std::string& name);
+constexpr auto EnumNames(Method) {
+  return std::array{EnumName{Method::kDefault, "default"}, EnumName{Method::kRandom, "random"},
+                    EnumName{Method::kPso, "pso"}, EnumName{Method::kBo, "bo"},
+                    EnumName{Method::kBoPso, "bo_pso"}};
+}
 
 /// Which map a flight flies (YAML `maps.mode`).
 enum class MapMode {
@@ -95,7 +98,10 @@ enum class MapMode {
   kPerRepeat,  ///< one map per repeat, flown by every flight of its trials
   kPool,       ///< a pool of `maps.pool` maps per repeat; flight k flies map k mod pool
 };
-const char* ToString(MapMode mode);
+constexpr auto EnumNames(MapMode) {
+  return std::array{EnumName{MapMode::kPerFlight, "per_flight"},
+                    EnumName{MapMode::kPerRepeat, "per_repeat"}, EnumName{MapMode::kPool, "pool"}};
+}
 
 /// YAML `maps:`.
 struct MapOptions {
@@ -154,6 +160,7 @@ struct Budget {
 struct Experiment {
   std::string file;        ///< where it came from ("<string>" for text)
   std::string text;        ///< the full configuration text (stored with the results)
+  std::string base_dir = ".";  ///< folder the file's relative paths resolve against
   std::string name = "experiment";
   std::uint64_t seed = 1;
   int threads = 2;         ///< >= 1
@@ -207,6 +214,15 @@ struct Experiment {
   /// Every parameter the planner takes at its default, overridden by the space's defaults.
   [[nodiscard]] ParamValues Defaults() const;
 };
+
+/// The experiment file's top level (ExperimentFields reads it into an Experiment whose `file`,
+/// `text` and `base_dir` are set), and its sections: `maps:`, `validation:`, `recommend:`,
+/// `budget:` (budget's checks against mode, methods and repeats are made at the top level).
+const Fields<Experiment>& ExperimentFields();
+const Fields<MapOptions>& MapsFields();
+const Fields<ValidationOptions>& ValidationFields();
+const Fields<RecommendOptions>& RecommendFields();
+const Fields<Budget>& BudgetFields();
 
 /// Finds `relative`: as given, under `base_dir`, under $QUADTUNE_ASSETS, under the source
 /// tree's assets/. Returns the first that exists (else `relative`).

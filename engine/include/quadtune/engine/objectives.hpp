@@ -18,6 +18,7 @@
 #include <map>
 #include <string>
 
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/engine/planner.hpp"
 
@@ -25,6 +26,10 @@ namespace quadtune::engine {
 
 /// How solve times are measured.
 enum class TimingMode { kReproducible, kRealtime };
+constexpr auto EnumNames(TimingMode) {
+  return std::array{EnumName{TimingMode::kReproducible, "reproducible"},
+                    EnumName{TimingMode::kRealtime, "realtime"}};
+}
 
 /// Weights of the objectives (YAML `objective:`).
 struct ObjectiveOptions {
@@ -48,9 +53,23 @@ struct ObjectiveOptions {
 
   /// Throws ConfigError(file, key, ...) naming the first bad key.
   void Validate(const std::string& file = "") const;
-  /// Reads `objective:` (maps short_term, long_term, key failure_value); unknown keys throw.
+  /// Reads `objective:` (ObjectiveFields) over the defaults; unknown keys throw.
   static ObjectiveOptions FromYaml(const YamlMap& map);
 };
+constexpr auto EnumNames(ObjectiveOptions::ShortKind) {
+  using Kind = ObjectiveOptions::ShortKind;
+  return std::array{EnumName{Kind::kSolveTime, "solve_time"},
+                    EnumName{Kind::kChangingEnvironment, "changing_environment"}};
+}
+
+/// `objective:`: maps short_term (ObjectiveShortTermFields) and long_term
+/// (ObjectiveLongTermFields), key failure_value. Reading into inherited values keeps them for
+/// absent keys, except short_term.w_c, whose absence gives the default of short_term.kind.
+const Fields<ObjectiveOptions>& ObjectiveFields();
+/// `objective.short_term:`.
+const Fields<ObjectiveOptions>& ObjectiveShortTermFields();
+/// `objective.long_term:`.
+const Fields<ObjectiveOptions>& ObjectiveLongTermFields();
 
 /// An objective value with its named terms (stored in the results).
 struct ObjectiveValue {

@@ -52,6 +52,7 @@
 #include <string>
 #include <vector>
 
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/engine/objectives.hpp"
 #include "quadtune/layout/layout.hpp"
@@ -86,11 +87,14 @@ struct AdaptationOptions {
   static optimizers::BayesOptOptions DefaultBayesOpt();
   /// Throws ConfigError(file, "adaptation.<key>", allowed range) for the first bad field.
   void Validate(const std::string& file = "") const;
-  /// Reads keys lookahead, v_des_bounds [lo, hi], trials_per_segment, min_remaining,
-  /// braking_fraction, objective (engine ObjectiveOptions; short_term.kind must be
-  /// changing_environment) and bo (BayesOptOptions) over the defaults; unknown keys throw.
+  /// Reads AdaptationFields over the defaults, then validates; unknown keys throw.
   static AdaptationOptions FromYaml(const YamlMap& map);
 };
+
+/// `adaptation:`: lookahead, v_des_bounds [lo, hi], trials_per_segment, min_remaining,
+/// braking_fraction, objective (ObjectiveFields over DefaultObjective; short_term.kind must be
+/// changing_environment) and bo (BayesOptOptions over DefaultBayesOpt; no seed).
+const Fields<AdaptationOptions>& AdaptationFields();
 
 /// One BO trial: a plan from P_s with one v_des, and its f_s terms.
 struct AdaptationTrial {
@@ -129,8 +133,12 @@ struct AdaptationSegment {
   /// kSuperseded: another trajectory (a collision re-plan) replaced the one P_s lay on.
   Outcome outcome = Outcome::kSuperseded;
 };
-/// "adopted", "no_success" or "superseded".
-const char* ToString(AdaptationSegment::Outcome outcome);
+constexpr auto EnumNames(AdaptationSegment::Outcome) {
+  using Outcome = AdaptationSegment::Outcome;
+  return std::array{EnumName{Outcome::kAdopted, "adopted"},
+                    EnumName{Outcome::kNoSuccess, "no_success"},
+                    EnumName{Outcome::kSuperseded, "superseded"}};
+}
 
 /// The adapter. See the file comment.
 class OnlineAdapter final : public sim::PlanAdapter {
@@ -189,6 +197,7 @@ class OnlineAdapter final : public sim::PlanAdapter {
 struct AdaptExperiment {
   std::string name = "changing_environment";
   std::string file;                   ///< where it was read from
+  std::string base_dir = ".";         ///< folder relative paths resolve against (then assets/)
   std::uint64_t seed = 1;
   std::string drone_file;             ///< resolved path
   physics::DroneDescription drone;
@@ -212,6 +221,10 @@ struct AdaptExperiment {
   /// Replaces the seed (and the adaptation's seed derived from it).
   void SetSeed(std::uint64_t new_seed);
 };
+
+/// The adaptation experiment file's keys (read into an AdaptExperiment whose `file` and
+/// `base_dir` are set; FromString then sets the seeds).
+const Fields<AdaptExperiment>& AdaptExperimentFields();
 
 /// One flight of the experiment.
 struct AdaptFlight {

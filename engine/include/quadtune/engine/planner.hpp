@@ -22,6 +22,7 @@
 /// (distinct slots); the engine never calls a plug-in's members on the same slot concurrently.
 
 #include <any>
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -32,6 +33,7 @@
 #include <utility>
 #include <vector>
 
+#include "quadtune/common/enum_names.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/yaml.hpp"
 
@@ -98,7 +100,10 @@ struct FlightRequest {
 
 /// Outcome status of one evaluation (flight, re-solve or objective).
 enum class EvalStatus { kOk, kFailed, kCancelled };
-const char* ToString(EvalStatus status);
+constexpr auto EnumNames(EvalStatus) {
+  return std::array{EnumName{EvalStatus::kOk, "ok"}, EnumName{EvalStatus::kFailed, "failed"},
+                    EnumName{EvalStatus::kCancelled, "cancelled"}};
+}
 
 /// What a flight produced (SI units) — the long-term objective's inputs.
 struct FlightRecord {

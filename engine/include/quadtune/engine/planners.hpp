@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/engine/planner.hpp"
 #include "quadtune/engine/planner_registry.hpp"
@@ -44,13 +45,28 @@ struct IpoptPlannerOptions {
   sim::FlightOptions flight;        ///< flight settings (max_time, …)
   planning::PlannerParams base;          ///< fixed parameters and defaults of the tunables
 
-  /// Reads an experiment's `planner:` map (keys drone, layout | layout_file, world, mission,
-  /// max_time, fixed, safety_nets, and `type`); relative file names resolve as ResolvePath does
-  /// against `base_dir`. `extra_keys` are further keys the caller reads itself (a back end's own
-  /// options); any other key throws ConfigError naming it.
+  /// Reads an experiment's `planner:` map (IpoptPlannerFields); relative file names resolve as
+  /// ResolvePath does against `base_dir`. `extra_keys` are further keys the caller reads itself
+  /// (a back end's own options); any other key throws ConfigError naming it.
   static IpoptPlannerOptions FromYaml(const YamlMap& planner, const std::string& base_dir,
                                       const std::vector<std::string>& extra_keys = {});
 };
+
+/// The `planner:` map of a planner flown in the closed loop (ipopt, ego) as IpoptPlannerFields
+/// reads it: the options, and the values they do not keep as written.
+struct IpoptPlannerSection {
+  std::string base_dir = ".";  ///< folder relative file names resolve against (not a key)
+  std::string type = "ipopt";  ///< `type` (the registry dispatches on it)
+  std::string drone = "drones/research_1kg.yaml";  ///< `drone` as written
+  std::string layout_file;  ///< `layout_file` as written; "" when `layout` gives the options
+  bool safety_nets = true;
+  IpoptPlannerOptions options;
+};
+
+/// The keys of the `planner:` map: type, drone, layout | layout_file, world, mission, max_time,
+/// fixed, safety_nets. Reading checks the fixed parameters only key by key; FromYaml then checks
+/// them together (PlannerParams::Validate, CheckParams).
+const Fields<IpoptPlannerSection>& IpoptPlannerFields();
 
 /// ParameterInfo of the PlannerParams `names`: default from `values`, range and integer flag
 /// from planning::ParameterRange and planning::ParameterIsInteger.

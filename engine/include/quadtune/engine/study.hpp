@@ -40,6 +40,7 @@
 #include <string>
 #include <vector>
 
+#include "quadtune/common/fields.hpp"
 #include "quadtune/engine/experiment.hpp"
 #include "quadtune/engine/tuner.hpp"
 
@@ -55,6 +56,7 @@ struct StudyStage {
 /// A loaded, checked study.
 struct Study {
   std::string file;
+  std::string experiment_file;  ///< `experiment` as written
   std::string name = "study";
   std::uint64_t seed = 1;
   std::string base_text;       ///< the base experiment after the study-wide override (YAML)
@@ -75,6 +77,13 @@ struct Study {
   [[nodiscard]] Experiment Build(std::size_t point, std::size_t stage,
                                  const ParamValues& start = {}) const;
 };
+
+/// The study file (StudyFields reads it into a Study whose `file` is set; LoadFile then builds
+/// every point and stage) and its sections: `sweep:`, each item of `stages:`, `validation:`.
+const Fields<Study>& StudyFields();
+const Fields<Study>& StudySweepFields();
+const Fields<StudyStage>& StudyStageFields();
+const Fields<Study>& StudyValidationFields();
 
 /// Progress of a study.
 struct StudyProgress {

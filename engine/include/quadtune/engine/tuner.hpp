@@ -86,6 +86,10 @@ struct RunOptions {
 
 /// Outcome of a run.
 enum class RunStatus { kCompleted, kCancelled };
+constexpr auto EnumNames(RunStatus) {
+  return std::array{EnumName{RunStatus::kCompleted, "completed"},
+                    EnumName{RunStatus::kCancelled, "cancelled"}};
+}
 
 /// Best result of one trial.
 struct TrialSummary {
