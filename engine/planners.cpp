@@ -132,10 +132,7 @@ const Fields<IpoptPlannerSection>& IpoptPlannerFields() {
               {"mission", "string", "`go_and_return`", "`go_and_return`, `go_to`",
                "ipopt: the mission over the layout's start and goal"},
               [](const YamlMap& p, S& s) {
-                s.options.mission = sim::MissionKindFromString(
-                    p.String("mission", std::string(sim::ToString(s.options.mission)),
-                             {"go_and_return", "go_to"}),
-                    p.file(), "planner.mission");
+                s.options.mission = ReadEnum<sim::MissionKind>(p, "mission", s.options.mission);
               },
               [](YAML::Emitter& out, const S& s) {
                 WriteText(out, "mission", sim::ToString(s.options.mission));

@@ -5,7 +5,16 @@
 
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/fields.hpp"
+#include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/objectives.hpp"
+#include "quadtune/engine/online_adaptation.hpp"
+#include "quadtune/engine/planners.hpp"
+#include "quadtune/engine/study.hpp"
 #include "quadtune/layout/options.hpp"
+#include "quadtune/optimizers/bayes_opt.hpp"
+#include "quadtune/optimizers/gaussian_process.hpp"
+#include "quadtune/optimizers/parameter_space.hpp"
+#include "quadtune/planning/parameters.hpp"
 #include "quadtune/optimizers/pso.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/physics/world.hpp"
@@ -72,6 +81,62 @@ std::vector<FieldDoc> Join(std::vector<FieldDoc> a, const std::vector<FieldDoc>&
   return a;
 }
 
+const char* const kRecommendProse =
+    R"(After its budget a tuned trial ranks its candidates (`bo`, `bo_pso`: the observed points by
+posterior mean, `bo_pso` with PSO's final θ_s; `random`, `pso`: the flights by f_l) and tries them
+in turn on re-flight maps: fresh maps of the trial's density, the same for every method and
+candidate of a repeat, disjoint from tuning and held-out maps. The first candidate that passes
+is recommended; when none passes, the defaults. Re-flights are stored as kind `recheck`
+(iteration = the candidate's rank, index = the re-flight) and replayed on `--resume`.)";
+
+const char* const kObjectiveProse =
+    R"(f_s (solve-time kind, paper Sec. III-D) = w_t J_t + w_s n_s (+ w_c J_c when `w_c` is given), with
+J_t = t_c + w_τ max(0, t_c − τ_t)². f_s (changing-environment kind, Sec. IV-B) = w_t t_exe +
+w_p ∫‖jerk‖² + w_c J_c, J_c = (C − c_obs)² when c_obs < C. f_l (Sec. IV-A) = t_f + t_f·n_c + w_e·n_e.)";
+
+std::string ExperimentPart() {
+  using namespace engine;
+  std::string out = Section("## Experiment",
+                            "Source: `engine/include/quadtune/engine/experiment.hpp`, "
+                            "`objectives.hpp`, `planners.hpp`.",
+                            {});
+  out += Section("### Top level", "", ExperimentFields().Docs());
+  out += Section("### `parameters` (one item per tuned parameter)", "",
+                 optimizers::ParameterFields().Docs());
+  out += Section("### `maps`", "", MapsFields().Docs());
+  out += Section("### `validation`", "", ValidationFields().Docs());
+  out += Section("### `recommend`", kRecommendProse, RecommendFields().Docs());
+  out += Section("### `planner`", "", IpoptPlannerFields().Docs());
+  out += Section("### `objective`", kObjectiveProse,
+                 Join(Join(ObjectiveFields().Docs(),
+                           Prefixed(ObjectiveShortTermFields().Docs(), "short_term.")),
+                      Prefixed(ObjectiveLongTermFields().Docs(), "long_term.")));
+  out += Section("### `budget`", "", BudgetFields().Docs());
+  return out;
+}
+
+std::string StudyPart() {
+  using namespace engine;
+  std::string out = Section(
+      "## Study",
+      "Source: `engine/include/quadtune/engine/study.hpp`. One experiment run at several "
+      "settings (a sweep) and/or in stages, then validation flights of the tuned parameters on "
+      "held-out maps. Outputs: `study.json`, `OUT/<label>/<stage>/results.sqlite` (a `quadtune "
+      "run` store, so `--resume` works per stage), `validation.csv`.",
+      StudyFields().Docs());
+  out += Section("### `sweep`", "", StudySweepFields().Docs());
+  out += Section("### `stages` (one item per stage, run in order per point)", "",
+                 StudyStageFields().Docs());
+  out += Section("### `validation`", "", StudyValidationFields().Docs());
+  out += Section("## Adaptation experiment",
+                 "Source: `engine/include/quadtune/engine/online_adaptation.hpp`. Read by "
+                 "`quadtune adapt` (paper Sec. IV-B: v_des adapted online through zones of "
+                 "changing density).",
+                 AdaptExperimentFields().Docs());
+  out += Section("### `adaptation`", "", AdaptationFields().Docs());
+  return out;
+}
+
 std::string PhysicsPart() {
   const physics::DroneDescription drone;
   std::string out = Section(
@@ -130,7 +195,20 @@ std::string LayoutPart() {
 }
 
 std::string OptimiserPart() {
-  return Section("## PSO",
+  std::string out = Section(
+      "## Planner parameters",
+      "Source: `planning/include/quadtune/planning/parameters.hpp` (`PlannerParamsFields()`). "
+      "Names usable in `parameters`, `planner.fixed`, the adaptation experiment's `planner` and "
+      "`fly --set`; θ_s are short-term parameters (PSO), θ_l long-term ones (BO).",
+      planning::PlannerParamsFields().Docs());
+  out += Section("## Bayesian optimisation",
+                 "Source: `optimizers/include/quadtune/optimizers/bayes_opt.hpp`, "
+                 "`gaussian_process.hpp`.",
+                 optimizers::BayesOptFields().Docs());
+  out += Section("### `moving_bounds` (paper Sec. III-E)", "",
+                 optimizers::MovingBoundsFields().Docs());
+  out += Section("### `gp`", "", optimizers::GpFields().Docs());
+  return out + Section("## PSO",
                  "Source: `optimizers/include/quadtune/optimizers/pso.hpp` (asynchronous PSO, "
                  "paper Sec. III-C-1), `PsoFields()`.",
                  optimizers::PsoFields().Docs());
@@ -141,6 +219,8 @@ std::string OptimiserPart() {
 std::string ConfigReference() {
   std::string out = kIntro;
   out += "\n";
+  out += ExperimentPart();
+  out += StudyPart();
   out += PhysicsPart();
   out += LayoutPart();
   out += OptimiserPart();

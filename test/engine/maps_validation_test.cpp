@@ -83,7 +83,8 @@ TEST(MapsPerFlight, PerRepeatAndPoolModesReuseMaps) {
     o.store_path = dir + "/r.sqlite";
     ASSERT_EQ(RunExperiment(e, o).status, RunStatus::kCompleted);
     std::set<std::uint64_t> seeds;
-    for (const auto& r : LongRows(o.store_path).at({"random", 0})) seeds.insert(r.map_seed);
+    const auto rows = LongRows(o.store_path);
+    for (const auto& r : rows.at({"random", 0})) seeds.insert(r.map_seed);
     EXPECT_EQ(seeds.size(), 3u);
   }
 }
