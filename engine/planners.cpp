@@ -52,6 +52,26 @@ void WriteText(YAML::Emitter& out, const char* key, const std::string& value) {
   out << YAML::Key << key << YAML::Value << value;
 }
 
+/// `planner.layout`: exactly one of `layout` and `layout_file` is given.
+void ReadLayout(const YamlMap& p, IpoptPlannerSection& s) {
+  if (p.Has("layout") && p.Has("layout_file")) {
+    p.Fail("layout_file", "give either layout or layout_file");
+  }
+  if (!p.Has("layout") && !p.Has("layout_file")) {
+    p.Fail("layout", "missing: give layout (generator options) or layout_file");
+  }
+  if (p.Has("layout")) {
+    s.layout_file.clear();
+    s.options.layout = layout::LayoutOptions::FromYaml(p.Map("layout"));
+  }
+}
+
+void WriteLayout(YAML::Emitter& out, const IpoptPlannerSection& s) {
+  if (!s.layout_file.empty()) return;
+  out << YAML::Key << "layout" << YAML::Value;
+  s.options.layout.ToYaml(out);
+}
+
 }  // namespace
 
 const Fields<IpoptPlannerSection>& IpoptPlannerFields() {
@@ -89,23 +109,7 @@ const Fields<IpoptPlannerSection>& IpoptPlannerFields() {
               {"layout", "map", "one of `layout`, `layout_file` required",
                "[layout options](#layout)",
                "ipopt: the forest; give exactly one of `layout`, `layout_file`"},
-              [](const YamlMap& p, S& s) {
-                if (p.Has("layout") && p.Has("layout_file")) {
-                  p.Fail("layout_file", "give either layout or layout_file");
-                }
-                if (!p.Has("layout") && !p.Has("layout_file")) {
-                  p.Fail("layout", "missing: give layout (generator options) or layout_file");
-                }
-                if (p.Has("layout")) {
-                  s.layout_file.clear();
-                  s.options.layout = layout::LayoutOptions::FromYaml(p.Map("layout"));
-                }
-              },
-              [](YAML::Emitter& out, const S& s) {
-                if (!s.layout_file.empty()) return;
-                out << YAML::Key << "layout" << YAML::Value;
-                s.options.layout.ToYaml(out);
-              })
+              ReadLayout, WriteLayout)
           .Custom(
               {"layout_file", "path", "one of `layout`, `layout_file` required",
                "a [layout options](#layout) file", "ipopt: the forest, from a file"},
