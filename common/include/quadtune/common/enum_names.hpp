@@ -30,6 +30,9 @@ struct EnumName {
   E value;
   const char* name;
 };
+/// Deduces EnumName<E> from a row (compilers without aggregate deduction need it: clang 14).
+template <class E>
+EnumName(E, const char*) -> EnumName<E>;
 
 /// An enum with a name table (see the file comment).
 template <class E>
