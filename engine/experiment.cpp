@@ -25,9 +25,14 @@ std::string ResolvePath(const std::string& relative, const std::string& base_dir
   if (const char* env = std::getenv("QUADTUNE_ASSETS")) candidates.push_back(fs::path(env) / relative);
   candidates.push_back(fs::path(QUADTUNE_SOURCE_DIR) / "assets" / relative);
   for (const auto& c : candidates) {
-    if (fs::exists(c)) return c.string();
+    if (PathExists(c.string())) return c.string();
   }
   return relative;
+}
+
+bool PathExists(const std::string& path) noexcept {
+  std::error_code ec;
+  return std::filesystem::exists(path, ec) && !ec;
 }
 
 std::uint64_t Experiment::MapSeed(int repeat) const {

@@ -387,7 +387,7 @@ const Fields<AdaptExperiment>& AdaptExperimentFields() {
               [](const YamlMap& map, E& e) {
                 e.drone_file = ResolvePath(
                     map.String("drone", std::string("drones/research_1kg.yaml")), e.base_dir);
-                if (!std::filesystem::exists(e.drone_file)) {
+                if (!PathExists(e.drone_file)) {
                   map.Fail("drone", "file '" + e.drone_file +
                                         "' not found (searched next to the experiment and in "
                                         "assets/)");
@@ -407,7 +407,7 @@ const Fields<AdaptExperiment>& AdaptExperimentFields() {
                 }
                 if (!map.Has("layout_file")) return;
                 e.layout_file = ResolvePath(map.String("layout_file"), e.base_dir);
-                if (!std::filesystem::exists(e.layout_file)) {
+                if (!PathExists(e.layout_file)) {
                   map.Fail("layout_file", "file '" + e.layout_file + "' not found");
                 }
                 e.layout = layout::LayoutOptions::LoadFile(e.layout_file);

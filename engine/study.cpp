@@ -143,7 +143,7 @@ const Fields<Study>& StudyFields() {
                 const std::string dir = fs::path(s.file).parent_path().string();
                 const std::string base_file =
                     ResolvePath(s.experiment_file, dir.empty() ? "." : dir);
-                if (!fs::exists(base_file)) {
+                if (!PathExists(base_file)) {
                   map.Fail("experiment",
                            "file '" + base_file + "' not found (relative to the study file)");
                 }
