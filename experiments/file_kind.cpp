@@ -5,6 +5,7 @@
 #include <initializer_list>
 
 #include "quadtune/common/error.hpp"
+#include "quadtune/common/yaml.hpp"
 
 namespace quadtune::cli {
 namespace {
@@ -37,10 +38,12 @@ std::string Describe(FileKind kind) {
 }
 
 FileKind DetectFileKind(const std::string& path) {
+  // Through the checked reader (directories, bad UTF-8, duplicate keys and deep nesting refused
+  // before yaml-cpp sees the bytes); whatever it refuses, the command's own reader reports.
   YAML::Node top;
   try {
-    top = YAML::LoadFile(path);
-  } catch (const std::exception&) {
+    top = YamlMap::LoadFile(path).node();
+  } catch (const ConfigError&) {
     return FileKind::kUnknown;
   }
   if (!top.IsMap()) return FileKind::kUnknown;
