@@ -14,6 +14,17 @@ std::string Join(const std::string& prefix, const std::string& key) {
 
 bool IsIntegral(double v) { return std::isfinite(v) && std::floor(v) == v; }
 
+/// The value of `p` at unit coordinate t in [0, 1] on its continuous scale: an integer
+/// parameter as the stretch of the real line its cells cover, [lower - 0.5, upper + 0.5].
+double ContinuousValue(const Parameter& p, double t) {
+  if (p.type == ParameterType::kInteger) return p.lower - 0.5 + t * (p.upper - p.lower + 1.0);
+  if (p.log_scale) {
+    return std::clamp(std::exp(std::log(p.lower) + t * (std::log(p.upper) - std::log(p.lower))),
+                      p.lower, p.upper);
+  }
+  return p.lower + t * (p.upper - p.lower);
+}
+
 }  // namespace
 
 const Fields<Parameter>& ParameterFields() {
@@ -165,15 +176,10 @@ Eigen::VectorXd ParameterSpace::FromUnit(const Eigen::VectorXd& u) const {
   for (int i = 0; i < Dim(); ++i) {
     const auto& p = parameters_[static_cast<std::size_t>(i)];
     const double t = std::clamp(u[i], 0.0, 1.0);
-    if (p.type == ParameterType::kInteger) {
-      const double cells = p.upper - p.lower + 1.0;
-      x[i] = std::clamp(p.lower + std::floor(t * cells), p.lower, p.upper);
-    } else if (p.log_scale) {
-      x[i] = std::exp(std::log(p.lower) + t * (std::log(p.upper) - std::log(p.lower)));
-    } else {
-      x[i] = p.lower + t * (p.upper - p.lower);
-    }
-    x[i] = std::clamp(x[i], p.lower, p.upper);
+    const double v = p.type == ParameterType::kInteger
+                         ? p.lower + std::floor(t * (p.upper - p.lower + 1.0))
+                         : ContinuousValue(p, t);
+    x[i] = std::clamp(v, p.lower, p.upper);
   }
   return x;
 }
@@ -182,16 +188,7 @@ Eigen::VectorXd ParameterSpace::FromUnitContinuous(const Eigen::VectorXd& u) con
   CheckSize(u, "ParameterSpace::FromUnitContinuous");
   Eigen::VectorXd x(Dim());
   for (int i = 0; i < Dim(); ++i) {
-    const auto& p = parameters_[static_cast<std::size_t>(i)];
-    const double t = std::clamp(u[i], 0.0, 1.0);
-    if (p.type == ParameterType::kInteger) {
-      x[i] = p.lower - 0.5 + t * (p.upper - p.lower + 1.0);
-    } else if (p.log_scale) {
-      x[i] = std::clamp(std::exp(std::log(p.lower) + t * (std::log(p.upper) - std::log(p.lower))),
-                        p.lower, p.upper);
-    } else {
-      x[i] = p.lower + t * (p.upper - p.lower);
-    }
+    x[i] = ContinuousValue(parameters_[static_cast<std::size_t>(i)], std::clamp(u[i], 0.0, 1.0));
   }
   return x;
 }

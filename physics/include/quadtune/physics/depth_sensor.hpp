@@ -21,14 +21,9 @@
 #include <string>
 #include <vector>
 
+#include "quadtune/common/fields_fwd.hpp"
 #include "quadtune/common/random.hpp"
 #include "quadtune/physics/ray_caster.hpp"
-
-namespace quadtune {
-class YamlMap;
-template <class T>
-class Fields;
-}  // namespace quadtune
 
 namespace quadtune::physics {
 

@@ -14,12 +14,7 @@
 #include <string>
 
 #include "quadtune/common/enum_names.hpp"
-
-namespace quadtune {
-class YamlMap;
-template <class T>
-class Fields;
-}  // namespace quadtune
+#include "quadtune/common/fields_fwd.hpp"
 
 namespace quadtune::physics {
 

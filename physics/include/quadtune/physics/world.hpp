@@ -37,6 +37,7 @@
 #include <vector>
 
 #include "quadtune/common/enum_names.hpp"
+#include "quadtune/common/fields_fwd.hpp"
 #include "quadtune/physics/collision_monitor.hpp"
 #include "quadtune/physics/controller.hpp"
 #include "quadtune/physics/drone.hpp"
@@ -48,12 +49,6 @@ class btDiscreteDynamicsWorld;
 class btRigidBody;
 class btCollisionShape;
 class btTransform;
-
-namespace quadtune {
-class YamlMap;
-template <class T>
-class Fields;
-}  // namespace quadtune
 
 namespace quadtune::physics {
 
@@ -90,14 +85,14 @@ struct WorldOptions {
   double obstacle_margin = 0.002;     ///< Bullet collision margin of cylinders (m), > 0
 
   Eigen::Vector3d wind_W = Eigen::Vector3d::Zero();  ///< constant wind velocity (m/s)
-  double gust_stddev = 0.0;          ///< stationary std-dev of each gust component (m/s), >= 0
-  double gust_time_constant = 2.0;   ///< Ornstein–Uhlenbeck correlation time of gusts (s), > 0
-  double force_noise = 0.0;          ///< std-dev of a white force disturbance per axis (N), >= 0
-  double torque_noise = 0.0;         ///< std-dev of a white torque disturbance per axis (N·m)
+  double gust_stddev = 0.0;         ///< stationary std-dev of each gust component (m/s), >= 0
+  double gust_time_constant = 2.0;  ///< Ornstein–Uhlenbeck correlation time of gusts (s), > 0
+  double force_noise = 0.0;         ///< std-dev of a white force disturbance per axis (N), >= 0
+  double torque_noise = 0.0;        ///< std-dev of a white torque disturbance per axis (N·m)
   MeasurementNoise measurement_noise;
-  double mass_scale = 1.0;           ///< true mass / described mass (model mismatch), (0.2, 5)
-  bool motor_lag = true;             ///< false: rotors reach commanded speeds instantly
-  std::uint64_t seed = 0;            ///< seed of every random stream of the world
+  double mass_scale = 1.0;  ///< true mass / described mass (model mismatch), (0.2, 5)
+  bool motor_lag = true;    ///< false: rotors reach commanded speeds instantly
+  std::uint64_t seed = 0;   ///< seed of every random stream of the world
 
   /// Throws ConfigError(origin, key_prefix + key, ...) naming the bad key and its allowed range:
   /// the ranges of WorldFields(), then controller_rate_hz in (0, physics_rate_hz] dividing it

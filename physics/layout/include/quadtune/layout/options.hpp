@@ -44,16 +44,11 @@
 #include <vector>
 
 #include "quadtune/common/enum_names.hpp"
+#include "quadtune/common/fields_fwd.hpp"
 
 namespace YAML {
 class Emitter;
 }  // namespace YAML
-
-namespace quadtune {
-class YamlMap;
-template <class T>
-class Fields;
-}  // namespace quadtune
 
 namespace quadtune::layout {
 
