@@ -28,6 +28,8 @@ cd "$work"
 
 mpi=("$mpiexec" -np 2 --oversubscribe)
 if [[ $(id -u) == 0 ]]; then mpi+=(--allow-run-as-root); fi
+# Libraries preloaded into the ranks only (the AddressSanitizer build sets it: CMakeLists.txt).
+if [[ -n ${QUADTUNE_MPI_RANK_PRELOAD:-} ]]; then mpi+=(env "LD_PRELOAD=$QUADTUNE_MPI_RANK_PRELOAD"); fi
 
 # The toy planner (milliseconds per flight; the kill test slows its flights down a little so that
 # rank 1 dies while rank 0 is still working).
