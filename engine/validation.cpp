@@ -1,14 +1,13 @@
 #include "quadtune/engine/validation.hpp"
 
 #include <oneapi/tbb/enumerable_thread_specific.h>
-#include <oneapi/tbb/parallel_for.h>
-#include <oneapi/tbb/task_arena.h>
 
 #include <chrono>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
 
+#include "quadtune/common/parallel_for.hpp"
 #include "quadtune/engine/experiment.hpp"
 #include "quadtune/engine/objectives.hpp"
 #include "quadtune/engine/result_store.hpp"
@@ -32,41 +31,42 @@ std::vector<FlightRecord> FlyJobs(const Planner& planner, const std::vector<Flig
     }
   }
   auto cancelled = [cancel] { return cancel != nullptr && cancel->load(); };
-  std::atomic<int> done{0};
+  std::mutex progress_mutex;
+  int done = 0;  // flights finished, under progress_mutex
   const int total = static_cast<int>(jobs.size());
-  tbb::task_arena arena(std::max(1, threads));
   tbb::enumerable_thread_specific<WorkerSlot> slots;
-  arena.execute([&] {
-    tbb::parallel_for(std::size_t{0}, jobs.size(), [&](std::size_t i) {
-      FlightRecord& r = records[i];
-      if (cancelled()) {
-        r.status = EvalStatus::kCancelled;
-        r.message = "cancelled";
-        return;
-      }
-      const FlightJob& job = jobs[i];
-      if (auto err = map_errors.find(job.map_seed); err != map_errors.end()) {
+  ParallelFor(threads, std::size_t{0}, jobs.size(), [&](std::size_t i) {
+    FlightRecord& r = records[i];
+    if (cancelled()) {
+      r.status = EvalStatus::kCancelled;
+      r.message = "cancelled";
+      return;
+    }
+    const FlightJob& job = jobs[i];
+    if (auto err = map_errors.find(job.map_seed); err != map_errors.end()) {
+      r.status = EvalStatus::kFailed;
+      r.message = err->second;
+    } else {
+      FlightRequest req;
+      req.map = maps.at(job.map_seed);
+      req.params = job.params;
+      req.seed = job.flight_seed;
+      if (cancel != nullptr) req.cancelled = [cancel] { return cancel->load(); };
+      WorkerSlot& slot = slots.local();
+      try {
+        r = planner.Fly(req, slot);
+      } catch (const std::exception& ex) {
+        r = FlightRecord{};
         r.status = EvalStatus::kFailed;
-        r.message = err->second;
-      } else {
-        FlightRequest req;
-        req.map = maps.at(job.map_seed);
-        req.params = job.params;
-        req.seed = job.flight_seed;
-        if (cancel != nullptr) req.cancelled = [cancel] { return cancel->load(); };
-        WorkerSlot& slot = slots.local();
-        try {
-          r = planner.Fly(req, slot);
-        } catch (const std::exception& ex) {
-          r = FlightRecord{};
-          r.status = EvalStatus::kFailed;
-          r.message = std::string("exception: ") + ex.what();
-          slot.state.reset();  // the world may be in any state: rebuild it next time
-        }
+        r.message = std::string("exception: ") + ex.what();
+        slot.state.reset();  // the world may be in any state: rebuild it next time
       }
-      const int d = ++done;
-      if (progress) progress(d, total);
-    });
+    }
+    if (progress) {
+      // Serialised: callers update estimators and print lines that are not thread-safe.
+      const std::lock_guard<std::mutex> lock(progress_mutex);
+      progress(++done, total);
+    }
   });
   return records;
 }
@@ -140,7 +140,8 @@ std::vector<ValidationSummary> RunValidation(const Experiment& e,
         p.flights_total = total;
         p.trials_done = trials_total;
         p.trials_total = trials_total;
-        p.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+        p.elapsed_s =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
         options.on_progress(p);
       });
   if (flown != nullptr) *flown = static_cast<long>(jobs.size());
@@ -170,13 +171,15 @@ std::vector<ValidationSummary> RunValidation(const Experiment& e,
   }
   std::vector<ValidationSummary> out;
   for (std::size_t s = 0; s < subjects.size(); ++s) {
-    const std::size_t from = subjects[s].reuse >= 0 ? static_cast<std::size_t>(subjects[s].reuse) : s;
+    const std::size_t from =
+        subjects[s].reuse >= 0 ? static_cast<std::size_t>(subjects[s].reuse) : s;
     ValidationSummary v;
     v.method = subjects[s].method;
     v.repeat = subjects[s].repeat;
     v.params = subjects[s].params;
     for (int m = 0; m < n; ++m) {
-      const EvaluationRow& r = rows[from * static_cast<std::size_t>(n) + static_cast<std::size_t>(m)];
+      const EvaluationRow& r =
+          rows[from * static_cast<std::size_t>(n) + static_cast<std::size_t>(m)];
       if (r.status == ToString(EvalStatus::kCancelled)) continue;
       const auto terms = nlohmann::json::parse(r.terms.empty() ? std::string("{}") : r.terms);
       const bool completed = terms.value("completed", 0.0) > 0.5;

@@ -1,8 +1,6 @@
 #include "quadtune/physics/world.hpp"
 
 #include <gtest/gtest.h>
-#include <oneapi/tbb/parallel_for.h>
-#include <oneapi/tbb/task_arena.h>
 
 #include <cmath>
 #include <cstring>
@@ -12,6 +10,7 @@
 #include "physics_test_util.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/fields.hpp"
+#include "quadtune/common/parallel_for.hpp"
 #include "quadtune/common/yaml.hpp"
 
 namespace quadtune::physics {
@@ -266,11 +265,8 @@ TEST(World, ConcurrentWorldsAreBitIdenticalAcrossThreadCounts) {
       worlds.push_back(std::make_unique<World>(geometry, d, Noisy(100 + i), start));
     }
     std::vector<DroneState> result(kWorlds);
-    tbb::task_arena arena(threads);
-    arena.execute([&] {
-      tbb::parallel_for(0, kWorlds, [&](int i) {
-        result[static_cast<std::size_t>(i)] = FlyTenSeconds(*worlds[static_cast<std::size_t>(i)], 0.1 * i);
-      });
+    ParallelFor(threads, 0, kWorlds, [&](int i) {
+      result[static_cast<std::size_t>(i)] = FlyTenSeconds(*worlds[static_cast<std::size_t>(i)], 0.1 * i);
     });
     for (int i = 0; i < kWorlds; ++i) {
       SCOPED_TRACE("threads " + std::to_string(threads) + " world " + std::to_string(i));

@@ -1,12 +1,11 @@
 #include "quadtune/planning/local_planner.hpp"
 
 #include <gtest/gtest.h>
-#include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include <thread>
 
 #include "../config_error_util.hpp"
+#include "quadtune/common/parallel_for.hpp"
 #include "resampled_figures.hpp"
 #include "scene_util.hpp"
 
@@ -93,12 +92,8 @@ TEST(LocalPlanner, ConcurrentResolvesWithOtherShortTermParametersMatchSerial) {
   EXPECT_GE(serial_ok, thetas.size() / 2);
   for (int threads : {2, 4}) {
     std::vector<PlanOutcome> parallel(thetas.size());
-    tbb::task_arena arena(threads);
-    arena.execute([&] {
-      tbb::parallel_for(std::size_t{0}, thetas.size(), [&](std::size_t i) {
-        parallel[i] = SolveQuery(optimizer, f.query, thetas[i]);
-      });
-    });
+    ParallelFor(threads, std::size_t{0}, thetas.size(),
+                [&](std::size_t i) { parallel[i] = SolveQuery(optimizer, f.query, thetas[i]); });
     for (std::size_t i = 0; i < thetas.size(); ++i) ExpectSameOutcome(serial[i], parallel[i]);
   }
 }

@@ -1,8 +1,6 @@
 #include "quadtune/planning/trajectory_optimizer.hpp"
 
 #include <gtest/gtest.h>
-#include <oneapi/tbb/parallel_for.h>
-#include <oneapi/tbb/task_arena.h>
 
 #include <atomic>
 #include <limits>
@@ -13,6 +11,7 @@
 #include "analytic_fields.hpp"
 #include "forest_scene.hpp"
 #include "quadtune/common/error.hpp"
+#include "quadtune/common/parallel_for.hpp"
 #include "resampled_figures.hpp"
 
 namespace quadtune::planning {
@@ -449,13 +448,10 @@ TEST(TrajectoryOptimizer, ConcurrentSolvesMatchSingleThreaded) {
   for (int threads : {2, 8}) {
     constexpr int kSolves = 200;
     std::vector<PlanResult> results(kSolves);
-    tbb::task_arena arena(threads);
-    arena.execute([&] {
-      tbb::parallel_for(0, kSolves, 1, [&](int i) {
-        results[static_cast<std::size_t>(i)] =
-            optimizer.Solve(requests[static_cast<std::size_t>(i % kQueries)], field,
-                            params[static_cast<std::size_t>(i % kQueries)]);
-      });
+    ParallelFor(threads, 0, kSolves, [&](int i) {
+      results[static_cast<std::size_t>(i)] =
+          optimizer.Solve(requests[static_cast<std::size_t>(i % kQueries)], field,
+                          params[static_cast<std::size_t>(i % kQueries)]);
     });
     int mismatches = 0;
     for (int i = 0; i < kSolves; ++i) {

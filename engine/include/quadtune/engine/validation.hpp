@@ -37,7 +37,8 @@ struct FlightJob {
 /// Flies every job on `threads` (>= 1) threads; each map is prepared once per seed. Records come
 /// back in job order; a job that throws is recorded as kFailed with the exception's text, never
 /// rethrown. When `cancel` is set, the jobs not yet started come back as kCancelled.
-/// `progress(done, total)` (may be empty) is called after each flight, from worker threads.
+/// `progress(done, total)` (may be empty) is called after each flight, from worker threads, one
+/// call at a time (`done` counts up by one from call to call).
 std::vector<FlightRecord> FlyJobs(const Planner& planner, const std::vector<FlightJob>& jobs,
                                   int threads, const std::atomic<bool>* cancel,
                                   const std::function<void(int, int)>& progress);
