@@ -2,11 +2,15 @@
 // and the discount count n_d (engine/tuner.cpp, engine/validation.cpp).
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <map>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <set>
+#include <thread>
 #include <vector>
 
 #include "quadtune/engine/result_store.hpp"
@@ -148,6 +152,33 @@ TEST(Validation, HeldOutMapsAreDisjointFromTuningMapsAndSharedByEveryPoint) {
     }
   }
   EXPECT_EQ(std::set<std::uint64_t>(held_out.at(0).begin(), held_out.at(0).end()).size(), 4u);
+}
+
+TEST(Validation, ProgressComesOneFlightAtATimeCountingUp) {
+  // The held-out flights fly on several threads; the progress callback (the CLI's progress line
+  // and ETA estimator, which are not thread-safe) must get one call at a time, counting up.
+  RunOptions o;
+  o.threads = 4;
+  std::atomic<int> inside{0};
+  std::atomic<int> overlaps{0};
+  std::mutex seen_mutex;
+  std::vector<int> seen;
+  o.on_progress = [&](const Progress& p) {
+    if (p.method != "validation") return;
+    if (inside.fetch_add(1) != 0) overlaps.fetch_add(1);
+    std::this_thread::sleep_for(std::chrono::milliseconds(3));  // a slow printer
+    {
+      const std::lock_guard<std::mutex> lock(seen_mutex);
+      seen.push_back(p.flights_done);
+    }
+    inside.fetch_sub(1);
+  };
+  const Experiment e = Experiment::FromString(
+      test::ToyYaml("[default, random]", ", flight_delay_s: 0.003", 4, 8), "t.yaml");
+  ASSERT_EQ(RunExperiment(e, o).status, RunStatus::kCompleted);
+  EXPECT_EQ(overlaps.load(), 0);
+  ASSERT_GE(seen.size(), 16u);  // the defaults and random's point, 8 maps each
+  for (std::size_t k = 0; k < seen.size(); ++k) EXPECT_EQ(seen[k], static_cast<int>(k) + 1);
 }
 
 TEST(Validation, ResumedRunReplaysStoredValidationAndGivesTheSameSummary) {
