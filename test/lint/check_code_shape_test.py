@@ -5,9 +5,9 @@ Usage: check_code_shape_test.py SOURCE_DIR. Exit status 0 when every case passes
 """
 
 import pathlib
-import subprocess
 import sys
-import tempfile
+
+import lint_util
 
 
 def Body(lines, indent="  "):
@@ -16,19 +16,11 @@ def Body(lines, indent="  "):
 
 def Check(tree, *extra):
   """(exit status, stdout) of the checker on `tree` (dict: relative path -> text)."""
-  with tempfile.TemporaryDirectory() as tmp:
-    root = pathlib.Path(tmp)
-    for path, text in tree.items():
-      (root / path).parent.mkdir(parents=True, exist_ok=True)
-      (root / path).write_text(text)
-    done = subprocess.run([sys.executable, str(CHECKER), *extra, str(root)],
-                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    return done.returncode, done.stdout
+  return lint_util.RunOnTree(CHECKER, tree, *extra)
 
 
 def Expect(name, condition, detail=""):
-  if not condition:
-    FAILURES.append(f"{name}: {detail}")
+  FAILURES.Expect(name, condition, detail)
 
 
 def main():
@@ -74,7 +66,7 @@ def main():
 
 
 CHECKER = pathlib.Path(sys.argv[1]) / "scripts" / "check_code_shape.py"
-FAILURES = []
+FAILURES = lint_util.Failures()
 
 if __name__ == "__main__":
   sys.exit(main())
