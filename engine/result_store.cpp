@@ -158,7 +158,7 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
   namespace fs = std::filesystem;
   if (!resume) {
     for (const char* suffix : {"", "-wal", "-shm", "-journal"}) fs::remove(path + suffix);
-  } else if (!fs::exists(path)) {
+  } else if (!PathExists(path)) {
     throw ConfigError(path, "--resume", "no results file to resume from");
   }
   if (!fs::path(path).parent_path().empty()) fs::create_directories(fs::path(path).parent_path());
@@ -217,7 +217,7 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
 }
 
 ResultStore::ResultStore(const std::string& path) {
-  if (!std::filesystem::exists(path)) throw ConfigError(path, "", "no such results file");
+  if (!PathExists(path)) throw ConfigError(path, "", "no such results file");
   db_ = Open(path, SQLITE_OPEN_READONLY);
 }
 
