@@ -31,9 +31,13 @@ if [[ $(id -u) == 0 ]]; then mpi+=(--allow-run-as-root); fi
 # Libraries preloaded into the ranks only (the AddressSanitizer build sets it: CMakeLists.txt).
 if [[ -n ${QUADTUNE_MPI_RANK_PRELOAD:-} ]]; then mpi+=(env "LD_PRELOAD=$QUADTUNE_MPI_RANK_PRELOAD"); fi
 
-# The toy planner (milliseconds per flight; the kill test slows its flights down a little so that
-# rank 1 dies while rank 0 is still working).
-delay=0
+# The toy planner takes microseconds per flight; each mode slows its flights down. Rank 0 runs
+# trials from the same queue as rank 1, so without a delay it could finish them all before rank 1
+# asks for its first one (equal: 160 ms per trial, 1.6 s of trials); the kill test needs rank 0
+# still working when rank 1 dies. Held-out validation (on rank 0, after the trials) keeps 20 maps
+# where flights are fast.
+delay=0 maps=20
+[[ $mode == equal ]] && delay=0.02 maps=4
 [[ $mode == kill ]] && delay=0.01
 [[ $mode == batch ]] && delay=0.03  # several 50 ms batches before the kill
 cat > toy.yaml <<YAML
@@ -58,6 +62,7 @@ objective:
 budget: {flights: 8, flight_batch: 2, short_evals_per_flight: 4, queries_per_eval: 2, query_window: 50}
 pso: {num_particles: 4}
 bo: {initial_design_size: 2, acquisition_pool: 50, acquisition_starts: 1, hyper_restarts: 0}
+validation: {maps: $maps}
 YAML
 
 # What must be identical: evaluations.csv without its wall-clock columns (wall_s, started,
