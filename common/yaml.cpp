@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <system_error>
 #include <utility>
 
 namespace quadtune {
@@ -131,6 +132,11 @@ bool IsValidUtf8(std::string_view text) {
     i += extra + 1;
   }
   return true;
+}
+
+bool PathExists(const std::string& path) noexcept {
+  std::error_code ec;
+  return std::filesystem::exists(path, ec) && !ec;
 }
 
 std::string ReadFileText(const std::string& path) {

@@ -30,11 +30,6 @@ std::string ResolvePath(const std::string& relative, const std::string& base_dir
   return relative;
 }
 
-bool PathExists(const std::string& path) noexcept {
-  std::error_code ec;
-  return std::filesystem::exists(path, ec) && !ec;
-}
-
 std::uint64_t Experiment::MapSeed(int repeat) const {
   return DeriveSeed(seed, {0x3a9, static_cast<std::uint64_t>(repeat)});
 }

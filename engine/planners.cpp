@@ -10,6 +10,7 @@
 
 #include "quadtune/common/fields.hpp"
 #include "quadtune/common/random.hpp"
+#include "quadtune/common/text_file.hpp"
 #include "quadtune/engine/experiment.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/planning/local_planner.hpp"

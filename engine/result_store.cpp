@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "quadtune/common/error.hpp"
+#include "quadtune/common/text_file.hpp"
 #include "quadtune/engine/experiment.hpp"
 
 #ifndef QUADTUNE_VERSION

@@ -11,6 +11,7 @@
 #include "field_util.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/random.hpp"
+#include "quadtune/common/text_file.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/engine/validation.hpp"
 
@@ -289,7 +290,7 @@ bool RunPointStages(const Study& study, const StudyOptions& options, std::size_t
     RunOptions ro;
     ro.store_path = (fs::path(dir) / "results.sqlite").string();
     ro.threads = options.threads;
-    ro.resume = options.resume && fs::exists(ro.store_path);
+    ro.resume = options.resume && PathExists(ro.store_path);
     ro.validate = false;  // the study validates every stage's points in the last stage's world
     ro.cancel = options.cancel;
     if (options.on_progress) {

@@ -15,6 +15,7 @@
 #include "stored_flight.hpp"
 #include "result_dir.hpp"
 #include "quadtune/common/error.hpp"
+#include "quadtune/common/text_file.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/engine/planner_registry.hpp"
 #include "quadtune/layout/layout.hpp"
@@ -163,8 +164,8 @@ layout::LayoutOptions ForestOptions(double spacing) {
   const long tenths = std::lround(10.0 * spacing);
   const std::string name = "layouts/forest_" + std::to_string(tenths / 10) + "p" +
                            std::to_string(tenths % 10) + ".yaml";
-  const bool shipped = std::abs(10.0 * spacing - static_cast<double>(tenths)) < 1e-9 &&
-                       std::filesystem::exists(AssetPath(name));
+  const bool shipped =
+      std::abs(10.0 * spacing - static_cast<double>(tenths)) < 1e-9 && PathExists(AssetPath(name));
   layout::LayoutOptions options =
       layout::LayoutOptions::LoadFile(AssetPath(shipped ? name : "layouts/forest_1p3.yaml"));
   options.spacing = spacing;

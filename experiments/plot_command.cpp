@@ -11,16 +11,17 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "quadtune/common/text_file.hpp"
 
 namespace quadtune::cli {
 
 std::string AssetPath(const std::string& relative) {
   namespace fs = std::filesystem;
   if (const char* env = std::getenv("QUADTUNE_ASSETS")) {
-    if (fs::exists(fs::path(env) / relative)) return (fs::path(env) / relative).string();
+    if (PathExists((fs::path(env) / relative).string())) return (fs::path(env) / relative).string();
   }
   const fs::path in_tree = fs::path(QUADTUNE_SOURCE_DIR) / "assets" / relative;
-  if (fs::exists(in_tree)) return in_tree.string();
+  if (PathExists(in_tree.string())) return in_tree.string();
   return relative;
 }
 
@@ -30,7 +31,7 @@ int RunPythonScript(const std::string& script_in_source, const char* override_en
   std::string script = (fs::path(QUADTUNE_SOURCE_DIR) / script_in_source).string();
   if (const char* env = std::getenv(override_env)) script = env;
   // Debian's interpreter, which has python3-matplotlib; a python3 earlier on PATH may not.
-  const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+  const std::string python = PathExists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
   // The script's stderr goes to a file: on failure its last line (a traceback's "Error: why")
   // is the one line shown; the whole text is in the debug log.
   char errors[] = "/tmp/quadtune_script_XXXXXX";

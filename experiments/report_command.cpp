@@ -12,6 +12,7 @@
 
 #include "commands.hpp"
 #include "quadtune/common/error.hpp"
+#include "quadtune/common/text_file.hpp"
 #include "stored_flight.hpp"
 
 namespace quadtune::cli {
@@ -47,7 +48,8 @@ std::string FlightFolder(const fs::path& dir, const fs::path& store, std::int64_
 
 int Report(const ReportArgs& a) {
   const fs::path dir(a.dir);
-  const bool flight_dir = fs::exists(dir / "flight.csv") && fs::exists(dir / "summary.json");
+  const bool flight_dir =
+      PathExists((dir / "flight.csv").string()) && PathExists((dir / "summary.json").string());
   if (!flight_dir) {
     const std::vector<fs::path> stores = StoresUnder(dir);
     if (stores.empty()) {

@@ -67,6 +67,14 @@ bool HoldsRun(const std::string& out) {
   return false;
 }
 
+bool HoldsFiles(const std::string& out) {
+  std::error_code ec;
+  for (fs::directory_iterator it(out, ec), end; !ec && it != end; it.increment(ec)) {
+    if (it->path().filename() != kLockName) return true;
+  }
+  return false;
+}
+
 ResultDir::ResultDir(const std::string& out, const ResultDirPolicy& policy) : out_(out) {
   std::error_code ec;
   if (fs::exists(out, ec) && !fs::is_directory(out, ec)) {
@@ -90,7 +98,7 @@ ResultDir::ResultDir(const std::string& out, const ResultDirPolicy& policy) : ou
     Refuse(out, std::string("cannot lock the directory: ") + std::strerror(err));
   }
   try {
-    if (HoldsRun(out)) {
+    if (!policy.lock_only && HoldsRun(out)) {
       if (policy.resume && policy.overwrite) Refuse(out, "give --resume or --overwrite, not both");
       if (!policy.resume && !policy.overwrite) {
         Refuse(out, policy.resume_allowed

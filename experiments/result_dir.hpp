@@ -9,7 +9,8 @@
 ///   pid. The kernel releases the lock when the holder exits, however it exits.
 /// - A directory that already holds a run (results.sqlite, study.json or summary.json, at most
 ///   two folders deep) is refused unless `resume` (continue it) or `overwrite` (empty OUT first,
-///   keeping only the lock file) is given; the message says which to use.
+///   keeping only the lock file) is given; the message says which to use. A command with rules
+///   of its own for what OUT holds (sweep) takes the lock only (`lock_only`).
 ///
 /// Thread safety: one ResultDir per process and directory; not shared between threads.
 
@@ -22,6 +23,7 @@ struct ResultDirPolicy {
   bool resume = false;         ///< continue the stored run (the command supports --resume)
   bool overwrite = false;      ///< remove the old run first
   bool resume_allowed = true;  ///< false: the command has no --resume (adapt)
+  bool lock_only = false;      ///< create and lock OUT, whatever it holds
 };
 
 class ResultDir {
@@ -49,5 +51,7 @@ void CheckOutputFile(const std::string& file, const std::string& key);
 
 /// True when `out` holds the results of an earlier run (see the file comment).
 [[nodiscard]] bool HoldsRun(const std::string& out);
+/// True when `out` is a directory that holds anything besides a ResultDir's lock file.
+[[nodiscard]] bool HoldsFiles(const std::string& out);
 
 }  // namespace quadtune::cli

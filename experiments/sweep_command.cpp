@@ -16,8 +16,9 @@
 #include <string>
 #include <vector>
 
-#include "file_kind.hpp"
 #include "commands.hpp"
+#include "file_kind.hpp"
+#include "result_dir.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/engine/distributed.hpp"
 #include "quadtune/engine/planners.hpp"
@@ -257,7 +258,8 @@ std::function<void(const engine::SweepProgress&)> Printer(bool tty, bool quiet, 
 int RunSweepCommand(const SweepArgs& a) {
   engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "sweep");
   CheckFileKind(a.experiment, FileKind::kExperiment);
-  if (fs::exists(a.out) && !fs::is_empty(a.out) && !a.overwrite) {
+  CheckOutputDir(a.out, "--out");
+  if (HoldsFiles(a.out) && !a.overwrite) {
     throw ConfigError(a.out, "--out",
                       "the output directory exists and is not empty; choose another --out or "
                       "pass --overwrite to replace its sweep files");
@@ -286,6 +288,10 @@ int RunSweepCommand(const SweepArgs& a) {
       if (ipopt->options().layout.zones.empty()) g.spacing = ipopt->options().layout.spacing;
     }
   }
+  // Held until the files are written: a second sweep into OUT is refused meanwhile.
+  ResultDirPolicy lock;
+  lock.lock_only = true;
+  const ResultDir out_dir(a.out, lock);
   const engine::Experiment& first = groups.front().experiment;
   const std::uint64_t seed = a.seed >= 0 ? static_cast<std::uint64_t>(a.seed) : first.seed;
   engine::SweepOptions options;
@@ -320,7 +326,6 @@ int RunSweepCommand(const SweepArgs& a) {
   }
   const double wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  fs::create_directories(a.out);
   const fs::path out(a.out);
   // With --overwrite, no file of an earlier sweep may survive next to this one's.
   for (const char* file :
@@ -346,7 +351,9 @@ void RegisterSweep(CLI::App& app, int& exit_code) {
       "parameter importance: Sobol' indices (S1, ST) of f_l, its terms and f_s over the "
       "experiment's parameter box, from a Saltelli design flown on common maps");
   cmd->add_option("experiment", args.experiment, "experiment file (YAML)")->required();
-  cmd->add_option("--out", args.out, "output directory (must be empty or new)")->required();
+  cmd->add_option("--out", args.out,
+                  "output directory (must be empty or new; locked while the sweep runs)")
+      ->required();
   cmd->add_option("--points", args.points, "N base rows of the design (N·(d+2) points)")
       ->capture_default_str()
       ->check(CLI::Range(2, 1 << 20));

@@ -1,5 +1,6 @@
 // The result directory under concurrency and signals, through the `quadtune` program:
-// - two runs into one --out: the second is refused naming the first's pid; the first completes;
+// - two runs (and two sweeps) into one --out: the second is refused naming the first's pid; the
+//   first completes;
 // - `run` into a used directory without --resume/--overwrite fails and leaves the store as it was;
 // - SIGTERM during a run exits 130 with a consistent store, and --resume then completes with the
 //   same evaluations as an uninterrupted run;
@@ -13,6 +14,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -175,6 +177,31 @@ TEST_F(Interruption, SecondRunIntoTheSameDirectoryIsRefusedAndTheFirstCompletes)
             std::vector<std::string>{"16"});
   EXPECT_NE(Rows(store, "SELECT config FROM experiment")[0].find("flight_delay_s: 0.15"),
             std::string::npos);
+}
+
+TEST_F(Interruption, SecondSweepIntoTheSameDirectoryIsRefusedAndTheFirstCompletes) {
+  std::ofstream(dir_ / "a.yaml") << SlowToy(0.2);
+  const fs::path out = dir_ / "out";
+  const std::vector<std::string> sweep{"sweep",     (dir_ / "a.yaml").string(),
+                                       "--out",     out.string(),
+                                       "--points",  "4",
+                                       "--maps",    "1",
+                                       "--queries", "2",
+                                       "--no-plot", "--quiet"};
+  const Child first = Start(sweep, dir_ / "first.err");
+  WaitUntil(first, [&] { return !ReadText(out / ".quadtune.lock").empty(); });
+  std::vector<std::string> again = sweep;
+  again.push_back("--overwrite");
+  const int second = RunToEnd(again, dir_ / "second.err");
+  EXPECT_EQ(Wait(first), 0) << ReadText(dir_ / "first.err");
+  EXPECT_EQ(second, 2);
+  const std::string message = ReadText(dir_ / "second.err");
+  EXPECT_NE(message.find(out.string()), std::string::npos) << message;
+  EXPECT_NE(message.find("pid " + std::to_string(first.pid)), std::string::npos) << message;
+  // The first's files are whole: a header and 4 × (4 + 2) points of one map.
+  const std::string csv = ReadText(out / "points.csv");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 1 + 4 * 6) << csv;
+  EXPECT_FALSE(ReadText(out / "summary.json").empty());
 }
 
 TEST_F(Interruption, RunIntoAUsedDirectoryNeedsResumeOrOverwrite) {

@@ -533,6 +533,22 @@ std::vector<Case> Cases() {
        "run {d}/toy.yaml --out {d}/out --resume --overwrite",
        {"--overwrite", "--resume"}},
       {"export_missing_store", "", "", "export {d}/none.sqlite --csv {d}/csv", {"none.sqlite"}},
+      // A name the system cannot look up (a component past 255 bytes) is not a crash.
+      {"export_store_name_too_long",
+       "",
+       "",
+       "export {d}/" + std::string(300, 'n') + ".sqlite --csv {d}/csv",
+       {"nnnn.sqlite", "no such results file"}},
+      {"sweep_out_is_file",
+       "afile",
+       "x",
+       "sweep {d}/toy.yaml --out {d}/afile --points 2 --no-plot",
+       {"afile", "--out", "not a directory"}},
+      {"sweep_out_name_too_long",
+       "",
+       "",
+       "sweep {d}/toy.yaml --out {d}/" + std::string(300, 'o') + " --points 2 --no-plot",
+       {"oooo", "--out", "cannot create the directory"}},
   };
   return c;
 }

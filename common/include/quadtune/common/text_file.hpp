@@ -20,6 +20,9 @@ namespace quadtune {
 /// The whole content of a file. A missing file, a directory, a device or an unreadable file
 /// throws ConfigError(path, "", ...) saying which.
 [[nodiscard]] std::string ReadFileText(const std::string& path);
+/// Whether `path` names something that exists; false (never a throw) for a path the system
+/// cannot even look up (a name too long, a file where a folder should be, no permission).
+[[nodiscard]] bool PathExists(const std::string& path) noexcept;
 /// True when `text` is well-formed UTF-8 (no overlong forms, surrogates or code points past
 /// U+10FFFF).
 [[nodiscard]] bool IsValidUtf8(std::string_view text);

@@ -228,8 +228,4 @@ const Fields<Budget>& BudgetFields();
 /// tree's assets/. Returns the first that exists (else `relative`).
 std::string ResolvePath(const std::string& relative, const std::string& base_dir);
 
-/// Whether `path` names something that exists; false (never a throw) for a path the system
-/// cannot even look up (too long, a file where a folder should be, no permission).
-bool PathExists(const std::string& path) noexcept;
-
 }  // namespace quadtune::engine
