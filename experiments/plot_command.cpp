@@ -18,7 +18,8 @@ namespace quadtune::cli {
 std::string AssetPath(const std::string& relative) {
   namespace fs = std::filesystem;
   if (const char* env = std::getenv("QUADTUNE_ASSETS")) {
-    if (PathExists((fs::path(env) / relative).string())) return (fs::path(env) / relative).string();
+    const std::string given = (fs::path(env) / relative).string();
+    if (PathExists(given)) return given;
   }
   const fs::path in_tree = fs::path(QUADTUNE_SOURCE_DIR) / "assets" / relative;
   if (PathExists(in_tree.string())) return in_tree.string();
