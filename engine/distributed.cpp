@@ -288,7 +288,10 @@ Json ToJson(const TrialSummary& s) {
               {"replayed", s.replayed},
               {"context_changes", s.context_changes},
               {"recommended_rank", s.recommended_rank},
-              {"recheck_flights", s.recheck_flights}};
+              {"recheck_flights", s.recheck_flights},
+              {"races", s.races},
+              {"race_flights", s.race_flights},
+              {"incumbent_changes", s.incumbent_changes}};
 }
 
 TrialSummary SummaryFromJson(const Json& j) {
@@ -307,6 +310,9 @@ TrialSummary SummaryFromJson(const Json& j) {
   s.context_changes = j.at("context_changes").get<int>();
   s.recommended_rank = j.at("recommended_rank").get<int>();
   s.recheck_flights = j.at("recheck_flights").get<int>();
+  s.races = j.at("races").get<int>();
+  s.race_flights = j.at("race_flights").get<int>();
+  s.incumbent_changes = j.at("incumbent_changes").get<int>();
   return s;
 }
 

@@ -53,6 +53,14 @@ std::uint64_t Experiment::RecheckFlightSeed(int repeat, int index) const {
   return DeriveSeed(seed, {0x7ec5, static_cast<std::uint64_t>(repeat), static_cast<std::uint64_t>(index)});
 }
 
+std::uint64_t Experiment::RaceMapSeed(int repeat, int index) const {
+  return DeriveSeed(seed, {0x7ace, static_cast<std::uint64_t>(repeat), static_cast<std::uint64_t>(index)});
+}
+
+std::uint64_t Experiment::RaceFlightSeed(int repeat, int index) const {
+  return DeriveSeed(seed, {0x7acf, static_cast<std::uint64_t>(repeat), static_cast<std::uint64_t>(index)});
+}
+
 std::uint64_t Experiment::HeldOutMapSeed(int index) const {
   return DeriveSeed(seed, {0x4e1d, static_cast<std::uint64_t>(index)});
 }
@@ -270,6 +278,21 @@ void ReadBudget(const YamlMap& map, Experiment& e) {
   }
 }
 
+/// `race:`: read, then checked against `recommend:` (racing picks the recommended point).
+void ReadRace(const YamlMap& map, Experiment& e) {
+  if (!map.Has("race")) return;
+  const YamlMap r = map.Map("race");
+  optimizers::RaceFields().Read(r, e.race);
+  if (e.race.max_maps < e.race.first_maps) {
+    r.Fail("max_maps", std::to_string(e.race.max_maps) + " is below first_maps (" +
+                           std::to_string(e.race.first_maps) + "); give max_maps >= first_maps");
+  }
+  if (e.race.enabled && e.recommend.candidates > 0) {
+    r.Fail("enabled", "true hands back the race's incumbent, so recommend.candidates must be 0 "
+                      "(it is " + std::to_string(e.recommend.candidates) + ")");
+  }
+}
+
 }  // namespace
 
 const Fields<MapOptions>& MapsFields() {
@@ -439,6 +462,13 @@ const Fields<Experiment>& ExperimentFields() {
                   "held-out validation after the trials, below")
           .Nested("recommend", &E::recommend, RecommendFields(),
                   "how a trial picks the point it hands back, below")
+          .Custom(MapDoc("race", "racing challengers against an incumbent during tuning, below",
+                         "see below"),
+                  ReadRace,
+                  [](YAML::Emitter& out, const E& e) {
+                    out << YAML::Key << "race" << YAML::Value;
+                    optimizers::RaceFields().Write(out, e.race);
+                  })
           .Custom(MapDoc("budget", "budgets of one trial, below", "see below"), ReadBudget,
                   [](YAML::Emitter& out, const E& e) {
                     out << YAML::Key << "budget" << YAML::Value;

@@ -15,6 +15,7 @@
 #include "quadtune/common/random.hpp"
 #include "quadtune/engine/result_store.hpp"
 #include "quadtune/engine/scheduler.hpp"
+#include "quadtune/optimizers/racing.hpp"
 #include "quadtune/optimizers/random_search.hpp"
 
 namespace quadtune::engine {
@@ -435,6 +436,14 @@ class Trial {
 
   /// Returns false when cancelled.
   bool Run() {
+    if (method_ == Method::kBoPso) {
+      bo_pso_defaults_ = DefaultsOf(e_);
+      if (e_.start) {
+        for (const auto& [name, value] : *e_.start) bo_pso_defaults_[name] = value;
+      }
+    }
+    incumbent_ = TrialDefaults();
+    raced_.push_back(Unit(incumbent_));
     bool done = method_ == Method::kBoPso ? RunBoPso() : RunSingle();
     Recommend();
     if (done) done = Recheck();
@@ -490,7 +499,7 @@ class Trial {
     out.assign(batch.size(), Outcome{});
     for (std::size_t i = 0; i < batch.size(); ++i) {
       const int index = static_cast<int>(i);
-      const std::uint64_t map_seed = e_.FlightMapSeed(repeat_, summary_.flights + index);
+      const std::uint64_t map_seed = e_.FlightMapSeed(repeat_, TuningFlights() + index);
       if (auto replayed = log_.Replayed("long", iteration, index, batch[i])) {
         if (e_.mode == TimingMode::kReproducible && replayed->map_seed != map_seed) {
           throw ConfigError(c_.options.store_path, "--resume",
@@ -549,12 +558,14 @@ class Trial {
       c_.scheduler.Wait(group);
       if (c_.CancelRequested()) return false;
       for (std::size_t i = 0; i < out.size(); ++i) {
+        NumberFlight(out[i]);
         log_.Store("long", iteration, static_cast<int>(i), out[i]);
         if (opt != nullptr) opt->Tell(cands[i].id, out[i].objective.value);
         Observe(out[i]);
       }
       ++iteration;
       Report();
+      if (!MaybeRace()) return false;
     }
     return true;
   }
@@ -683,6 +694,7 @@ class Trial {
                      const std::vector<optimizers::Candidate>* cands) {
     for (std::size_t i = 0; i < out.size(); ++i) {
       if (!out[i].replayed) out[i].objective.terms["n_d"] = summary_.context_changes;
+      NumberFlight(out[i]);
       log_.Store("long", iteration, static_cast<int>(i), out[i]);
       if (cands != nullptr) bo_pso_.bo->Tell((*cands)[i].id, out[i].objective.value);
       Observe(out[i]);
@@ -692,11 +704,7 @@ class Trial {
 
   bool RunBoPso() {
     bo_pso_ = MakeBoPsoOptimizers(e_, seed_);
-    ParamValues defaults = DefaultsOf(e_);
-    if (e_.start) {
-      for (const auto& [name, value] : *e_.start) defaults[name] = value;
-    }
-    bo_pso_defaults_ = defaults;
+    const ParamValues defaults = bo_pso_defaults_;
     theta_s_start_ = e_.initial_short ? *e_.initial_short : Pick(defaults, e_.short_names);
     live_best_ = theta_s_start_;
     flying_short_ = theta_s_start_;
@@ -735,6 +743,7 @@ class Trial {
       TakeLongRound(iteration, out, &cands);
       ++iteration;
       Report();
+      if (!MaybeRace()) return false;
     }
     return true;
   }
@@ -743,7 +752,12 @@ class Trial {
   void Recommend() {
     summary_.recommended = summary_.best;
     summary_.recommended_value = summary_.best_value;
-    if (method_ == Method::kDefault) {
+    if (Racing()) {
+      summary_.recommended = incumbent_;
+      summary_.recommended_value = std::numeric_limits<double>::infinity();
+      if (!incumbent_samples_.empty()) summary_.recommended_value = MeanOf(incumbent_samples_);
+      summary_.recommended_rank = summary_.incumbent_changes > 0 ? 0 : -1;
+    } else if (method_ == Method::kDefault) {
       summary_.recommended = DefaultsOf(e_);
     } else if (method_ == Method::kBo && single_bo_ != nullptr) {
       if (const auto best = single_bo_->Best()) {
@@ -775,33 +789,17 @@ class Trial {
   /// kNearDuplicate of an earlier candidate in every coordinate of the unit cube is skipped
   /// (re-flying near copies of a candidate tells nothing new).
   std::vector<ParamValues> RankedCandidates() const {
-    static constexpr double kNearDuplicate = 0.02;
     std::vector<ParamValues> out;
     std::vector<Eigen::VectorXd> units;
     auto cap = static_cast<std::size_t>(e_.recommend.candidates);
     auto add = [&](ParamValues p) {
       if (out.size() >= cap) return;
       const Eigen::VectorXd u = Unit(p);
-      for (const auto& v : units) {
-        if ((v - u).cwiseAbs().maxCoeff() < kNearDuplicate) return;
-      }
+      if (NearAny(units, u)) return;
       units.push_back(u);
       out.push_back(std::move(p));
     };
-    if (method_ == Method::kBo && single_bo_ != nullptr) {
-      for (const auto& b : single_bo_->Ranked()) add(Merge(DefaultsOf(e_), e_.space.ToNamed(b.x)));
-    } else if (method_ == Method::kBoPso && bo_pso_.bo) {
-      const ParamValues theta_s = BestShort();
-      for (const auto& b : bo_pso_.bo->Ranked()) {
-        add(Merge(Merge(bo_pso_defaults_, theta_s), bo_pso_.long_space.ToNamed(b.x)));
-      }
-    } else {
-      auto flown = flown_;  // completed flights first, then by f_l; ties keep flight order
-      std::stable_sort(flown.begin(), flown.end(), [](const Flown& a, const Flown& b) {
-        return std::tie(a.failed, a.value) < std::tie(b.failed, b.value);
-      });
-      for (const auto& f : flown) add(f.params);
-    }
+    for (auto& p : RankedPoints()) add(std::move(p));
     // Back-off: the best candidate moved towards the defaults, u = u_d + α (u_best − u_d) in the
     // unit cube, α = 1 − i / (backoff + 1), i = 1 … backoff.
     if (!out.empty() && e_.recommend.backoff > 0) {
@@ -817,6 +815,185 @@ class Trial {
       }
     }
     return out;
+  }
+
+  /// Within kNearDuplicate of one of `units` in every coordinate of the unit cube.
+  static bool NearAny(const std::vector<Eigen::VectorXd>& units, const Eigen::VectorXd& u) {
+    static constexpr double kNearDuplicate = 0.02;
+    return std::any_of(units.begin(), units.end(), [&](const Eigen::VectorXd& v) {
+      return (v - u).cwiseAbs().maxCoeff() < kNearDuplicate;
+    });
+  }
+
+  /// The method's points, best first: bo, the observed points by posterior mean; bo_pso, those
+  /// for θ_l with PSO's best θ_s; random and pso, the flights by f_l (completed ones first).
+  std::vector<ParamValues> RankedPoints() const {
+    std::vector<ParamValues> out;
+    if (method_ == Method::kBo && single_bo_ != nullptr) {
+      for (const auto& b : single_bo_->Ranked()) {
+        out.push_back(Merge(DefaultsOf(e_), e_.space.ToNamed(b.x)));
+      }
+    } else if (method_ == Method::kBoPso && bo_pso_.bo) {
+      const ParamValues theta_s = BestShort();
+      for (const auto& b : bo_pso_.bo->Ranked()) {
+        out.push_back(Merge(Merge(bo_pso_defaults_, theta_s), bo_pso_.long_space.ToNamed(b.x)));
+      }
+    } else {
+      auto flown = flown_;  // completed flights first, then by f_l; ties keep flight order
+      std::stable_sort(flown.begin(), flown.end(), [](const Flown& a, const Flown& b) {
+        return std::tie(a.failed, a.value) < std::tie(b.failed, b.value);
+      });
+      for (const auto& f : flown) out.push_back(f.params);
+    }
+    return out;
+  }
+
+  // ---- racing -------------------------------------------------------------------------------
+
+  [[nodiscard]] bool Racing() const { return e_.race.enabled && method_ != Method::kDefault; }
+
+  [[nodiscard]] int TuningFlights() const { return summary_.flights - summary_.race_flights; }
+
+  /// With racing, a flight's place among the trial's flights (1, 2, …) as term "flight_no".
+  void NumberFlight(Outcome& o) const {
+    if (Racing() && !o.replayed) o.objective.terms["flight_no"] = summary_.flights + 1;
+  }
+
+  static double MeanOf(const std::vector<optimizers::RaceSample>& samples) {
+    double sum = 0.0;
+    for (const auto& s : samples) sum += s.value;
+    return sum / static_cast<double>(samples.size());
+  }
+
+  /// A race flight fails the finish/collision rate: not completed, a collision, or an error.
+  static optimizers::RaceSample Sample(const Outcome& o) {
+    const bool failed =
+        o.status != EvalStatus::kOk || Term(o, "completed") != 1.0 || Term(o, "n_c") != 0.0;
+    return {o.objective.value, failed};
+  }
+
+  /// After a round: races the method's best point not raced yet when the race's first stage
+  /// keeps racing flights within race.share of the trial's flights. Returns false when
+  /// cancelled.
+  bool MaybeRace() {
+    if (!Racing()) return true;
+    // A race starts when its first stage fits in the budget left and keeps racing flights within
+    // race.share of the trial's flights.
+    const int first = std::min(e_.race.first_maps, e_.race.max_maps);
+    const int stage = first + std::max(0, first - static_cast<int>(incumbent_samples_.size()));
+    if (summary_.flights + stage > FlightBudget()) return true;
+    if (summary_.race_flights + stage > e_.race.share * (summary_.flights + stage)) return true;
+    for (auto& p : RankedPoints()) {
+      if (!NearAny(raced_, Unit(p))) return RaceAgainst(std::move(p));
+    }
+    return true;
+  }
+
+  /// One flight of a race: who flies which race map.
+  struct RaceFlight {
+    bool challenger = false;
+    int map = 0;
+  };
+
+  /// Flies `flights` (replaying stored ones) as race `race`'s flights `first`, `first` + 1, …,
+  /// stores them and appends their samples. Returns false when cancelled.
+  bool FlyRace(int race, int first, const ParamValues& challenger,
+               const std::vector<RaceFlight>& flights,
+               std::vector<optimizers::RaceSample>& challenger_samples) {
+    std::vector<Outcome> out(flights.size());
+    TaskGroup group;
+    for (std::size_t i = 0; i < flights.size(); ++i) {
+      const RaceFlight f = flights[i];
+      const ParamValues params = f.challenger ? challenger : incumbent_;
+      Outcome* slot = &out[i];
+      if (auto replayed = log_.Replayed("race", race, first + static_cast<int>(i), params)) {
+        *slot = std::move(*replayed);
+        continue;
+      }
+      const std::uint64_t map_seed = e_.RaceMapSeed(repeat_, f.map);
+      const std::uint64_t seed = e_.RaceFlightSeed(repeat_, f.map);
+      c_.scheduler.Submit(group, Priority::kFlight, [this, slot, map_seed, params, seed] {
+        FlyInto(c_, map_seed, params, seed, false, {}, *slot);
+      });
+    }
+    c_.scheduler.Wait(group);
+    if (c_.CancelRequested()) return false;
+    for (std::size_t i = 0; i < flights.size(); ++i) {
+      Outcome& o = out[i];
+      if (!o.replayed) {
+        o.objective.terms["race_map"] = flights[i].map;
+        o.objective.terms["challenger"] = flights[i].challenger ? 1.0 : 0.0;
+        o.objective.terms["flight_no"] = summary_.flights + 1;
+      }
+      log_.Store("race", race, first + static_cast<int>(i), o);
+      ++summary_.flights;
+      ++summary_.race_flights;
+      if (o.status != EvalStatus::kOk) ++summary_.failed;
+      if (o.replayed) ++summary_.replayed;
+      (flights[i].challenger ? challenger_samples : incumbent_samples_).push_back(Sample(o));
+      TellSurrogate(flights[i].challenger ? challenger : incumbent_, o.objective.value);
+    }
+    return true;
+  }
+
+  /// race.tell: a race flight of `params` becomes an observation of bo's or bo_pso's GP.
+  void TellSurrogate(const ParamValues& params, double value) {
+    if (!e_.race.tell) return;
+    optimizers::BayesOpt* bo = method_ == Method::kBo ? single_bo_ : bo_pso_.bo.get();
+    if (bo == nullptr) return;
+    const auto names = bo->Space().Names();
+    Eigen::VectorXd x(static_cast<Eigen::Index>(names.size()));
+    for (std::size_t i = 0; i < names.size(); ++i) x[static_cast<Eigen::Index>(i)] = params.at(names[i]);
+    (void)bo->Observe(x, value);
+  }
+
+  /// Races `challenger` against the incumbent (optimizers::RunRace); a winner becomes the
+  /// incumbent. The race's outcome is stored as kind "incumbent". Returns false when cancelled.
+  bool RaceAgainst(ParamValues challenger) {
+    const int race = summary_.races++;
+    raced_.push_back(Unit(challenger));
+    std::vector<optimizers::RaceSample> samples;
+    int flown = 0;
+    bool cancelled = false;
+    auto extend = [&](int n) {
+      std::vector<RaceFlight> flights;
+      for (int j = static_cast<int>(incumbent_samples_.size()); j < n; ++j) flights.push_back({false, j});
+      for (int j = static_cast<int>(samples.size()); j < n; ++j) flights.push_back({true, j});
+      if (summary_.flights + static_cast<int>(flights.size()) > FlightBudget()) return false;
+      if (!FlyRace(race, flown, challenger, flights, samples)) {
+        cancelled = true;
+        return false;
+      }
+      flown += static_cast<int>(flights.size());
+      Report();  // after each stage: a long race shows progress, and a cut can fall inside it
+      return true;
+    };
+    const auto d = optimizers::RunRace(e_.race, &incumbent_samples_, &samples, extend);
+    if (cancelled) return false;
+    if (d.verdict == optimizers::RaceVerdict::kAccept) {
+      incumbent_ = std::move(challenger);
+      incumbent_samples_ = std::move(samples);
+      ++summary_.incumbent_changes;
+    }
+    StoreRaceOutcome(race, d);
+    return true;
+  }
+
+  /// Kind "incumbent", iteration = race: the incumbent after the race and its mean f_l.
+  void StoreRaceOutcome(int race, const optimizers::RaceDecision& d) {
+    if (log_.Replayed("incumbent", race, 0, incumbent_)) return;
+    Outcome o;
+    o.params = incumbent_;
+    o.objective.value = incumbent_samples_.empty() ? e_.objective.failure_value
+                                                   : MeanOf(incumbent_samples_);
+    o.objective.terms = {{"accepted", d.verdict == optimizers::RaceVerdict::kAccept ? 1.0 : 0.0},
+                         {"p_value", d.p_value},
+                         {"mean_difference", d.mean_difference},
+                         {"maps", d.maps},
+                         {"incumbent_maps", static_cast<double>(incumbent_samples_.size())},
+                         {"flight_no", summary_.flights}};
+    o.started = o.finished = Now();
+    log_.Store("incumbent", race, 0, o);
   }
 
   /// The defaults this trial falls back to (bo_pso: with the experiment's `start:`).
@@ -931,6 +1108,10 @@ class Trial {
   ParamValues flying_short_;  // θ_s of the last round flown (n_d counts its changes)
   std::mutex live_mutex_;
   ParamValues live_best_;
+  // racing
+  ParamValues incumbent_;
+  std::vector<optimizers::RaceSample> incumbent_samples_;
+  std::vector<Eigen::VectorXd> raced_;  // unit-cube points raced (and the first incumbent)
 };
 
 }  // namespace

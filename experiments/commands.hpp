@@ -29,6 +29,8 @@ void RegisterAdapt(CLI::App& app, int& exit_code);  ///< `quadtune adapt`: Sec. 
 void RegisterReport(CLI::App& app, int& exit_code);
 /// `quadtune sweep`: Sobol' indices of the objectives over the parameter box (sweep_command.cpp).
 void RegisterSweep(CLI::App& app, int& exit_code);
+/// `quadtune evaluate`: one parameter point flown on an experiment's maps, f_l per flight as CSV.
+void RegisterEvaluate(CLI::App& app, int& exit_code);
 
 /// Adds `--no-plot` to `cmd`: given, it sets `plot` to false (a plain flag, so that help shows no
 /// default value beside it).

@@ -14,6 +14,7 @@
 #include "quadtune/optimizers/bayes_opt.hpp"
 #include "quadtune/optimizers/gaussian_process.hpp"
 #include "quadtune/optimizers/parameter_space.hpp"
+#include "quadtune/optimizers/racing.hpp"
 #include "quadtune/planning/parameters.hpp"
 #include "quadtune/optimizers/pso.hpp"
 #include "quadtune/physics/drone.hpp"
@@ -89,6 +90,23 @@ candidate of a repeat, disjoint from tuning and held-out maps. The first candida
 is recommended; when none passes, the defaults. Re-flights are stored as kind `recheck`
 (iteration = the candidate's rank, index = the re-flight) and replayed on `--resume`.)";
 
+const char* const kRaceProse =
+    R"(With `enabled: true` a tuned trial keeps an incumbent, at first the defaults. After a round of
+its method, whenever racing flights are below `share` of the flights so far, the method's best
+candidate not raced yet (`bo`, `bo_pso`: lowest posterior mean; `random`, `pso`: lowest f_l)
+challenges it on race maps shared with the incumbent (common random numbers: the same maps and
+world seeds for both sides, for every method of a repeat, disjoint from tuning, re-flight and
+held-out maps). On n maps with paired differences d = f_l(challenger) − f_l(incumbent) the
+challenger is turned away when mean(d) >= 0 or when it fails (collides or does not finish) on more
+maps where the incumbent did not than the other way round; it replaces the incumbent when
+Wilcoxon's one-sided signed-rank test gives p <= `alpha`; else it flies twice as many maps, up to
+`max_maps`. Every racing flight counts against `budget.flights`; the trial hands back its
+incumbent. Race flights are stored as kind `race` (iteration = the race, index = the flight within
+it; terms `race_map`, `challenger`), each race's outcome as kind `incumbent` (index 0: the
+incumbent after the race, its mean f_l on the maps it flew, terms `accepted`, `p_value`,
+`mean_difference`, `maps`); with racing on, every flight's terms hold `flight_no`, its place among
+the trial's flights.)";
+
 const char* const kObjectiveProse =
     R"(f_s (solve-time kind, paper Sec. III-D) = w_t J_t + w_s n_s (+ w_c J_c when `w_c` is given), with
 J_t = t_c + w_τ max(0, t_c − τ_t)². f_s (changing-environment kind, Sec. IV-B) = w_t t_exe +
@@ -106,6 +124,7 @@ std::string ExperimentPart() {
   out += Section("### `maps`", "", MapsFields().Docs());
   out += Section("### `validation`", "", ValidationFields().Docs());
   out += Section("### `recommend`", kRecommendProse, RecommendFields().Docs());
+  out += Section("### `race`", kRaceProse, optimizers::RaceFields().Docs());
   out += Section("### `planner`", "", IpoptPlannerFields().Docs());
   out += Section("### `objective`", kObjectiveProse,
                  Join(Join(ObjectiveFields().Docs(),

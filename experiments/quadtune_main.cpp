@@ -78,6 +78,7 @@ int main(int argc, char** argv) {
   quadtune::cli::RegisterStudy(app, exit_code);
   quadtune::cli::RegisterReport(app, exit_code);
   quadtune::cli::RegisterSweep(app, exit_code);
+  quadtune::cli::RegisterEvaluate(app, exit_code);
   quadtune::cli::RegisterConfigReference(app, exit_code);
   // Every command's --help, nested ones (plot run, …) included, ends with the exit codes.
   const std::function<void(CLI::App*)> add_footer = [&add_footer](CLI::App* command) {

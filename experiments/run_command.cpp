@@ -140,6 +140,9 @@ int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& sto
     tj["recommended_rank"] = t.recommended_rank;
     tj["recheck_flights"] = t.recheck_flights;
     tj["context_changes"] = t.context_changes;
+    tj["races"] = t.races;
+    tj["race_flights"] = t.race_flights;
+    tj["incumbent_changes"] = t.incumbent_changes;
     j["trials"].push_back(tj);
   }
   for (const auto& v : s.validation) {

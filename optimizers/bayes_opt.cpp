@@ -70,6 +70,10 @@ const Fields<BayesOptOptions>& BayesOptFields() {
           .Choice("initial_design", &O::initial_design, "how the initial design is drawn")
           .Choice("batch_strategy", &O::batch_strategy,
                   "how pending points in a batch are fantasised")
+          .Choice("transform", &O::transform,
+                  "what the surrogate models: `none`, the values told; `log`, their logarithm "
+                  "(values must be > 0): a rare failure scored `failure_value` then weighs as a "
+                  "ratio, not as a difference of seconds")
           .Number("exploration", &O::exploration, Range::NonNegative(),
                   "ξ in expected improvement (standardised units)")
           .Integer("acquisition_pool", &O::acquisition_pool, Range::Closed(10, 1e7),
@@ -194,11 +198,16 @@ void BayesOpt::SetBounds(const Eigen::VectorXd& lower, const Eigen::VectorXd& up
 }
 
 void BayesOpt::DoTell(CandidateId id, double value, double noise_variance) {
+  const bool log = options_.transform == OutputTransform::kLog;
+  if (log && !(value > 0.0)) {
+    throw std::invalid_argument("BayesOpt: transform log needs values > 0, got " +
+                                std::to_string(value));
+  }
   auto it = pending_.find(id);
   Observation o;
   o.id = id;
   o.u = it->second;
-  o.value = value;
+  o.value = log ? std::log(value) : value;
   o.noise_variance = std::isnan(noise_variance) ? options_.default_noise_variance : noise_variance;
   pending_.erase(it);
   observations_.push_back(std::move(o));
@@ -289,8 +298,8 @@ std::optional<BestPoint> BayesOpt::Best() const {
   const Observation& o = observations_[static_cast<std::size_t>(index)];
   BestPoint best;
   best.x = space_.FromUnit(o.u);
-  best.value = y_mean + y_scale * mean_std;
-  best.observed = o.value;
+  best.value = FromModel(y_mean + y_scale * mean_std);
+  best.observed = FromModel(o.value);
   best.id = o.id;
   return best;
 }
@@ -324,8 +333,8 @@ std::vector<BestPoint> BayesOpt::Ranked() const {
     seen.push_back(o.u);
     BestPoint p;
     p.x = space_.FromUnit(o.u);
-    p.value = y_mean + y_scale * means[j];
-    p.observed = o.value;
+    p.value = FromModel(y_mean + y_scale * means[j]);
+    p.observed = FromModel(o.value);
     p.id = o.id;
     out.push_back(std::move(p));
   }
@@ -350,6 +359,27 @@ bool BayesOpt::IsDuplicate(const Eigen::VectorXd& u, const std::vector<Eigen::Ve
     if ((b - u).cwiseAbs().maxCoeff() < 1e-9) return true;
   }
   return false;
+}
+
+double BayesOpt::FromModel(double y) const {
+  return options_.transform == OutputTransform::kLog ? std::exp(y) : y;
+}
+
+CandidateId BayesOpt::Observe(const Eigen::VectorXd& x, double value,
+                              std::optional<double> noise_variance) {
+  if (x.size() != space_.Dim()) {
+    throw std::invalid_argument("BayesOpt::Observe: point of dimension " +
+                                std::to_string(x.size()) + ", space has " +
+                                std::to_string(space_.Dim()));
+  }
+  const Candidate c = Issue(space_.ToUnit(x));
+  try {
+    Tell(c.id, value, noise_variance);
+  } catch (...) {
+    Cancel(c.id);
+    throw;
+  }
+  return c.id;
 }
 
 Candidate BayesOpt::Issue(const Eigen::VectorXd& u) {

@@ -260,7 +260,8 @@ def mean_std(values):
 
 
 def load_run(path):
-    """Per trial: method, repeat, the f_l sequence, the parameters of each flight, whether each
+    """Per trial: method, repeat, the f_l sequence of its flights (tuning and racing, in the order
+    flown), the parameters of each flight, whether each
     flight failed (f_l at objective.failure_value), the number of re-solves (θ_s candidates ×
     queries_per_eval) before each flight, and the f_s of each θ_s candidate."""
     con = sqlite3.connect("file:{}?mode=ro".format(path), uri=True)
@@ -290,7 +291,7 @@ def load_run(path):
         if kind == "short":
             t["shorts"] += queries_per_eval
             t["short_values"].append((t["shorts"], value))
-        elif kind == "long":
+        elif kind in ("long", "race"):  # every flight, racing flights included, in order
             t["long"].append(value)
             t["params"].append(json.loads(params) if params else {})
             t["short_before"].append(t["shorts"])

@@ -5,6 +5,7 @@
     r = quadtune.load("results/main/tuning/results.sqlite")   # or the run directory
     r.long      # pandas DataFrame: one row per flight (f_l), one column per parameter and term
     r.short     # one row per short-term evaluation (f_s on recorded planning queries)
+    r.race      # racing flights (race: enabled), r.incumbent the outcome of each race
     r.validation, r.trials, r.experiment
 
 The tables have the columns of `quadtune export STORE --tidy DIR`: id, trial_id, method, repeat,
@@ -21,9 +22,10 @@ import sqlite3
 
 FIXED = ["id", "trial_id", "method", "repeat", "kind", "iteration", "index", "status", "value",
          "wall_s", "map_seed", "flight_seed"]
-KINDS = ["long", "short", "validation", "recheck"]
+KINDS = ["long", "short", "validation", "recheck", "race", "incumbent"]
 
-Results = collections.namedtuple("Results", "long short validation recheck trials experiment")
+Results = collections.namedtuple(
+    "Results", "long short validation recheck race incumbent trials experiment")
 
 
 def store_path(path):
@@ -46,7 +48,7 @@ def _seed(row_seed, trial_seed, kind):
 
 
 def rows(path):
-    """{kind: [dict per evaluation]} for kinds "long", "short", "validation", "recheck" (standard library)."""
+    """{kind: [dict per evaluation]} for every kind in KINDS (standard library)."""
     out = {k: [] for k in KINDS}
     with _connect(path) as db:
         query = ("SELECT e.id, e.trial_id, e.method, t.repeat, e.kind, e.iteration, e.idx, e.status,"
@@ -113,6 +115,6 @@ def load(path):
         return df
 
     return Results(long=frame("long"), short=frame("short"), validation=frame("validation"),
-                   recheck=frame("recheck"),
+                   recheck=frame("recheck"), race=frame("race"), incumbent=frame("incumbent"),
                    trials=pd.DataFrame(trials(path)),
                    experiment=pd.Series(experiment(path)))

@@ -28,6 +28,13 @@
 ///                              # keep mean(c) − z·sd(c) >= clearance; none passes: the defaults
 ///       emergency_stops: false # false: a re-flight with an emergency stop fails its candidate
 ///       backoff: 0             # then this many points between the best candidate and the defaults
+///     race:                  # racing against an incumbent during tuning (optimizers/racing.hpp)
+///       enabled: false         # true: challengers race the incumbent (at first the defaults) on
+///       first_maps: 4          # shared race maps; the trial hands back its incumbent
+///       max_maps: 12           # (recommend.candidates must be 0); a winner flies max_maps;
+///       alpha: 0.05            # every race flight counts against budget.flights
+///       share: 0.5             # race after a round while race flights stay <= share × flights
+///       tell: true             # race flights become observations of bo's / bo_pso's GP
 ///     methods: [default, random, pso, bo, bo_pso]
 ///     planner:
 ///       type: ipopt            # a registered planner (planner_registry.hpp): ipopt | ego | …
@@ -75,6 +82,7 @@
 #include "quadtune/optimizers/bayes_opt.hpp"
 #include "quadtune/optimizers/parameter_space.hpp"
 #include "quadtune/optimizers/pso.hpp"
+#include "quadtune/optimizers/racing.hpp"
 
 namespace quadtune::engine {
 
@@ -182,6 +190,7 @@ struct Experiment {
   MapOptions maps;
   ValidationOptions validation;
   RecommendOptions recommend;
+  optimizers::RaceOptions race;
   Budget budget;
   optimizers::PsoOptions pso;
   optimizers::BayesOptOptions bo;
@@ -206,6 +215,11 @@ struct Experiment {
   [[nodiscard]] std::uint64_t RecheckMapSeed(int repeat, int index) const;
   /// Seed of the world's random streams for re-flight `index` of repeat `repeat`.
   [[nodiscard]] std::uint64_t RecheckFlightSeed(int repeat, int index) const;
+  /// Seed of race map `index` of repeat `repeat` (racing, the same for every method and for
+  /// incumbent and challenger); derived under a tag no other map uses.
+  [[nodiscard]] std::uint64_t RaceMapSeed(int repeat, int index) const;
+  /// Seed of the world's random streams on race map `index` of repeat `repeat`.
+  [[nodiscard]] std::uint64_t RaceFlightSeed(int repeat, int index) const;
   /// Seed of held-out map `index` (validation). Derived under a tag no tuning map uses.
   [[nodiscard]] std::uint64_t HeldOutMapSeed(int index) const;
   /// Seed of the world's random streams for the validation flights on held-out map `index`

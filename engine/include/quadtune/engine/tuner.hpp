@@ -34,6 +34,17 @@
 /// Failures: an exception in a flight or re-solve is caught at the evaluation boundary and
 /// recorded (status failed, message); the optimiser is told objective.failure_value.
 ///
+/// Racing (experiment `race:`, optimizers/racing.hpp): a tuned trial keeps an incumbent, at
+/// first its defaults. After a round, when the race's first stage keeps racing flights within
+/// race.share of the trial's flights, the method's best candidate not raced yet races the
+/// incumbent on the repeat's race maps (Experiment::RaceMapSeed/RaceFlightSeed: the same maps and
+/// world seeds for both sides and every method); a challenger that wins replaces the incumbent,
+/// and with race.tell every race flight is an observation of bo's or bo_pso's GP. Race flights are
+/// stored as kind "race" (iteration = race, index = flight within it), each race's outcome as
+/// kind "incumbent" (iteration = race, index 0); every flight counts against budget.flights,
+/// and tuning flight k still flies FlightMapSeed(repeat, k) with k counting tuning flights only.
+/// The trial hands back its incumbent.
+///
 /// Validation: RunExperiment ends, when options.validate and experiment.validation.maps > 0, by
 /// flying each trial's recommended point and the defaults on the held-out maps (validation.hpp),
 /// stored as kind 'validation' rows (iteration = map index) under the trial's id, the defaults'
@@ -100,24 +111,29 @@ struct TrialSummary {
   /// Best f_l of a completed flight; while none has completed, the best failed one's value
   /// (objective.failure_value), and `best` its parameters.
   double best_value = 0.0;
-  /// The point the method recommends (what validation flies). Candidates, best first: bo, the
+  /// The point the method recommends (what validation flies). With racing, the incumbent at the
+  /// end of the budget. Without it: candidates, best first: bo, the
   /// observed points by posterior mean (BayesOpt::Ranked), not the luckiest flight; bo_pso, those
   /// for θ_l with PSO's final best θ_s; pso and random, the flights by f_l. Without re-flights
   /// (recommend.candidates 0) the first candidate; with them, the first candidate whose every
   /// re-flight passes (RecommendOptions), else the defaults. default: the defaults.
   ParamValues recommended;
+  /// With racing: the incumbent's mean f_l on the race maps it flew (+∞ when it flew none).
   /// Without re-flights: bo and bo_pso, the posterior mean at `recommended`, the others
   /// best_value. With them: the mean f_l of the passing candidate's re-flights; +∞ when none
   /// passed.
   double recommended_value = 0.0;
   /// With re-flights: the rank (0 = best) of the candidate that passed; -1 when none passed or
-  /// none were flown.
+  /// none were flown. With racing: 0 when a challenger won, -1 when the defaults are kept.
   int recommended_rank = -1;
   int recheck_flights = 0;  ///< re-flights flown (or replayed) to pick `recommended`
-  int flights = 0;
+  int flights = 0;          ///< every flight of the trial (tuning and racing)
   int short_evals = 0;      ///< θ_s candidates scored (PSO); each re-solves queries_per_eval queries
   int failed = 0;           ///< failed evaluations
   int replayed = 0;         ///< evaluations taken from the store on resume
+  int races = 0;             ///< races run (race.enabled)
+  int race_flights = 0;      ///< flights flown (or replayed) in races; included in `flights`
+  int incumbent_changes = 0; ///< races the challenger won
   /// bo_pso: n_d, BayesOpt::NotifyContextChanged() calls: one per change of the θ_s that flies
   /// (a round whose θ_s differs from the previous round's).
   int context_changes = 0;

@@ -71,6 +71,13 @@ constexpr auto EnumNames(BatchStrategy) {
                     EnumName{BatchStrategy::kConstantLiar, "constant_liar"}};
 }
 
+/// What the surrogate models of the values told.
+enum class OutputTransform { kNone, kLog };
+constexpr auto EnumNames(OutputTransform) {
+  return std::array{EnumName{OutputTransform::kNone, "none"},
+                    EnumName{OutputTransform::kLog, "log"}};
+}
+
 /// Moving damped bounds (paper Sec. III-E).
 struct MovingBoundsOptions {
   bool enabled = false;     ///< off: the bounds stay where SetBounds put them (default: the space)
@@ -89,6 +96,10 @@ struct BayesOptOptions {
   int initial_design_size = 10;                   ///< >= 0 points before the model is used
   InitialDesign initial_design = InitialDesign::kLatinHypercube;  ///< latin_hypercube | uniform
   BatchStrategy batch_strategy = BatchStrategy::kKrigingBeliever; ///< kriging_believer | constant_liar
+  /// kLog: the GP models log f (every value told must be > 0; noise variances are taken in log
+  /// units), so one failure scored 1000 beside flights of 30 s weighs as a factor of 33, not as
+  /// 970 s; Best and Ranked report exp of the posterior mean (a median estimate).
+  OutputTransform transform = OutputTransform::kNone;
   double exploration = 0.0;          ///< ξ >= 0 in EI, standardised output units
   int acquisition_pool = 600;        ///< >= 10 pool points scored per batch member
   double local_pool_fraction = 0.3;  ///< [0, 1) share of the pool scattered around the incumbent
@@ -138,6 +149,10 @@ class BayesOpt final : public Optimizer {
   /// The short-term best θ_s changed (paper Sec. III-C): every observation told so far gets
   /// n_d += 1, so its noise variance is divided by λ_d once more.
   void NotifyContextChanged();
+  /// Adds an observation at `x` (original coordinates, inside the space) that no Ask issued,
+  /// e.g. a repeat of a point flown again elsewhere; checked as Tell checks. Returns its id.
+  CandidateId Observe(const Eigen::VectorXd& x, double value,
+                      std::optional<double> noise_variance = std::nullopt);
   /// Ages every observation told so far by `amount` (>= 0, the engine's unit: seconds or
   /// evaluations); noise grows by the factor (1 + noise_growth · age).
   void AdvanceAge(double amount = 1.0);
@@ -194,6 +209,8 @@ class BayesOpt final : public Optimizer {
   int IncumbentIndex(const Gp& gp, double* mean_std) const;
   [[nodiscard]] double NoiseMultiplier(const Observation& o) const;
   Candidate Issue(const Eigen::VectorXd& u);
+  /// A model value back in objective units (exp under transform log).
+  [[nodiscard]] double FromModel(double y) const;
   [[nodiscard]] bool IsDuplicate(const Eigen::VectorXd& u, const std::vector<Eigen::VectorXd>& batch) const;
 
   ParameterSpace space_;

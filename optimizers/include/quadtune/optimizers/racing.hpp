@@ -1,0 +1,98 @@
+#pragma once
+/// \file
+/// Racing a challenger against an incumbent on shared instances (common random numbers), in
+/// the spirit of SMAC's intensification and irace's racing: a challenger flies the maps the
+/// incumbent flew, first a few, and earns more maps only while it stays ahead; it replaces the
+/// incumbent only when paired evidence says it is better.
+///
+/// One race, on n shared instances with values i_j (incumbent) and c_j (challenger), differences
+/// d_j = c_j − i_j, and failure flags (a collision or an unfinished flight), looked at after
+/// first_maps, 2·first_maps, … instances up to max_maps:
+///   - reject when mean(d) >= 0 (the challenger is not better on average so far);
+///   - reject when the challenger fails on more instances where the incumbent did not than the
+///     other way round (it must not be worse in finish and collision rate);
+///   - before max_maps, otherwise continue on twice as many instances (at most max_maps);
+///   - at max_maps, accept when Wilcoxon's signed-rank test rejects "no difference" in favour of
+///     "the challenger is lower" at level `alpha` (one-sided; rank-based, so one unfinished flight
+///     scored 1000 does not swamp the test as it swamps a t-test), else reject.
+/// Early looks only turn challengers away; a winner has flown every one of max_maps instances,
+/// so a point that fails a share q of flights where the incumbent does not wins with
+/// probability at most (1 − q)^max_maps, and one no better wins at most a share `alpha`.
+/// The same rule applies to every challenger, and to the first incumbent (the defaults).
+///
+/// Thread safety: free functions over values; RaceOptions is a plain value.
+
+#include <array>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "quadtune/common/enum_names.hpp"
+#include "quadtune/common/fields.hpp"
+
+namespace quadtune::optimizers {
+
+/// YAML `race:` of an experiment.
+struct RaceOptions {
+  bool enabled = false;  ///< off: no racing (the trial hands back by `recommend:`)
+  int first_maps = 4;    ///< instances of a race's first stage, >= 2
+  int max_maps = 12;     ///< instances a winner must fly, >= first_maps
+  double alpha = 0.05;   ///< one-sided level of the signed-rank test, in (0, 0.5]
+  /// A race starts after a round of the method when its first stage keeps the flights spent
+  /// racing within this share of the flights flown so far (tuning and racing), in (0, 1).
+  double share = 0.5;
+  /// Race flights are told to the method's surrogate (bo, bo_pso: observations of the points
+  /// flown, so repeats show the GP what one lucky flight hides).
+  bool tell = true;
+
+  friend bool operator==(const RaceOptions&, const RaceOptions&) = default;
+};
+
+/// The `race:` field list (documentation, reading and range checks).
+const Fields<RaceOptions>& RaceFields();
+
+/// One instance's outcome for one side of a race.
+struct RaceSample {
+  double value = 0.0;   ///< the objective (lower is better)
+  bool failed = false;  ///< a failure that counts against the finish/collision rate
+};
+
+enum class RaceVerdict { kContinue, kAccept, kReject };
+constexpr auto EnumNames(RaceVerdict) {
+  return std::array{EnumName{RaceVerdict::kContinue, "continue"},
+                    EnumName{RaceVerdict::kAccept, "accept"},
+                    EnumName{RaceVerdict::kReject, "reject"}};
+}
+
+/// What one look at a race's evidence decides.
+struct RaceDecision {
+  RaceVerdict verdict = RaceVerdict::kContinue;
+  int maps = 0;                 ///< instances judged; with kContinue, the instances to fly next
+  double mean_difference = 0.0; ///< mean(c_j − i_j) over the instances judged
+  double p_value = 1.0;         ///< one-sided signed-rank p-value (challenger lower)
+  int challenger_only_failures = 0;  ///< instances failed by the challenger alone
+  int incumbent_only_failures = 0;   ///< instances failed by the incumbent alone
+  std::string reason;           ///< a phrase for logs
+};
+
+/// One-sided p-value of Wilcoxon's signed-rank test of H0 "the differences are symmetric about
+/// 0" against H1 "they tend to be negative". Zero differences are dropped; tied magnitudes get
+/// their average rank. Exact (sign-flip enumeration by dynamic programming) up to 60 non-zero
+/// differences, the normal approximation with tie and continuity corrections beyond. 1 when no
+/// difference is non-zero.
+double SignedRankPValueLower(const std::vector<double>& differences);
+
+/// Judges a race on the first `maps` instances that both sides have (see the file comment).
+/// Needs incumbent.size() >= maps and challenger.size() >= maps, maps >= 1.
+RaceDecision JudgeRace(const std::vector<RaceSample>& incumbent,
+                       const std::vector<RaceSample>& challenger, int maps,
+                       const RaceOptions& options);
+
+/// Runs one race to its verdict. `extend(n)` must make both *incumbent and *challenger hold at
+/// least n samples (flying what is missing) and return true, or return false when it cannot
+/// (budget spent, cancelled): the race then ends with kReject ("stopped") on what was judged.
+RaceDecision RunRace(const RaceOptions& options, const std::vector<RaceSample>* incumbent,
+                     const std::vector<RaceSample>* challenger,
+                     const std::function<bool(int)>& extend);
+
+}  // namespace quadtune::optimizers

@@ -1,0 +1,158 @@
+#include "quadtune/optimizers/racing.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace quadtune::optimizers {
+namespace {
+
+constexpr std::size_t kExactLimit = 60;
+
+/// Ranks of |d| (1-based, ties averaged), doubled so that every rank is an integer.
+std::vector<long> DoubledRanks(const std::vector<double>& magnitudes) {
+  const std::size_t n = magnitudes.size();
+  std::vector<std::size_t> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return magnitudes[a] < magnitudes[b]; });
+  std::vector<long> doubled(n);
+  for (std::size_t i = 0; i < n;) {
+    std::size_t j = i;
+    while (j + 1 < n && magnitudes[order[j + 1]] == magnitudes[order[i]]) ++j;
+    const auto sum_of_ranks = static_cast<long>((i + 1) + (j + 1));  // 2 × average rank
+    for (std::size_t k = i; k <= j; ++k) doubled[order[k]] = sum_of_ranks;
+    i = j + 1;
+  }
+  return doubled;
+}
+
+/// P(W⁺ <= observed) under random signs, W⁺ in doubled-rank units, by counting sign patterns.
+double ExactLowerTail(const std::vector<long>& ranks, long observed) {
+  const long total = std::accumulate(ranks.begin(), ranks.end(), 0L);
+  std::vector<double> ways(static_cast<std::size_t>(total) + 1, 0.0);
+  ways[0] = 1.0;
+  long reach = 0;
+  for (long r : ranks) {
+    for (long s = reach; s >= 0; --s) ways[static_cast<std::size_t>(s + r)] += ways[static_cast<std::size_t>(s)];
+    reach += r;
+  }
+  double below = 0.0;
+  for (long s = 0; s <= std::min(observed, total); ++s) below += ways[static_cast<std::size_t>(s)];
+  return below / std::pow(2.0, static_cast<double>(ranks.size()));
+}
+
+/// The normal approximation of P(W⁺ <= observed) with the tie and continuity corrections.
+double NormalLowerTail(const std::vector<long>& doubled, long observed) {
+  double mean = 0.0;
+  double var = 0.0;
+  for (long r2 : doubled) {
+    const double r = 0.5 * static_cast<double>(r2);
+    mean += 0.5 * r;
+    var += 0.25 * r * r;
+  }
+  const double w = 0.5 * static_cast<double>(observed);
+  const double z = (w + 0.5 - mean) / std::sqrt(var);
+  return 0.5 * std::erfc(-z / std::sqrt(2.0));
+}
+
+}  // namespace
+
+const Fields<RaceOptions>& RaceFields() {
+  using R = RaceOptions;
+  static const Fields<R> fields =
+      Fields<R>()
+          .Flag("enabled", &R::enabled,
+                "race challengers against an incumbent (at first the defaults) on shared race "
+                "maps during tuning; the trial hands back its incumbent (`recommend.candidates` "
+                "must then be 0)")
+          .Integer("first_maps", &R::first_maps, Range::Closed(2, 1000),
+                   "race maps a challenger flies first; each stage it stays ahead doubles them "
+                   "(at most `max_maps`)")
+          .Integer("max_maps", &R::max_maps, Range::Closed(2, 1000),
+                   "race maps a challenger must fly to replace the incumbent (>= `first_maps`): "
+                   "the signed-rank test is applied there; no significant win keeps the "
+                   "incumbent")
+          .Number("alpha", &R::alpha, Range{0.0, 0.5, true, false},
+                  "one-sided level of Wilcoxon's signed-rank test on the paired differences of "
+                  "f_l that a challenger must pass to replace the incumbent")
+          .Number("share", &R::share, Range::OpenUnit(),
+                  "a race starts after a round when its first stage keeps racing flights within "
+                  "this share of the flights flown so far; every racing flight counts against "
+                  "`budget.flights`")
+          .Flag("tell", &R::tell,
+                "race flights are told to the method's surrogate (`bo`, `bo_pso`: observations "
+                "of the points flown), so repeats correct what one lucky flight suggested");
+  return fields;
+}
+
+double SignedRankPValueLower(const std::vector<double>& differences) {
+  std::vector<double> magnitudes;
+  std::vector<bool> positive;
+  for (double d : differences) {
+    if (d == 0.0 || !std::isfinite(d)) continue;
+    magnitudes.push_back(std::abs(d));
+    positive.push_back(d > 0.0);
+  }
+  if (magnitudes.empty()) return 1.0;
+  const std::vector<long> doubled = DoubledRanks(magnitudes);
+  long observed = 0;  // W⁺ in doubled units: small when the differences are negative
+  for (std::size_t i = 0; i < doubled.size(); ++i) {
+    if (positive[i]) observed += doubled[i];
+  }
+  if (doubled.size() <= kExactLimit) return ExactLowerTail(doubled, observed);
+  return NormalLowerTail(doubled, observed);
+}
+
+RaceDecision JudgeRace(const std::vector<RaceSample>& incumbent,
+                       const std::vector<RaceSample>& challenger, int maps,
+                       const RaceOptions& options) {
+  QT_DEMAND(maps >= 1 && static_cast<int>(incumbent.size()) >= maps &&
+                static_cast<int>(challenger.size()) >= maps,
+            "JudgeRace needs both sides on the judged maps");
+  RaceDecision d;
+  d.maps = maps;
+  std::vector<double> diff;
+  for (int j = 0; j < maps; ++j) {
+    const auto& i = incumbent[static_cast<std::size_t>(j)];
+    const auto& c = challenger[static_cast<std::size_t>(j)];
+    diff.push_back(c.value - i.value);
+    d.mean_difference += diff.back() / maps;
+    d.challenger_only_failures += c.failed && !i.failed ? 1 : 0;
+    d.incumbent_only_failures += i.failed && !c.failed ? 1 : 0;
+  }
+  d.p_value = SignedRankPValueLower(diff);
+  if (!(d.mean_difference < 0.0)) {
+    d.verdict = RaceVerdict::kReject;
+    d.reason = "not better on average";
+  } else if (d.challenger_only_failures > d.incumbent_only_failures) {
+    d.verdict = RaceVerdict::kReject;
+    d.reason = "fails more maps";
+  } else if (maps >= options.max_maps) {
+    d.verdict = d.p_value <= options.alpha ? RaceVerdict::kAccept : RaceVerdict::kReject;
+    d.reason = d.p_value <= options.alpha ? "better" : "not significantly better";
+  } else {
+    d.maps = std::min(2 * maps, options.max_maps);
+    d.reason = "ahead, not yet significant";
+  }
+  return d;
+}
+
+RaceDecision RunRace(const RaceOptions& options, const std::vector<RaceSample>* incumbent,
+                     const std::vector<RaceSample>* challenger,
+                     const std::function<bool(int)>& extend) {
+  int maps = std::min(options.first_maps, options.max_maps);
+  RaceDecision last;
+  while (true) {
+    if (!extend(maps)) {
+      last.verdict = RaceVerdict::kReject;
+      last.reason = "stopped (budget or cancel)";
+      return last;
+    }
+    last = JudgeRace(*incumbent, *challenger, maps, options);
+    if (last.verdict != RaceVerdict::kContinue) return last;
+    maps = last.maps;
+  }
+}
+
+}  // namespace quadtune::optimizers

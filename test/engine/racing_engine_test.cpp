@@ -1,0 +1,225 @@
+// Racing inside the tuner (experiment `race:`): every flight counts against the budget,
+// incumbent and challenger fly the same race maps, the trial hands back its incumbent, and a
+// run cut inside a race resumes to the same store.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "../config_error_util.hpp"
+#include "quadtune/engine/result_store.hpp"
+#include "quadtune/engine/tuner.hpp"
+#include "test_util.hpp"
+
+namespace quadtune::engine {
+namespace {
+
+constexpr int kFlights = 30;
+
+Experiment RacingToy(const std::string& methods = "[default, random, pso, bo, bo_pso]",
+                     const std::string& race = "{enabled: true, first_maps: 2, max_maps: 8}") {
+  return Experiment::FromString(
+      test::ToyYaml(methods, "", kFlights, 0) + "race: " + race + "\n", "toy.yaml");
+}
+
+struct Rows {
+  std::vector<EvaluationRow> tuning, race, incumbent;
+};
+
+std::map<std::int64_t, Rows> RowsByTrial(const std::string& store_path) {
+  std::map<std::int64_t, Rows> out;
+  ResultStore store(store_path);
+  for (const auto& r : store.Evaluations()) {
+    auto& t = out[r.trial_id];
+    if (r.kind == "long") t.tuning.push_back(r);
+    if (r.kind == "race") t.race.push_back(r);
+    if (r.kind == "incumbent") t.incumbent.push_back(r);
+  }
+  return out;
+}
+
+double TermOf(const EvaluationRow& r, const char* name) {
+  return nlohmann::json::parse(r.terms).at(name).get<double>();
+}
+
+RunSummary RunRacing(const std::string& name, const Experiment& e, RunOptions* o) {
+  o->store_path = test::TempDir(name) + "/r.sqlite";
+  return RunExperiment(e, *o);
+}
+
+TEST(Racing, EveryFlightCountsAgainstTheBudget) {
+  RunOptions o;
+  const RunSummary s = RunRacing("race_budget", RacingToy(), &o);
+  ASSERT_EQ(s.status, RunStatus::kCompleted);
+  const auto rows = RowsByTrial(o.store_path);
+  int races = 0;
+  for (const auto& t : s.trials) {
+    const Rows& r = rows.at(t.trial_id);
+    if (t.method == "default") {
+      EXPECT_TRUE(r.race.empty());
+      EXPECT_EQ(t.races, 0);
+      continue;
+    }
+    EXPECT_EQ(static_cast<int>(r.tuning.size() + r.race.size()), kFlights) << t.method;
+    EXPECT_EQ(t.flights, kFlights) << t.method;
+    EXPECT_EQ(t.race_flights, static_cast<int>(r.race.size())) << t.method;
+    EXPECT_EQ(t.races, static_cast<int>(r.incumbent.size())) << t.method;
+    // flight_no numbers every flight of the trial once, 1 … budget.
+    std::set<int> numbers;
+    for (const auto* kind : {&r.tuning, &r.race}) {
+      for (const auto& row : *kind) numbers.insert(static_cast<int>(TermOf(row, "flight_no")));
+    }
+    EXPECT_EQ(static_cast<int>(numbers.size()), kFlights) << t.method;
+    EXPECT_EQ(*numbers.begin(), 1);
+    EXPECT_EQ(*numbers.rbegin(), kFlights);
+    races += t.races;
+  }
+  EXPECT_GT(races, 4) << "the toy runs should race";
+}
+
+TEST(Racing, IncumbentAndChallengerFlyTheSameRaceMaps) {
+  RunOptions o;
+  const Experiment e = RacingToy();
+  const RunSummary s = RunRacing("race_maps", e, &o);
+  ASSERT_EQ(s.status, RunStatus::kCompleted);
+  const auto rows = RowsByTrial(o.store_path);
+  std::set<std::uint64_t> other_maps;
+  for (const auto& [id, r] : rows) {
+    for (const auto& row : r.tuning) other_maps.insert(row.map_seed);
+  }
+  for (const auto& t : s.trials) {
+    if (t.method == "default") continue;
+    const Rows& r = rows.at(t.trial_id);
+    // Which race maps each parameter set has flown so far (params JSON → maps).
+    std::map<std::string, std::set<int>> flown;
+    std::string incumbent = nlohmann::json(e.Defaults()).dump();
+    for (const auto& outcome : r.incumbent) {
+      std::set<int> challenger_maps;
+      std::string challenger;
+      for (const auto& row : r.race) {
+        if (row.iteration != outcome.iteration) continue;
+        const int j = static_cast<int>(TermOf(row, "race_map"));
+        EXPECT_EQ(row.map_seed, e.RaceMapSeed(0, j));
+        EXPECT_EQ(row.flight_seed, e.RaceFlightSeed(0, j));
+        EXPECT_FALSE(other_maps.count(row.map_seed)) << "a race map is a tuning map";
+        flown[row.params].insert(j);
+        if (TermOf(row, "challenger") == 1.0) {
+          challenger_maps.insert(j);
+          challenger = row.params;
+        } else {
+          EXPECT_EQ(row.params, incumbent) << t.method << " race " << outcome.iteration;
+        }
+      }
+      ASSERT_FALSE(challenger_maps.empty()) << t.method;
+      // The challenger flew maps 0 … n−1, and the incumbent has flown every one of them.
+      EXPECT_EQ(*challenger_maps.rbegin(), static_cast<int>(challenger_maps.size()) - 1);
+      for (int j : challenger_maps) EXPECT_TRUE(flown[incumbent].count(j)) << t.method;
+      if (TermOf(outcome, "accepted") == 1.0) incumbent = challenger;
+      EXPECT_EQ(outcome.params, incumbent);
+    }
+    // The trial hands back its last incumbent.
+    EXPECT_EQ(nlohmann::json(t.recommended).dump(), incumbent) << t.method;
+    EXPECT_EQ(t.recommended_rank, t.incumbent_changes > 0 ? 0 : -1);
+  }
+}
+
+TEST(Racing, ToyTrialsHandBackAWinnerBetterThanTheDefaultsOnHeldOutMaps) {
+  RunOptions o;
+  const Experiment e = Experiment::FromString(
+      test::ToyYaml("[default, bo, bo_pso]", "", 60, 12) +
+          "race: {enabled: true, first_maps: 4, max_maps: 8}\n",
+      "toy.yaml");
+  const RunSummary s = RunRacing("race_heldout", e, &o);
+  ASSERT_EQ(s.status, RunStatus::kCompleted);
+  ASSERT_EQ(s.validation.size(), s.trials.size() + 1);
+  const double defaults = s.validation[0].mean_value;
+  int changed = 0;
+  for (std::size_t i = 1; i < s.validation.size(); ++i) {
+    // A challenger replaces the defaults only on paired evidence, so no recommended point may be
+    // worse than the defaults on maps no trial flew.
+    EXPECT_LE(s.validation[i].mean_value, defaults * 1.02) << s.validation[i].method;
+  }
+  for (const auto& t : s.trials) changed += t.incumbent_changes > 0 ? 1 : 0;
+  EXPECT_GE(changed, 1);
+}
+
+class RacingCancelResume : public ::testing::TestWithParam<int> {};
+
+/// Cut after N progress reports (rounds and race stages), resumed, equals an uncut run.
+TEST_P(RacingCancelResume, ResumedRunEqualsUninterruptedRun) {
+  const int cut_after = GetParam();
+  const Experiment e = RacingToy("[bo_pso, random]");
+  const std::string dir = test::TempDir("race_resume" + std::to_string(cut_after));
+  RunOptions full;
+  full.store_path = dir + "/full.sqlite";
+  (void)RunExperiment(e, full);
+
+  std::atomic<bool> cancel{false};
+  RunOptions part;
+  part.store_path = dir + "/part.sqlite";
+  part.cancel = &cancel;
+  int reports = 0;
+  part.on_progress = [&](const Progress&) {
+    if (++reports == cut_after) cancel.store(true);
+  };
+  ASSERT_EQ(RunExperiment(e, part).status, RunStatus::kCancelled);
+  const auto partial = test::Deterministic(part.store_path);
+  RunOptions resume;
+  resume.store_path = part.store_path;
+  resume.resume = true;
+  ASSERT_EQ(RunExperiment(e, resume).status, RunStatus::kCompleted);
+  EXPECT_EQ(test::Deterministic(part.store_path), test::Deterministic(full.store_path));
+  EXPECT_LT(partial.size(), test::Deterministic(full.store_path).size());
+}
+
+/// Whether some race of the store has flights but no outcome (the cut fell inside it).
+bool CutInsideARace(const std::string& store_path) {
+  for (const auto& [id, r] : RowsByTrial(store_path)) {
+    std::set<int> started, ended;
+    for (const auto& row : r.race) started.insert(row.iteration);
+    for (const auto& row : r.incumbent) ended.insert(row.iteration);
+    if (started.size() > ended.size()) return true;
+  }
+  return false;
+}
+
+TEST(Racing, SomeCutFallsInsideARace) {
+  // The cut points of RacingCancelResume include one inside a race (a stage done, the next not).
+  const Experiment e = RacingToy("[bo_pso, random]");
+  bool inside = false;
+  for (int cut : {4, 6, 9}) {
+    std::atomic<bool> cancel{false};
+    RunOptions part;
+    part.store_path = test::TempDir("race_cut" + std::to_string(cut)) + "/part.sqlite";
+    part.cancel = &cancel;
+    int reports = 0;
+    part.on_progress = [&](const Progress&) {
+      if (++reports == cut) cancel.store(true);
+    };
+    (void)RunExperiment(e, part);
+    inside = inside || CutInsideARace(part.store_path);
+  }
+  EXPECT_TRUE(inside);
+}
+
+INSTANTIATE_TEST_SUITE_P(Tuner, RacingCancelResume, ::testing::Values(4, 6, 9));
+
+TEST(Racing, ExperimentFileRulesAreChecked) {
+  EXPECT_TRUE(quadtune::test::ThrowsConfigError(
+      [] { (void)RacingToy("[bo]", "{enabled: true, first_maps: 8, max_maps: 4}"); },
+      "race.max_maps", {"first_maps", "8"}));
+  EXPECT_TRUE(quadtune::test::ThrowsConfigError(
+      [] {
+        (void)Experiment::FromString(test::ToyYaml("[bo]", "", 6, 0) +
+                                         "recommend: {candidates: 3}\nrace: {enabled: true}\n",
+                                     "toy.yaml");
+      },
+      "race.enabled", {"recommend.candidates"}));
+  EXPECT_TRUE(quadtune::test::ThrowsConfigError([] { (void)RacingToy("[bo]", "{alpha: 0.7}"); },
+                                      "race.alpha", {"0.7"}));
+}
+
+}  // namespace
+}  // namespace quadtune::engine
