@@ -411,20 +411,68 @@ void AveragePerPoint(const Experiment& e, int k_maps, std::size_t q,
     }
     for (std::size_t j = 0; j < q; ++j) {
       pt.f_s += solved[s * q + j].value / static_cast<double>(q);
+      for (const auto& [name, v] : solved[s * q + j].terms) {
+        pt.short_terms[name] += v / static_cast<double>(q);
+      }
       pt.failed_resolves += solve_failed[s * q + j];
     }
   }
 }
 
+/// Each candidate short-term score (f_s and its terms) against f_l: over every point, and as
+/// changes between each base row A and its AB_i for the short-term parameters i.
+std::vector<ShortTermAgreement> ShortTermAgreements(const SweepResult& r,
+                                                    const std::vector<bool>& is_short) {
+  std::vector<std::string> names{"f_s"};
+  if (!r.points.empty()) {
+    for (const auto& [name, v] : r.points.front().short_terms) names.push_back(name);
+  }
+  const auto score = [](const SweepPoint& pt, const std::string& name) {
+    if (name == "f_s") return pt.f_s;
+    const auto it = pt.short_terms.find(name);
+    return it == pt.short_terms.end() ? 0.0 : it->second;
+  };
+  std::map<std::pair<int, int>, const SweepPoint*> by_block_row;
+  for (const auto& pt : r.points) by_block_row[{pt.block, pt.row}] = &pt;
+  std::vector<ShortTermAgreement> out;
+  for (const auto& name : names) {
+    ShortTermAgreement a;
+    a.name = name;
+    std::vector<double> s_all, l_all, ds, dl;
+    for (const auto& pt : r.points) {
+      s_all.push_back(score(pt, name));
+      l_all.push_back(pt.f_l);
+    }
+    a.spearman = SpearmanCorrelation(s_all, l_all);
+    for (const auto& pt : r.points) {
+      const int i = pt.block - 2;  // AB_i: A with parameter i from B
+      if (i < 0 || i >= static_cast<int>(is_short.size()) || !is_short[static_cast<std::size_t>(i)]) {
+        continue;
+      }
+      const auto base = by_block_row.find({0, pt.row});
+      if (base == by_block_row.end()) continue;
+      ds.push_back(score(pt, name) - score(*base->second, name));
+      dl.push_back(pt.f_l - base->second->f_l);
+    }
+    a.pairs = static_cast<int>(ds.size());
+    a.spearman_short_changes =
+        ds.size() >= 3 ? SpearmanCorrelation(ds, dl) : std::numeric_limits<double>::quiet_NaN();
+    out.push_back(a);
+  }
+  return out;
+}
+
 /// Step 5: Sobol' indices of every output (n base rows, d parameters) and the rank correlation
 /// of f_s and f_l.
-void EstimateIndices(const SweepOptions& o, int n, int d, SweepResult& result) {
+void EstimateIndices(const SweepOptions& o, int n, int d, const std::vector<bool>& is_short,
+                     SweepResult& result) {
   std::vector<double> f_l_all, f_s_all;
   for (const auto& pt : result.points) {
     f_l_all.push_back(pt.f_l);
     f_s_all.push_back(pt.f_s);
   }
   result.spearman_fs_fl = SpearmanCorrelation(f_s_all, f_l_all);
+  result.agreement = ShortTermAgreements(result, is_short);
   for (std::size_t out_i = 0; out_i < SweepOutputNames().size(); ++out_i) {
     const std::string& name = SweepOutputNames()[out_i];
     const auto value = [&](int p) {
@@ -503,7 +551,12 @@ SweepResult RunSweep(const Experiment& e, const SweepOptions& o) {
     result.status = RunStatus::kCancelled;
     return result;
   }
-  EstimateIndices(o, n, d, result);
+  std::vector<bool> is_short;
+  for (const auto& name : result.names) {
+    is_short.push_back(std::find(e.short_names.begin(), e.short_names.end(), name) !=
+                       e.short_names.end());
+  }
+  EstimateIndices(o, n, d, is_short, result);
   return result;
 }
 

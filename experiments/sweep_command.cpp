@@ -139,6 +139,19 @@ void WritePointsCsv(const std::vector<Group>& groups, const fs::path& path) {
   }
 }
 
+/// Which short-term score shares f_l's tendency: every f_s term against f_l.
+void WriteAgreement(std::ostream& md, const engine::SweepResult& r) {
+  md << "Candidate short-term scores against f_l: Spearman over every point, and over the "
+        "changes between each base row A and its A_B^(i) for the short-term parameters i (one "
+        "θ_s parameter changed, θ_l fixed: what PSO's tendency does to f_l).\n\n"
+     << "| score | Spearman with f_l | Spearman of the changes | pairs |\n|---|---|---|---|\n";
+  for (const auto& a : r.agreement) {
+    md << fmt::format("| {} | {} | {} | {} |\n", a.name, Num(a.spearman),
+                      Num(a.spearman_short_changes), a.pairs);
+  }
+  md << '\n';
+}
+
 void WriteIndices(const std::vector<Group>& groups, const SweepArgs& a, const fs::path& csv_path,
                   const fs::path& md_path) {
   std::ofstream csv(csv_path);
@@ -167,6 +180,7 @@ void WriteIndices(const std::vector<Group>& groups, const SweepArgs& a, const fs
                             [](const auto& f) { return f.status != engine::EvalStatus::kOk; }),
               r.queries_used, r.queries_recorded, r.distinct_short, r.points.size(),
               fmt::format("{:.3f}", r.spearman_fs_fl));
+    WriteAgreement(md, r);
     md << "| output | mean | parameter | kind | S1 [95% CI] | ST [95% CI] |\n"
        << "|---|---|---|---|---|---|\n";
     for (const auto& o : r.outputs) {
@@ -221,6 +235,16 @@ void WriteSummary(const std::vector<Group>& groups, const SweepArgs& a, std::uin
     gj["spearman_fs_fl"] = std::isfinite(g.result.spearman_fs_fl)
                                ? nlohmann::json(g.result.spearman_fs_fl)
                                : nlohmann::json(nullptr);
+    for (const auto& ag : g.result.agreement) {
+      const auto num = [](double v) {
+        return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+      };
+      gj["short_term_agreement"].push_back({{"score", ag.name},
+                                            {"spearman", num(ag.spearman)},
+                                            {"spearman_short_changes",
+                                             num(ag.spearman_short_changes)},
+                                            {"pairs", ag.pairs}});
+    }
     j["layouts"].push_back(gj);
   }
   std::ofstream(path) << j.dump(1) << '\n';

@@ -73,6 +73,10 @@ const Fields<RaceOptions>& RaceFields() {
                    "race maps a challenger must fly to replace the incumbent (>= `first_maps`): "
                    "the signed-rank test is applied there; no significant win keeps the "
                    "incumbent")
+          .Integer("failures", &R::failures, Range::Closed(0, 1000),
+                   "most race maps a challenger may fail (collide or not finish) and still win, "
+                   "whatever the incumbent did; it must also fail no more maps than the "
+                   "incumbent on the shared maps")
           .Number("alpha", &R::alpha, Range{0.0, 0.5, true, false},
                   "one-sided level of Wilcoxon's signed-rank test on the paired differences of "
                   "f_l that a challenger must pass to replace the incumbent")
@@ -118,6 +122,7 @@ RaceDecision JudgeRace(const std::vector<RaceSample>& incumbent,
     const auto& c = challenger[static_cast<std::size_t>(j)];
     diff.push_back(c.value - i.value);
     d.mean_difference += diff.back() / maps;
+    d.challenger_failures += c.failed ? 1 : 0;
     d.challenger_only_failures += c.failed && !i.failed ? 1 : 0;
     d.incumbent_only_failures += i.failed && !c.failed ? 1 : 0;
   }
@@ -125,7 +130,8 @@ RaceDecision JudgeRace(const std::vector<RaceSample>& incumbent,
   if (!(d.mean_difference < 0.0)) {
     d.verdict = RaceVerdict::kReject;
     d.reason = "not better on average";
-  } else if (d.challenger_only_failures > d.incumbent_only_failures) {
+  } else if (d.challenger_only_failures > d.incumbent_only_failures ||
+             d.challenger_failures > options.failures) {
     d.verdict = RaceVerdict::kReject;
     d.reason = "fails more maps";
   } else if (maps >= options.max_maps) {

@@ -83,6 +83,19 @@ TEST(JudgeRace, AppliesEachRule) {
   d = JudgeRace(inc, Samples({20, 21, 19, 20, 22, 20, 18, 21}, {false, true, false, false}), 8, o);
   EXPECT_EQ(d.verdict, RaceVerdict::kReject);
   EXPECT_EQ(d.challenger_only_failures, 1);
+  // A challenger failing a map is turned away even when the incumbent failed another one:
+  // its own failures are bounded by `failures` (0).
+  auto inc_other = inc;
+  inc_other[5] = {1000.0, true};
+  d = JudgeRace(inc_other, Samples({20, 21, 19, 20, 22, 20, 18, 21}, {false, true}), 8, o);
+  EXPECT_EQ(d.challenger_only_failures, 1);
+  EXPECT_EQ(d.incumbent_only_failures, 1);
+  EXPECT_EQ(d.verdict, RaceVerdict::kReject);
+  o.failures = 1;
+  EXPECT_EQ(JudgeRace(inc_other, Samples({20, 21, 19, 20, 22, 20, 18, 21}, {false, true}), 8, o)
+                .verdict,
+            RaceVerdict::kAccept);
+  o.failures = 0;
   // The incumbent's own failure (value 1000) does not swamp the rank test.
   auto inc_fail = inc;
   inc_fail[2] = {1000.0, true};
@@ -153,7 +166,7 @@ TEST(RaceRates, AChallengerTenPercentBetterWinsMostRaces) {
   for (int s = 0; s < kRaces; ++s) {
     wins += RaceInTurn({{30.0}, {27.0}}, Standard(), 1000 + s, &flights) == 1 ? 1 : 0;
   }
-  // Measured: 307 of 400 races (0.77; σ of the rate ≈ 0.02), 22 flights a race.
+  // Measured: 302 of 400 races (0.76; σ of the rate ≈ 0.02), 22 flights a race.
   EXPECT_GE(wins, static_cast<int>(0.70 * kRaces));
   EXPECT_LE(flights, 2 * 12 * kRaces);
 }
@@ -185,16 +198,15 @@ TEST(RaceRates, TheBestOfSeveralArmsEndsAsIncumbent) {
     best += end == 3 ? 1 : 0;
     worse_than_defaults += arms[static_cast<std::size_t>(end)].mean > 30.0 ? 1 : 0;
   }
-  // Measured: 235 of 300 (0.78; σ ≈ 0.024), none worse than the defaults.
+  // Measured: 228 of 300 (0.76; σ ≈ 0.025), none worse than the defaults.
   EXPECT_GE(best, static_cast<int>(0.7 * kTrials));
   EXPECT_LE(worse_than_defaults, static_cast<int>(0.02 * kTrials));
 }
 
 TEST(RaceRates, AFasterButFailingChallengerIsMostlyTurnedAway) {
   // 15% faster, but failing one flight in five (the defaults one in fifty). A challenger can win
-  // only after 12 maps without more failures than the incumbent: probability about 0.8^12 ≈ 0.07
-  // (measured 20 of 200); one failing two flights in five wins 2 of 200 (0.6^12 ≈ 0.002 plus
-  // races where the incumbent failed too).
+  // only after 12 maps without a failure: probability 0.8^12 ≈ 0.07 (measured 13 of 200); one
+  // failing two flights in five, 0.6^12 ≈ 0.002 (measured 0 of 200).
   int wins = 0;
   int wins_worse = 0;
   int flights = 0;
@@ -204,7 +216,7 @@ TEST(RaceRates, AFasterButFailingChallengerIsMostlyTurnedAway) {
         RaceInTurn({{30.0, 0.02}, {25.5, 0.4}}, Standard(), 900 + s, &flights) == 1 ? 1 : 0;
   }
   EXPECT_LE(wins, 30);
-  EXPECT_LE(wins_worse, 6);
+  EXPECT_LE(wins_worse, 3);
 }
 
 TEST(RunRace, StopsWhenItCannotFly) {

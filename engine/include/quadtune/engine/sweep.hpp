@@ -133,7 +133,20 @@ struct SweepPoint {
   std::map<std::string, double> terms;  ///< mean of each f_l term over the K maps
   int failed_flights = 0;
   double f_s = 0.0;  ///< mean f_s over the Q queries
+  std::map<std::string, double> short_terms;  ///< mean of each f_s term over the Q queries
   int failed_resolves = 0;
+};
+
+/// How well one candidate short-term score tracks f_l (the paper asks that f_s and f_l "share
+/// consistent tendency").
+struct ShortTermAgreement {
+  std::string name;      ///< "f_s" or an f_s term: t_c, n_s, t_exe, jerk_integral, J_c, …
+  double spearman = 0.0; ///< rank correlation with mean f_l over every design point
+  /// Rank correlation of the changes Δscore and Δf_l between each base row A and its AB_i for
+  /// the short-term parameters i: the points differ in one θ_s parameter only, so this is what
+  /// PSO's tendency does to f_l with θ_l held fixed. NaN without a short-term parameter.
+  double spearman_short_changes = 0.0;
+  int pairs = 0;         ///< the (A, AB_i) pairs behind spearman_short_changes
 };
 
 /// Indices of one output over all parameters (space order).
@@ -151,6 +164,7 @@ struct SweepResult {
   std::vector<SweepPoint> points;        ///< N·(d + 2)
   std::vector<SweepOutput> outputs;      ///< f_l, its terms, f_s
   double spearman_fs_fl = 0.0;           ///< rank correlation of f_s and mean f_l over points
+  std::vector<ShortTermAgreement> agreement;  ///< f_s, then each f_s term
   int queries_recorded = 0;              ///< by the K flights at the defaults
   int queries_used = 0;                  ///< min(Q, recorded)
   int distinct_short = 0;                ///< distinct θ_s re-solved

@@ -10,7 +10,8 @@
 /// first_maps, 2·first_maps, … instances up to max_maps:
 ///   - reject when mean(d) >= 0 (the challenger is not better on average so far);
 ///   - reject when the challenger fails on more instances where the incumbent did not than the
-///     other way round (it must not be worse in finish and collision rate);
+///     other way round (it must not be worse in finish and collision rate), or on more than
+///     `failures` instances in all (an incumbent's bad luck does not excuse a challenger's);
 ///   - before max_maps, otherwise continue on twice as many instances (at most max_maps);
 ///   - at max_maps, accept when Wilcoxon's signed-rank test rejects "no difference" in favour of
 ///     "the challenger is lower" at level `alpha` (one-sided; rank-based, so one unfinished flight
@@ -38,6 +39,9 @@ struct RaceOptions {
   int first_maps = 4;    ///< instances of a race's first stage, >= 2
   int max_maps = 12;     ///< instances a winner must fly, >= first_maps
   double alpha = 0.05;   ///< one-sided level of the signed-rank test, in (0, 0.5]
+  /// Most failed instances a challenger may have in a race, >= 0 (whatever the incumbent's): a
+  /// winner's failure rate is then bounded on its own, not only against the incumbent's.
+  int failures = 0;
   /// A race starts after a round of the method when its first stage keeps the flights spent
   /// racing within this share of the flights flown so far (tuning and racing), in (0, 1).
   double share = 0.5;
@@ -70,6 +74,7 @@ struct RaceDecision {
   int maps = 0;                 ///< instances judged; with kContinue, the instances to fly next
   double mean_difference = 0.0; ///< mean(c_j − i_j) over the instances judged
   double p_value = 1.0;         ///< one-sided signed-rank p-value (challenger lower)
+  int challenger_failures = 0;       ///< instances failed by the challenger
   int challenger_only_failures = 0;  ///< instances failed by the challenger alone
   int incumbent_only_failures = 0;   ///< instances failed by the incumbent alone
   std::string reason;           ///< a phrase for logs
