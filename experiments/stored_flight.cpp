@@ -242,10 +242,10 @@ void WriteTidyCsv(const std::string& store, const std::string& directory) {
                                           "value", "wall_s",    "map_seed", "flight_seed"};
   std::filesystem::create_directories(directory);
   const std::map<std::string, std::string> files = {
-      {"long", "long_term.csv"}, {"short", "short_term.csv"}, {"validation", "validation.csv"},
-      {"recheck", "recheck.csv"}};
+      {"long", "long_term.csv"},   {"short", "short_term.csv"}, {"validation", "validation.csv"},
+      {"recheck", "recheck.csv"}, {"race", "race.csv"},         {"incumbent", "incumbent.csv"}};
   for (const auto& [kind, file] : files) {
-    if ((kind == "validation" || kind == "recheck") && !by_kind.count(kind)) continue;
+    if (kind != "long" && kind != "short" && !by_kind.count(kind)) continue;
     std::ofstream csv(std::filesystem::path(directory) / file);
     std::set<std::string> used(fixed.begin(), fixed.end());
     std::string header;

@@ -103,7 +103,7 @@ def summarise(flights, space):
         bounds = sorted({b for f in own for b in near_bounds(f["params"], space)})
         points = {f["repeat"] for f in own}
         default_params = next((f["params"] for f in flights if f["method"] == "default"), None)
-        # Trials whose candidates all failed their re-flights hand back the defaults.
+        # Trials whose candidates all failed (re-flights or races) hand back the defaults.
         fallback = len({f["repeat"] for f in own if f["params"] == default_params}) \
             if m != "default" else 0
         completed = sum(f["completed"] for f in own)
@@ -127,10 +127,12 @@ def fmt(v, digits=2):
 def markdown(rows, maps):
     """The validation table in Markdown."""
     lines = [
-        "Held-out validation: each trial's recommended point (the first of its best-ranked "
-        "candidates, by posterior mean for BO and BO+PSO and by f_l for PSO and Random, whose "
-        "re-flights on fresh maps pass the experiment's `recommend` check; the defaults when none "
-        "passes, counted under 'defaults handed back') and the defaults, each flown on the same {} held-out maps (no trial flew them) with the "
+        "Held-out validation: each trial's recommended point (with `race:` enabled, the "
+        "incumbent that won its races against the defaults; otherwise the first of its "
+        "best-ranked candidates, by posterior mean for BO and BO+PSO and by f_l for PSO and "
+        "Random, whose re-flights on fresh maps pass the experiment's `recommend` check; a trial "
+        "that hands back the defaults is counted under 'defaults handed back') and the defaults, "
+        "each flown on the same {} held-out maps (no trial flew them) with the "
         "same flight seeds. f_l = t_f + t_f·n_c + w_e·n_e; a flight that does not finish scores "
         "the failure value. CI: 95% Student-t interval of the mean over all flights. Δ: the "
         "per-map difference to the defaults on the same map (negative: better). p: two-sided "

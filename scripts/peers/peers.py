@@ -196,34 +196,28 @@ def figure(summary, path, title):
     plt.close(fig)
 
 
-def write(out_dir, planner, spacing, rows, summary):
-    os.makedirs(out_dir, exist_ok=True)
-    path = os.path.join(out_dir, "heldout.csv")
+def replace_rows(path, fields, planner, spacing, rows):
+    """Rewrites the CSV at `path`: its rows of other planners or spacings, then `rows`."""
     kept = []
     if os.path.exists(path):
         with open(path) as f:
             kept = [r for r in csv.DictReader(f)
                     if not (r["planner"] == planner and float(r["spacing"]) == spacing)]
     with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=COLUMNS)
+        w = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
         w.writeheader()
         for r in kept + rows:
-            w.writerow({k: r[k] for k in COLUMNS})
+            w.writerow(r)
+
+
+def write(out_dir, planner, spacing, rows, summary):
+    os.makedirs(out_dir, exist_ok=True)
+    replace_rows(os.path.join(out_dir, "heldout.csv"), COLUMNS, planner, spacing, rows)
     spath = os.path.join(out_dir, "summary.csv")
-    kept = []
     fields = ["planner", "spacing", "tuner", "repeats", "flights", "mean_f_l", "collision_free",
               "completed", "gain_share", "defaults_handed_back", "p_vs_bo_pso"]
-    if os.path.exists(spath):
-        with open(spath) as f:
-            kept = [r for r in csv.DictReader(f)
-                    if not (r["planner"] == planner and float(r["spacing"]) == spacing)]
-    with open(spath, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=fields)
-        w.writeheader()
-        for r in kept:
-            w.writerow(r)
-        for s in summary:
-            w.writerow(dict(s, planner=planner, spacing=spacing))
+    replace_rows(spath, fields, planner, spacing,
+                 [dict(s, planner=planner, spacing=spacing) for s in summary])
     with open(spath) as f:
         everything = list(csv.DictReader(f))
     with open(os.path.join(out_dir, "summary.md"), "w") as f:

@@ -3,7 +3,6 @@
 // run cut inside a race resumes to the same store.
 #include <gtest/gtest.h>
 
-#include <atomic>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -150,56 +149,40 @@ class RacingCancelResume : public ::testing::TestWithParam<int> {};
 /// Cut after N progress reports (rounds and race stages), resumed, equals an uncut run.
 TEST_P(RacingCancelResume, ResumedRunEqualsUninterruptedRun) {
   const int cut_after = GetParam();
-  const Experiment e = RacingToy("[bo_pso, random]");
-  const std::string dir = test::TempDir("race_resume" + std::to_string(cut_after));
-  RunOptions full;
-  full.store_path = dir + "/full.sqlite";
-  (void)RunExperiment(e, full);
-
-  std::atomic<bool> cancel{false};
-  RunOptions part;
-  part.store_path = dir + "/part.sqlite";
-  part.cancel = &cancel;
-  int reports = 0;
-  part.on_progress = [&](const Progress&) {
-    if (++reports == cut_after) cancel.store(true);
-  };
-  ASSERT_EQ(RunExperiment(e, part).status, RunStatus::kCancelled);
-  const auto partial = test::Deterministic(part.store_path);
-  RunOptions resume;
-  resume.store_path = part.store_path;
-  resume.resume = true;
-  ASSERT_EQ(RunExperiment(e, resume).status, RunStatus::kCompleted);
-  EXPECT_EQ(test::Deterministic(part.store_path), test::Deterministic(full.store_path));
-  EXPECT_LT(partial.size(), test::Deterministic(full.store_path).size());
+  const auto r = test::CutThenResume(RacingToy("[bo_pso, random]"),
+                                     test::TempDir("race_resume" + std::to_string(cut_after)),
+                                     cut_after);
+  ASSERT_EQ(r.cut.status, RunStatus::kCancelled);
+  ASSERT_EQ(r.resumed.status, RunStatus::kCompleted);
+  EXPECT_EQ(test::Deterministic(r.part), test::Deterministic(r.full));
+  EXPECT_LT(r.partial.size(), test::Deterministic(r.full).size());
 }
 
-/// Whether some race of the store has flights but no outcome (the cut fell inside it).
-bool CutInsideARace(const std::string& store_path) {
-  for (const auto& [id, r] : RowsByTrial(store_path)) {
-    std::set<int> started, ended;
-    for (const auto& row : r.race) started.insert(row.iteration);
-    for (const auto& row : r.incumbent) ended.insert(row.iteration);
-    if (started.size() > ended.size()) return true;
+/// Whether some race in `rows` (test::Deterministic strings: method|kind|iteration|…) has
+/// flights but no outcome: the cut fell inside it.
+bool CutInsideARace(const std::vector<std::string>& rows) {
+  std::set<std::string> started, ended;
+  for (const auto& row : rows) {
+    std::vector<std::string> f;
+    std::size_t at = 0;
+    for (int i = 0; i < 3; ++i) {
+      const std::size_t bar = row.find('|', at);
+      f.push_back(row.substr(at, bar - at));
+      at = bar + 1;
+    }
+    if (f[1] == "race") started.insert(f[0] + "/" + f[2]);
+    if (f[1] == "incumbent") ended.insert(f[0] + "/" + f[2]);
   }
-  return false;
+  return started.size() > ended.size();
 }
 
 TEST(Racing, SomeCutFallsInsideARace) {
   // The cut points of RacingCancelResume include one inside a race (a stage done, the next not).
-  const Experiment e = RacingToy("[bo_pso, random]");
   bool inside = false;
   for (int cut : {4, 6, 9}) {
-    std::atomic<bool> cancel{false};
-    RunOptions part;
-    part.store_path = test::TempDir("race_cut" + std::to_string(cut)) + "/part.sqlite";
-    part.cancel = &cancel;
-    int reports = 0;
-    part.on_progress = [&](const Progress&) {
-      if (++reports == cut) cancel.store(true);
-    };
-    (void)RunExperiment(e, part);
-    inside = inside || CutInsideARace(part.store_path);
+    const auto r = test::CutThenResume(RacingToy("[bo_pso, random]"),
+                                       test::TempDir("race_cut" + std::to_string(cut)), cut);
+    inside = inside || CutInsideARace(r.partial);
   }
   EXPECT_TRUE(inside);
 }

@@ -1,11 +1,13 @@
 #pragma once
 // Helpers shared by the engine tests.
+#include <atomic>
 #include <filesystem>
 #include <string>
 #include <vector>
 
 #include "quadtune/engine/experiment.hpp"
 #include "quadtune/engine/result_store.hpp"
+#include "quadtune/engine/tuner.hpp"
 
 namespace quadtune::engine::test {
 
@@ -62,6 +64,37 @@ inline std::vector<std::string> Deterministic(const std::string& store_path) {
                    std::to_string(r.value) + "|" + r.status + "|" + r.message);
   }
   return rows;
+}
+
+/// Runs `e` uncut into DIR/full.sqlite and cut after `cut_after` progress reports into
+/// DIR/part.sqlite, then resumes the cut one (`resumed`: the resume's summary).
+struct CutAndResumed {
+  std::string full, part;
+  RunSummary cut, resumed;
+  std::vector<std::string> partial;  ///< Deterministic(part) before the resume
+};
+inline CutAndResumed CutThenResume(const Experiment& e, const std::string& dir, int cut_after) {
+  CutAndResumed out;
+  out.full = dir + "/full.sqlite";
+  out.part = dir + "/part.sqlite";
+  RunOptions full;
+  full.store_path = out.full;
+  (void)RunExperiment(e, full);
+  std::atomic<bool> cancel{false};
+  RunOptions part;
+  part.store_path = out.part;
+  part.cancel = &cancel;
+  int reports = 0;
+  part.on_progress = [&](const Progress&) {
+    if (++reports == cut_after) cancel.store(true);
+  };
+  out.cut = RunExperiment(e, part);
+  out.partial = Deterministic(out.part);
+  RunOptions resume;
+  resume.store_path = out.part;
+  resume.resume = true;
+  out.resumed = RunExperiment(e, resume);
+  return out;
 }
 
 }  // namespace quadtune::engine::test

@@ -276,33 +276,15 @@ class CancelResume : public ::testing::TestWithParam<std::pair<const char*, int>
 TEST_P(CancelResume, ResumedRunEqualsUninterruptedRun) {
   const auto [methods, cut_after] = GetParam();
   const Experiment e = Experiment::FromString(test::ToyYaml(methods), "toy.yaml");
-  const std::string dir = test::TempDir("cancel_resume" + std::to_string(cut_after));
-  RunOptions full;
-  full.store_path = dir + "/full.sqlite";
-  (void)RunExperiment(e, full);
-
-  std::atomic<bool> cancel{false};
-  RunOptions part;
-  part.store_path = dir + "/part.sqlite";
-  part.cancel = &cancel;
-  int reports = 0;
-  part.on_progress = [&](const Progress&) {
-    if (++reports == cut_after) cancel.store(true);
-  };
-  const RunSummary cut = RunExperiment(e, part);
-  EXPECT_EQ(cut.status, RunStatus::kCancelled);
-  const auto partial = test::Deterministic(part.store_path);
-  EXPECT_LT(partial.size(), test::Deterministic(full.store_path).size());
-
-  RunOptions resume;
-  resume.store_path = part.store_path;
-  resume.resume = true;
-  const RunSummary rest = RunExperiment(e, resume);
-  EXPECT_EQ(rest.status, RunStatus::kCompleted);
+  const auto r = test::CutThenResume(e, test::TempDir("cancel_resume" + std::to_string(cut_after)),
+                                     cut_after);
+  EXPECT_EQ(r.cut.status, RunStatus::kCancelled);
+  EXPECT_LT(r.partial.size(), test::Deterministic(r.full).size());
+  EXPECT_EQ(r.resumed.status, RunStatus::kCompleted);
   int replayed = 0;
-  for (const auto& t : rest.trials) replayed += t.replayed;
-  EXPECT_EQ(replayed, static_cast<int>(partial.size()));
-  EXPECT_EQ(test::Deterministic(part.store_path), test::Deterministic(full.store_path));
+  for (const auto& t : r.resumed.trials) replayed += t.replayed;
+  EXPECT_EQ(replayed, static_cast<int>(r.partial.size()));
+  EXPECT_EQ(test::Deterministic(r.part), test::Deterministic(r.full));
 }
 
 INSTANTIATE_TEST_SUITE_P(
