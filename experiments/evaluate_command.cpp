@@ -129,11 +129,11 @@ void WriteRows(std::ostream& out, const EvaluateArgs& a, const engine::Experimen
   for (std::size_t i = 0; i < records.size(); ++i) {
     out << a.maps << ',' << (a.maps == "heldout" ? -1 : a.repeat) << ','
         << a.first + static_cast<int>(i) << ',' << jobs[i].map_seed << ','
-        << jobs[i].flight_seed << ',' << fmt::format("{:.10g}", values[i].value) << ','
+        << jobs[i].flight_seed << ',' << fmt::format("{}", values[i].value) << ','
         << ToString(records[i].status) << ',' << CsvField(records[i].message);
     for (const auto& n : term_names) {
       const auto it = values[i].terms.find(n);
-      out << ',' << (it == values[i].terms.end() ? std::string() : fmt::format("{:.10g}", it->second));
+      out << ',' << (it == values[i].terms.end() ? std::string() : fmt::format("{}", it->second));
     }
     out << '\n';
   }

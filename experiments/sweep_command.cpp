@@ -146,8 +146,9 @@ void WriteAgreement(std::ostream& md, const engine::SweepResult& r) {
         "θ_s parameter changed, θ_l fixed: what PSO's tendency does to f_l).\n\n"
      << "| score | Spearman with f_l | Spearman of the changes | pairs |\n|---|---|---|---|\n";
   for (const auto& a : r.agreement) {
-    md << fmt::format("| {} | {} | {} | {} |\n", a.name, Num(a.spearman),
-                      Num(a.spearman_short_changes), a.pairs);
+    const auto r3 = [](double v) { return std::isfinite(v) ? fmt::format("{:.3f}", v) : "–"; };
+    md << fmt::format("| {} | {} | {} | {} |\n", a.name, r3(a.spearman),
+                      r3(a.spearman_short_changes), a.pairs);
   }
   md << '\n';
 }

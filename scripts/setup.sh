@@ -20,6 +20,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   python3 python3-matplotlib python3-numpy python3-pandas python3-scipy python3-yaml
   npm chromium python3-pil clang libclang-rt-14-dev
+  python3-optuna r-cran-irace
 )
 
 missing=()

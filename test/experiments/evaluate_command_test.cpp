@@ -1,0 +1,167 @@
+// `quadtune evaluate` and the peer tuners built on it (scripts/peers/): a point flown on the
+// held-out maps gives the rows `quadtune run`'s validation stored for it, a tuning map is the
+// map the run's flight k flew, bad --param values are refused, and Optuna TPE and irace tune the
+// toy planner through it.
+#include <gtest/gtest.h>
+#include <sqlite3.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "../cli_util.hpp"
+
+namespace quadtune {
+namespace {
+
+namespace fs = std::filesystem;
+using test::ReadCsv;
+using test::ReadText;
+using test::RunQuadtune;
+using test::ToyExperimentFile;
+
+fs::path Fresh(const std::string& name) { return test::FreshTempDir("quadtune_evaluate_" + name); }
+
+/// Rows of `sql` on the store, each column as text.
+std::vector<std::vector<std::string>> Query(const fs::path& db, const std::string& sql) {
+  sqlite3* h = nullptr;
+  std::vector<std::vector<std::string>> out;
+  if (sqlite3_open_v2(db.c_str(), &h, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) return out;
+  sqlite3_stmt* s = nullptr;
+  sqlite3_prepare_v2(h, sql.c_str(), -1, &s, nullptr);
+  while (sqlite3_step(s) == SQLITE_ROW) {
+    std::vector<std::string> row;
+    for (int c = 0; c < sqlite3_column_count(s); ++c) {
+      const auto* t = sqlite3_column_text(s, c);
+      row.emplace_back(t ? reinterpret_cast<const char*>(t) : "");
+    }
+    out.push_back(row);
+  }
+  sqlite3_finalize(s);
+  sqlite3_close(h);
+  return out;
+}
+
+TEST(Evaluate, HeldOutRowsEqualTheRunsValidationOfTheDefaults) {
+  const fs::path dir = Fresh("heldout");
+  const std::string run = (dir / "run").string();
+  ASSERT_EQ(RunQuadtune("--log-level warn run --no-plot --quiet " + ToyExperimentFile() +
+                            " --out " + run + " --set 'methods=[default]' --set repeats=1",
+                        dir / "run.log"),
+            0)
+      << ReadText(dir / "run.log");
+  ASSERT_EQ(RunQuadtune("--log-level warn evaluate " + ToyExperimentFile() +
+                            " --maps heldout --count 3 --csv " + (dir / "e.csv").string(),
+                        dir / "e.log"),
+            0)
+      << ReadText(dir / "e.log");
+  const auto rows = ReadCsv(dir / "e.csv");
+  const auto stored = Query(fs::path(run) / "results.sqlite",
+                            "SELECT iteration, map_seed, flight_seed, value FROM evaluation WHERE "
+                            "kind = 'validation' AND trial_id = 0 ORDER BY iteration");
+  ASSERT_EQ(rows.size(), 3u);
+  ASSERT_EQ(stored.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(rows[i].at("index"), stored[i][0]);
+    EXPECT_EQ(rows[i].at("map_seed"), stored[i][1]);
+    EXPECT_EQ(rows[i].at("flight_seed"), stored[i][2]);
+    EXPECT_DOUBLE_EQ(std::stod(rows[i].at("value")), std::stod(stored[i][3]));
+  }
+}
+
+TEST(Evaluate, TuningMapKIsTheMapOfTheRunsFlightK) {
+  const fs::path dir = Fresh("tuning");
+  const std::string run = (dir / "run").string();
+  ASSERT_EQ(RunQuadtune("--log-level warn run --no-plot --quiet " + ToyExperimentFile() +
+                            " --out " + run + " --set 'methods=[random]' --set repeats=2",
+                        dir / "run.log"),
+            0)
+      << ReadText(dir / "run.log");
+  ASSERT_EQ(RunQuadtune("--log-level warn evaluate " + ToyExperimentFile() +
+                            " --maps tuning --repeat 1 --first 2 --count 4 --param speed=2.5 "
+                            "--csv " + (dir / "e.csv").string(),
+                        dir / "e.log"),
+            0)
+      << ReadText(dir / "e.log");
+  const auto rows = ReadCsv(dir / "e.csv");
+  // The run's flights of repeat 1 in the order flown (rounds, then index in the round).
+  const auto flown = Query(fs::path(run) / "results.sqlite",
+                           "SELECT e.map_seed FROM evaluation e JOIN trial t ON t.id = e.trial_id "
+                           "WHERE e.kind = 'long' AND t.repeat = 1 ORDER BY e.iteration, e.idx");
+  ASSERT_EQ(rows.size(), 4u);
+  ASSERT_GE(flown.size(), 6u);
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    EXPECT_EQ(rows[i].at("map_seed"), flown[2 + i][0]) << i;
+    EXPECT_EQ(rows[i].at("maps"), "tuning");
+    EXPECT_TRUE(std::isfinite(std::stod(rows[i].at("value"))));
+  }
+}
+
+TEST(Evaluate, RefusesParametersOutsideThePlannerOrTheBox) {
+  const fs::path dir = Fresh("refuse");
+  struct Case {
+    std::string args, words;
+  };
+  for (const Case& c : {Case{"--param speed=9", "[0.5, 6]"},
+                        Case{"--param max_iter=2.5", "an integer"},
+                        Case{"--param nope=1", "allowed: "},
+                        Case{"--param speed", "NAME=VALUE"},
+                        Case{"--param speed=fast", "not a finite number"},
+                        Case{"--maps race --repeat 7", "--repeat"}}) {
+    EXPECT_EQ(RunQuadtune("evaluate " + ToyExperimentFile() + " " + c.args, dir / "log"), 2)
+        << c.args;
+    const std::string log = ReadText(dir / "log");
+    EXPECT_NE(log.find(c.words), std::string::npos) << c.args << ": " << log;
+  }
+}
+
+/// Runs a peer script on the toy experiment with quadtune_test_cli; returns its JSON output.
+nlohmann::json RunPeer(const std::string& command, const fs::path& dir) {
+  const std::string cmd = "cd '" + std::string(QUADTUNE_SOURCE_DIR) + "' && QUADTUNE='" +
+                          test::QuadtuneBinary() + "' " + command + " > '" +
+                          (dir / "peer.log").string() + "' 2>&1";
+  EXPECT_EQ(std::system(cmd.c_str()), 0) << ReadText(dir / "peer.log");
+  return nlohmann::json::parse(ReadText(dir / "out.json"), nullptr, false);
+}
+
+void ExpectInsideToyBox(const nlohmann::json& point) {
+  ASSERT_TRUE(point.is_object()) << point.dump();
+  const std::map<std::string, std::pair<double, double>> box = {
+      {"gain", {0.05, 1.5}}, {"max_iter", {2, 40}}, {"speed", {0.5, 6.0}}, {"margin", {0, 3}}};
+  for (const auto& [name, range] : box) {
+    ASSERT_TRUE(point.contains(name)) << name;
+    const double v = point[name].get<double>();
+    EXPECT_GE(v, range.first) << name;
+    EXPECT_LE(v, range.second) << name;
+  }
+}
+
+TEST(Peers, OptunaTpeTunesThroughEvaluate) {
+  const fs::path dir = Fresh("optuna");
+  const auto j = RunPeer("/usr/bin/python3 scripts/peers/optuna_tpe.py " + ToyExperimentFile() +
+                             " --budget 6 --out " + (dir / "out.json").string(),
+                         dir);
+  ASSERT_TRUE(j.is_object());
+  EXPECT_EQ(j["flights"], 6);
+  ExpectInsideToyBox(j["params"]);
+}
+
+TEST(Peers, IraceTunesThroughEvaluate) {
+  const fs::path dir = Fresh("irace");
+  std::ofstream(dir / "box.tsv") << "name\tlower\tupper\tlog\tinteger\ngain\t0.05\t1.5\t0\t0\n"
+                                    "max_iter\t2\t40\t0\t1\nspeed\t0.5\t6.0\t0\t0\n"
+                                    "margin\t0.0\t3.0\t0\t0\n";
+  const auto j = RunPeer("Rscript scripts/peers/irace_tune.R " + ToyExperimentFile() + " 0 80 3 " +
+                             (dir / "out.json").string() + " " + (dir / "box.tsv").string(),
+                         dir);
+  ASSERT_TRUE(j.is_object());
+  EXPECT_EQ(j["tuner"], "irace");
+  ExpectInsideToyBox(j["params"]);
+}
+
+}  // namespace
+}  // namespace quadtune
