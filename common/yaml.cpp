@@ -29,7 +29,8 @@ std::string JoinAllowed(const std::vector<std::string>& allowed) {
   return out;
 }
 
-/// The parse of `text` (from `origin`), with duplicated keys and too-deep nesting refused.
+/// The parse of `text` (from `origin`): not UTF-8, or a shape CheckYamlShape refuses, is a
+/// ConfigError.
 YAML::Node ParseChecked(const std::string& text, const std::string& origin) {
   if (!IsValidUtf8(text)) {
     // Name the first line that holds a byte sequence that is not UTF-8.
@@ -45,9 +46,9 @@ YAML::Node ParseChecked(const std::string& text, const std::string& origin) {
     throw ConfigError(origin, "", "line " + std::to_string(line) +
                                       " is not valid UTF-8 text (YAML files are UTF-8)");
   }
-  YAML::Node root;
   try {
-    root = YAML::Load(text);
+    CheckYamlShape(text, origin);
+    return YAML::Load(text);  // within the limits, without aliases: linear in the text
   } catch (const YAML::DeepRecursion& e) {
     throw ConfigError(origin, "", "nesting deeper than yaml-cpp's limit at line " +
                                       std::to_string(e.mark.line + 1));
@@ -55,49 +56,8 @@ YAML::Node ParseChecked(const std::string& text, const std::string& origin) {
     throw ConfigError(origin, "", "malformed YAML at line " + std::to_string(e.mark.line + 1) +
                                       ": " + e.msg);
   }
-  RejectDuplicateKeys(root, origin);
-  return root;
 }
 }  // namespace
-
-void RejectDuplicateKeys(const YAML::Node& root, const std::string& origin) {
-  // Iterative walk (the parser already bounds the depth; the walk keeps no recursion of its own).
-  std::vector<std::pair<YAML::Node, std::string>> todo{{root, ""}};
-  while (!todo.empty()) {
-    const YAML::Node node = todo.back().first;
-    const std::string path = std::move(todo.back().second);
-    todo.pop_back();
-    const auto child_path = [&path](const std::string& part) {
-      return path.empty() ? part : path + "." + part;
-    };
-    if (node.IsMap()) {
-      std::vector<std::string> seen;
-      for (const auto& kv : node) {
-        if (!kv.first.IsScalar()) {
-          throw ConfigError(origin, child_path("?"),
-                            "a key that is a list or a mapping (line " +
-                                std::to_string(kv.first.Mark().line + 1) +
-                                "); keys are plain names");
-        }
-        const std::string key = kv.first.Scalar();
-        for (const auto& s : seen) {
-          if (s == key) {
-            throw ConfigError(origin, child_path(key),
-                              "key given twice in one mapping (line " +
-                                  std::to_string(kv.first.Mark().line + 1) +
-                                  "); give each key once");
-          }
-        }
-        seen.push_back(key);
-        todo.emplace_back(kv.second, child_path(key));
-      }
-    } else if (node.IsSequence()) {
-      for (std::size_t i = 0; i < node.size(); ++i) {
-        todo.emplace_back(node[i], child_path(std::to_string(i)));
-      }
-    }
-  }
-}
 
 bool IsValidUtf8(std::string_view text) {
   std::size_t i = 0;
@@ -146,6 +106,12 @@ std::string ReadFileText(const std::string& path) {
   if (ec || !fs::exists(st)) throw ConfigError(path, "", "cannot open the file: no such file");
   if (fs::is_directory(st)) throw ConfigError(path, "", "is a directory; expected a file");
   if (!fs::is_regular_file(st)) throw ConfigError(path, "", "is not a regular file");
+  const std::uintmax_t bytes = fs::file_size(path, ec);
+  if (!ec && bytes > kMaxYamlBytes) {
+    throw ConfigError(path, "", std::to_string(bytes) + " bytes; a configuration file holds at most " +
+                                    std::to_string(kMaxYamlBytes) +
+                                    " (the limit bounds the memory of reading)");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw ConfigError(path, "", std::string("cannot open the file: ") + std::strerror(errno));
   std::stringstream ss;
@@ -460,13 +426,16 @@ std::string ApplyAssignments(const std::string& text, const std::vector<std::str
     if (eq == std::string::npos || eq == 0) {
       throw ConfigError(file, "--set", "'" + a + "' is not KEY=VALUE (e.g. budget.flights=10)");
     }
+    const std::string key = "--set " + a.substr(0, eq);
+    const std::string text = a.substr(eq + 1);
     YAML::Node value;
     try {
-      value = YAML::Load(a.substr(eq + 1));
+      CheckYamlShape(text, file, key);
+      value = YAML::Load(text);
     } catch (const YAML::Exception& e) {
       throw ConfigError(file, "--set", "'" + a + "': the value is not YAML: " + e.msg);
     }
-    YamlSetPath(root, a.substr(0, eq), value, file, "--set " + a.substr(0, eq));
+    YamlSetPath(root, a.substr(0, eq), value, file, key);
   }
   return YamlEmit(root);
 }
