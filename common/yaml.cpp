@@ -31,7 +31,8 @@ std::string JoinAllowed(const std::vector<std::string>& allowed) {
 
 /// The parse of `text` (from `origin`): not UTF-8, or a shape CheckYamlShape refuses, is a
 /// ConfigError.
-YAML::Node ParseChecked(const std::string& text, const std::string& origin) {
+YAML::Node ParseChecked(const std::string& text, const std::string& origin,
+                        const YamlBounds& bounds) {
   if (!IsValidUtf8(text)) {
     // Name the first line that holds a byte sequence that is not UTF-8.
     std::size_t line_start = 0;
@@ -47,7 +48,7 @@ YAML::Node ParseChecked(const std::string& text, const std::string& origin) {
                                       " is not valid UTF-8 text (YAML files are UTF-8)");
   }
   try {
-    CheckYamlShape(text, origin);
+    CheckYamlShape(text, origin, "", bounds);
     return YAML::Load(text);  // within the limits, without aliases: linear in the text
   } catch (const YAML::DeepRecursion& e) {
     throw ConfigError(origin, "", "nesting deeper than yaml-cpp's limit at line " +
@@ -142,12 +143,13 @@ void CheckInRange(double value, const Range& range, const std::string& file,
   }
 }
 
-YamlMap YamlMap::LoadFile(const std::string& path) {
-  return FromString(ReadFileText(path), path);
+YamlMap YamlMap::LoadFile(const std::string& path, const YamlBounds& bounds) {
+  return FromString(ReadFileText(path), path, bounds);
 }
 
-YamlMap YamlMap::FromString(const std::string& text, const std::string& origin) {
-  const YAML::Node root = ParseChecked(text, origin);
+YamlMap YamlMap::FromString(const std::string& text, const std::string& origin,
+                            const YamlBounds& bounds) {
+  const YAML::Node root = ParseChecked(text, origin, bounds);
   if (!root.IsMap() && !root.IsNull()) {
     throw ConfigError(origin, "", "the top level must be a mapping of keys to values");
   }

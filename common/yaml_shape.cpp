@@ -21,7 +21,8 @@ std::string Line(const YAML::Mark& mark) { return "(line " + std::to_string(mark
 /// for a message, so a long key is never copied once per entry below it.
 class ShapeChecker final : public YAML::EventHandler {
  public:
-  ShapeChecker(const std::string& origin, const std::string& root) : origin_(origin), root_(root) {}
+  ShapeChecker(const std::string& origin, const std::string& root, const YamlBounds& bounds)
+      : origin_(origin), root_(root), bounds_(bounds) {}
 
   void OnDocumentStart(const YAML::Mark&) override {}
   void OnDocumentEnd() override {}
@@ -74,9 +75,9 @@ class ShapeChecker final : public YAML::EventHandler {
 
   /// Counts a node and places it in its parent: true when it is a key of a mapping.
   bool Enter(const YAML::Mark& mark, const std::string* scalar) {
-    if (++nodes_ > kMaxYamlNodes) {
-      Fail(Depth(), "more than " + std::to_string(kMaxYamlNodes) + " values in the text " +
-                        Line(mark) + "; the limit bounds the memory of reading");
+    if (++nodes_ > bounds_.max_nodes) {
+      Fail(Depth(), "more than " + std::to_string(bounds_.max_nodes) + " values in the text " +
+                        Line(mark) + "; " + bounds_.nodes_why);
     }
     if (frames_.empty()) return false;
     Frame& top = frames_.back();
@@ -138,6 +139,7 @@ class ShapeChecker final : public YAML::EventHandler {
 
   const std::string& origin_;
   const std::string& root_;
+  const YamlBounds& bounds_;
   std::vector<Frame> frames_;
   std::size_t nodes_ = 0;
 
@@ -148,14 +150,15 @@ class ShapeChecker final : public YAML::EventHandler {
 
 }  // namespace
 
-void CheckYamlShape(const std::string& text, const std::string& origin, const std::string& key) {
+void CheckYamlShape(const std::string& text, const std::string& origin, const std::string& key,
+                    const YamlBounds& bounds) {
   if (text.size() > kMaxYamlBytes) {
     throw ConfigError(origin, key, std::to_string(text.size()) + " bytes of YAML; at most " +
                                        std::to_string(kMaxYamlBytes) +
                                        " (the limit bounds the memory of reading)");
   }
   std::istringstream in(text);
-  ShapeChecker checker(origin, key);
+  ShapeChecker checker(origin, key, bounds);
   YAML::Parser parser(in);
   parser.HandleNextDocument(checker);
   if (checker.bad_key_) throw *checker.bad_key_;

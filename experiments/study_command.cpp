@@ -15,6 +15,7 @@
 
 #include "file_kind.hpp"
 #include "commands.hpp"
+#include "limits.hpp"
 #include "eta.hpp"
 #include "quadtune/common/cancel.hpp"
 #include "quadtune/engine/distributed.hpp"
@@ -40,6 +41,7 @@ int RunStudyCommand(const StudyArgs& a) {
   engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "study");
   CheckFileKind(a.file, FileKind::kStudy);
   const engine::Study study = engine::Study::LoadFile(a.file, a.set);  // all errors before any work
+  if (a.threads > 0) CheckThreadsFitAddressSpace(a.threads, "", "--threads");
   spdlog::info("study '{}' ({}): {} point(s){}, {} stage(s), {} validation flights per tuned trial",
                study.name, a.file, study.labels.size(),
                study.sweep_key.empty() ? "" : " over " + study.sweep_key, study.stages.size(),
@@ -148,7 +150,7 @@ void RegisterStudy(CLI::App& app, int& exit_code) {
   cmd->add_option("study", args.file, "study file (YAML)")->required()->check(CLI::ExistingFile);
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();
   cmd->add_option("--threads", args.threads, "worker threads (default: the experiment's)")
-      ->check(CLI::Range(1, 1024));
+      ->check(CountIn(1, engine::kMaxThreads, kThreadsWhy));
   cmd->add_flag("--resume", args.resume, "continue the stages stored in OUT");
   cmd->add_flag("--overwrite", args.overwrite, "replace the study already in OUT")
       ->excludes("--resume");

@@ -97,5 +97,89 @@ TEST(BoundedParsing, AHundredThousandKeyMappingIsRefused) {
                        dir, {"keys.yaml: many: more than 1000 keys in one mapping (line"});
 }
 
+// ---- limits checked before any work ----
+
+TEST(BoundedSizes, ASweepPastItsFlightsOrResolvesIsRefusedWithoutOverflow) {
+  const fs::path dir = CaseDir("sweep");
+  const std::string toy = (dir / "toy.yaml").string();
+  const std::string out = (dir / "out").string();
+  // 1048576 × (4 + 2) × 1000 flights overflows an int.
+  ExpectBoundedRefusal({"sweep", toy, "--points", "1048576", "--maps", "1000", "--queries",
+                        "1048576", "--out", out, "--no-plot", "--quiet"},
+                       dir,
+                       {"--points: got 1048576: 1048576 × (4 parameters + 2) × --maps 1000 = "
+                        "6291456000 flights per layout; at most 1000000"});
+  ExpectBoundedRefusal({"sweep", toy, "--points", "100000", "--maps", "1", "--queries", "1048576",
+                        "--out", out, "--no-plot", "--quiet"},
+                       dir, {"--queries 1048576 = 629145600000 re-solves per layout; at most 10000000"});
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(BoundedSizes, BenchCountsHaveCeilings) {
+  const fs::path dir = CaseDir("bench");
+  const std::string toy = (dir / "toy.yaml").string();
+  ExpectBoundedRefusal({"bench", toy, "--flights", "-1"}, dir,
+                       {"--flights: got '-1'; allowed: an integer in [1, 100000]"});
+  ExpectBoundedRefusal({"bench", toy, "--max-threads", "0"}, dir,
+                       {"--max-threads: got '0'; allowed: an integer in [1, 256]"});
+  ExpectBoundedRefusal({"bench", toy, "--max-threads", "1000000"}, dir,
+                       {"--max-threads: got '1000000'; allowed: an integer in [1, 256]"});
+  ExpectBoundedRefusal({"bench", toy, "--soak", "10000000", "--max-threads", "1024"}, dir,
+                       {"--max-threads: got '1024'; allowed: an integer in [1, 256]"});
+  ExpectBoundedRefusal({"bench", toy, "--soak", "10000001"}, dir,
+                       {"--soak: got '10000001'; allowed: an integer in [1, 10000000]"});
+  ExpectBoundedRefusal({"bench", toy, "--resolves", "1000000000"}, dir,
+                       {"--resolves: got '1000000000'; allowed: an integer in [1, 1000000]"});
+}
+
+TEST(BoundedSizes, ThreadsPastTheAddressSpaceAreRefusedNotAborted) {
+  // kAddressSpaceMib (4096) fits (4096 - 512) / 20 = 179 worker threads.
+  const fs::path dir = CaseDir("threads");
+  ExpectBoundedRefusal({"run", (dir / "toy.yaml").string(), "--threads", "600", "--out",
+                        (dir / "out").string(), "--no-plot", "--quiet"},
+                       dir, {"--threads: got 600 threads; at most 179 fit", "ulimit -v 4194304"});
+  ExpectBoundedRefusal({"sweep", (dir / "toy.yaml").string(), "--threads", "600", "--out",
+                        (dir / "out").string(), "--no-plot", "--quiet"},
+                       dir, {"--threads: got 600 threads; at most 179 fit"});
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+/// A saved layout of `cylinders` and `rings` obstacles, one flow mapping each.
+std::string SavedLayout(int cylinders, int rings) {
+  std::string s = "format: quadtune.layout/1\nobstacles:\n  cylinders:\n";
+  for (int i = 0; i < cylinders; ++i) {
+    s.append("    - {center: [").append(std::to_string(i)).append(", 0], radius: 0.1, z_min: 0, "
+                                                                 "z_max: 1}\n");
+  }
+  s += "  rings:\n";
+  for (int i = 0; i < rings; ++i) {
+    s.append("    - {center: [").append(std::to_string(i)).append(", 0, 1], yaw: 0, radius: 0.5, "
+                                                                 "thickness: 0.1}\n");
+  }
+  return s;
+}
+
+TEST(BoundedSizes, ASavedLayoutPastTheObstacleCapIsRefusedWhileParsed) {
+  const fs::path dir = CaseDir("layout");
+  Write(dir / "l300k.yaml", SavedLayout(300000, 0));
+  ExpectBoundedRefusal({"fly", "--layout", (dir / "l300k.yaml").string(), "--out",
+                        (dir / "out").string(), "--no-plot"},
+                       dir, {"l300k.yaml: obstacles.cylinders: more than 100000 entries in one list"});
+  Write(dir / "l120k.yaml", SavedLayout(60000, 60000));
+  ExpectBoundedRefusal({"fly", "--layout", (dir / "l120k.yaml").string(), "--out",
+                        (dir / "out").string(), "--no-plot"},
+                       dir, {"l120k.yaml: obstacles.rings.", "more than 1210000 values",
+                             "at most 100000 obstacles"});
+  // Few values each, but more obstacles than the cap: counted before any obstacle is read.
+  std::string empty = "format: quadtune.layout/1\nobstacles:\n  cylinders:\n";
+  for (int i = 0; i < 60000; ++i) empty += "    - {}\n";
+  Write(dir / "empty.yaml", empty + "  rings:\n" + empty.substr(empty.find("    - {}")));
+  ExpectBoundedRefusal({"fly", "--layout", (dir / "empty.yaml").string(), "--out",
+                        (dir / "out").string(), "--no-plot"},
+                       dir, {"empty.yaml: obstacles.cylinders: 60000 cylinders + 60000 rings = "
+                             "120000 obstacles; a layout holds at most 100000"});
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
 }  // namespace
 }  // namespace quadtune::test

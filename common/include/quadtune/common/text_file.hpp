@@ -39,6 +39,13 @@ inline constexpr std::size_t kMaxYamlListEntries = 100000;
 /// about 1.2 million; the limit bounds the memory yaml-cpp's nodes take.
 inline constexpr std::size_t kMaxYamlNodes = 2000000;
 
+/// Bounds of one YAML text past the fixed ones above: a reader that knows its file's size (a saved
+/// layout) lowers the value count, so that an oversized file is refused before any node is built.
+struct YamlBounds {
+  std::size_t max_nodes = kMaxYamlNodes;
+  std::string nodes_why = "the limit bounds the memory of reading";  ///< said in the refusal
+};
+
 /// Throws ConfigError(origin, dotted key path, ...) for the first of: an alias (`*name`; no
 /// quadtune file uses anchors and aliases, so none is ever expanded), a key given twice in one
 /// mapping (yaml-cpp keeps the first silently), a key that is not a plain name, or a text past
@@ -47,5 +54,5 @@ inline constexpr std::size_t kMaxYamlNodes = 2000000;
 /// before any node is built: time linear in the text's bytes, memory bounded by the depth and
 /// the keys of the open mappings. `key` prefixes every path (e.g. "--set budget.flights").
 void CheckYamlShape(const std::string& text, const std::string& origin,
-                    const std::string& key = "");
+                    const std::string& key = "", const YamlBounds& bounds = {});
 }  // namespace quadtune
