@@ -8,9 +8,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "../bounded_run.hpp"
@@ -179,6 +181,63 @@ TEST(BoundedSizes, ASavedLayoutPastTheObstacleCapIsRefusedWhileParsed) {
                        dir, {"empty.yaml: obstacles.cylinders: 60000 cylinders + 60000 rings = "
                              "120000 obstacles; a layout holds at most 100000"});
   EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+// ---- prompt cancellation: exit 130 within kSignalDeadlineS of SIGTERM ----
+
+constexpr double kSignalDeadlineS = 1.0;
+
+/// Starts `args`, waits `after_s` seconds for it to be deep in its work, sends SIGTERM and
+/// expects exit 130 within kSignalDeadlineS.
+BoundedResult ExpectPromptStop(const std::vector<std::string>& args, const fs::path& dir,
+                               double after_s) {
+  BoundedChild child(args, dir / "log", kAddressSpaceMib);
+  std::this_thread::sleep_for(std::chrono::duration<double>(after_s));
+  EXPECT_TRUE(child.Running()) << "ended before the signal: " << ReadText(dir / "log.err");
+  child.Signal(SIGTERM);
+  const BoundedResult r = child.Wait(kSignalDeadlineS);
+  EXPECT_FALSE(r.killed_at_deadline) << "still running " << kSignalDeadlineS << " s after SIGTERM";
+  EXPECT_EQ(r.exit_code, 130) << r.err;
+  return r;
+}
+
+TEST(PromptCancellation, ALongShortTermEvaluationStopsOnSigterm) {
+  // One generation of bo_pso re-solves 4 × 10 000 queries of about 10 ms on 2 threads: 200 s.
+  const fs::path dir = CaseDir("short_term");
+  Write(dir / "slow.yaml",
+        "name: slow\nseed: 2\nthreads: 2\nmode: reproducible\nrepeats: 1\nmethods: [bo_pso]\n"
+        "planner:\n  type: sleep\n  sleep: {resolve_median_s: 0.01, resolve_p95_s: 0.02,"
+        " flight_median_s: 0.01, flight_p95_s: 0.02, queries_per_flight: 10}\n"
+        "parameters:\n  - {name: effort, lower: 0.25, upper: 4.0, default: 1.0}\n"
+        "  - {name: pace, lower: 0.5, upper: 4.0, default: 1.0}\n"
+        "short_term: [effort]\nlong_term: [pace]\n"
+        "budget: {flights: 4, flight_batch: 1, short_evals_per_flight: 100000,"
+        " queries_per_eval: 10000}\n"
+        "pso: {num_particles: 4}\nbo: {initial_design_size: 2, acquisition_pool: 100}\n");
+  const BoundedResult r = ExpectPromptStop(
+      {"run", (dir / "slow.yaml").string(), "--out", (dir / "out").string(), "--no-plot",
+       "--quiet"},
+      dir, 2.0);
+  EXPECT_THAT(r.err, HasSubstr("--resume"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "results.sqlite"));
+}
+
+TEST(PromptCancellation, LayoutGenerationStopsOnSigtermWithExit130) {
+  // About 53 000 obstacles: generation takes seconds.
+  const fs::path dir = CaseDir("layout_signal");
+  Write(dir / "big.yaml",
+        "region: {min: [0.0, -300.0], max: [600.0, 300.0]}\n"
+        "mission: {start: [0.0, 0.0, 1.2], goal: [600.0, 0.0, 1.2], keep_out_radius: 1.5}\n"
+        "spacing: 1.3\ndensity: area\nmin_gap: 0.2\n"
+        "obstacles:\n  ring_fraction: 0.1\n  cylinder: {radius: [0.125, 0.4], height: [3.0, 3.0]}\n"
+        "  ring: {radius: [0.7, 1.0], thickness: [0.1, 0.15], center_height: [1.2, 1.6],"
+        " yaw: [-0.3, 0.3]}\n");
+  const BoundedResult r = ExpectPromptStop(
+      {"layout", "--layout-options", (dir / "big.yaml").string(), "--out",
+       (dir / "l.yaml").string()},
+      dir, 1.0);
+  EXPECT_THAT(r.err, HasSubstr("layout generation interrupted; nothing written"));
+  EXPECT_FALSE(fs::exists(dir / "l.yaml"));
 }
 
 }  // namespace
