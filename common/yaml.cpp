@@ -100,13 +100,20 @@ bool PathExists(const std::string& path) noexcept {
   return std::filesystem::exists(path, ec) && !ec;
 }
 
-std::string ReadFileText(const std::string& path) {
+std::string FileProblem(const std::string& path) {
   namespace fs = std::filesystem;
   std::error_code ec;
   const fs::file_status st = fs::status(path, ec);
-  if (ec || !fs::exists(st)) throw ConfigError(path, "", "cannot open the file: no such file");
-  if (fs::is_directory(st)) throw ConfigError(path, "", "is a directory; expected a file");
-  if (!fs::is_regular_file(st)) throw ConfigError(path, "", "is not a regular file");
+  if (ec || !fs::exists(st)) return "cannot open the file: no such file";
+  if (fs::is_directory(st)) return "is a directory; expected a file";
+  if (!fs::is_regular_file(st)) return "is not a regular file";
+  return "";
+}
+
+std::string ReadFileText(const std::string& path) {
+  namespace fs = std::filesystem;
+  if (const std::string why = FileProblem(path); !why.empty()) throw ConfigError(path, "", why);
+  std::error_code ec;
   const std::uintmax_t bytes = fs::file_size(path, ec);
   if (!ec && bytes > kMaxYamlBytes) {
     throw ConfigError(path, "", std::to_string(bytes) + " bytes; a configuration file holds at most " +
@@ -161,6 +168,12 @@ YamlMap::YamlMap(YAML::Node node, std::string file, std::string path)
   if (!node_.IsMap() && !node_.IsNull() && node_.IsDefined()) {
     throw ConfigError(file_, path_, "expected a mapping of keys to values");
   }
+}
+
+void YamlMap::CheckFile(std::string_view key, const std::string& path,
+                        const std::string& where) const {
+  if (!PathExists(path)) Fail(key, "file '" + path + "' not found" + where);
+  if (const std::string why = FileProblem(path); !why.empty()) Fail(key, "'" + path + "' " + why);
 }
 
 std::string YamlMap::KeyPath(std::string_view key) const {
@@ -269,6 +282,10 @@ std::string YamlMap::String(std::string_view key, std::optional<std::string> fal
     if (!n.IsScalar()) Fail(key, "expected a string");
     v = n.Scalar();
     if (!IsValidUtf8(v)) Fail(key, "the text is not valid UTF-8");
+    if (v.find('\0') != std::string::npos) {
+      Fail(key, "the text holds a NUL byte (\\0) at offset " + std::to_string(v.find('\0')) +
+                    "; text values cannot hold one (it would cut the stored text)");
+    }
   }
   if (!allowed.empty()) {
     bool ok = false;

@@ -18,6 +18,7 @@
 #include "limits.hpp"
 #include "eta.hpp"
 #include "quadtune/common/cancel.hpp"
+#include "quadtune/common/error.hpp"
 #include "quadtune/engine/distributed.hpp"
 #include "quadtune/engine/study.hpp"
 #include "result_dir.hpp"
@@ -46,6 +47,11 @@ int RunStudyCommand(const StudyArgs& a) {
                study.name, a.file, study.labels.size(),
                study.sweep_key.empty() ? "" : " over " + study.sweep_key, study.stages.size(),
                study.validation_flights);
+  if (a.resume && !HoldsRun(a.out)) {
+    throw ConfigError(a.out, "--resume",
+                      "holds no study to continue (no stage store or study.json in it); run "
+                      "without --resume to start one");
+  }
   const ResultDir dir(a.out, ResultDirPolicy{a.resume, a.overwrite, true});
   engine::StudyOptions options;
   options.out_dir = a.out;

@@ -1,9 +1,10 @@
-// Hostile inputs through the `quadtune` program under bounds this harness enforces: each must be
-// refused with exit 2 and one line on stderr naming the file (or option), the key, the value and
-// the limit, within kDeadlineS seconds (the child is killed past it) and with a peak resident
-// memory under kPeakRssMib, in an address space of kAddressSpaceMib. Without the bound in the
-// code each case runs on (alias expansion, a quadratic check, a runaway allocation) and fails
-// here.
+// Hostile inputs and signals through the `quadtune` program, under bounds this harness enforces.
+// - Refusals (alias bombs, huge mappings, runaway sizes, free text its outputs would misread):
+//   exit 2 and one line on stderr naming the file (or option), the key, the value and the limit,
+//   within kDeadlineS seconds (the child is killed past it), a peak resident memory under
+//   kPeakRssMib, in an address space of kAddressSpaceMib. Without the bound in the code a case
+//   runs on (alias expansion, a quadratic check, a runaway allocation) or says something else.
+// - Signals: SIGTERM deep in a long loop ends the program with exit 130 within kSignalDeadlineS.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -238,6 +239,96 @@ TEST(PromptCancellation, LayoutGenerationStopsOnSigtermWithExit130) {
       dir, 1.0);
   EXPECT_THAT(r.err, HasSubstr("layout generation interrupted; nothing written"));
   EXPECT_FALSE(fs::exists(dir / "l.yaml"));
+}
+
+// ---- free text checked for where it goes ----
+
+TEST(FreeText, ANulByteInATextValueIsRefused) {
+  const fs::path dir = CaseDir("nul");
+  const std::string toy = ReadText(dir / "toy.yaml");
+  Write(dir / "nul.yaml", "name: \"to\\0y\"\n" + toy.substr(toy.find("seed:")));
+  ExpectBoundedRefusal({"run", (dir / "nul.yaml").string(), "--out", (dir / "out").string(),
+                        "--no-plot", "--quiet"},
+                       dir, {"nul.yaml: name: the text holds a NUL byte (\\0) at offset 2"});
+  ExpectBoundedRefusal({"run", (dir / "toy.yaml").string(), "--set", "name=\"a\\0\"", "--out",
+                        (dir / "out").string(), "--no-plot", "--quiet"},
+                       dir, {"toy.yaml: name: the text holds a NUL byte"});
+}
+
+TEST(FreeText, TheReportsEmbeddedDataEscapesEveryAngleBracket) {
+  const fs::path dir = CaseDir("report_json");
+  const fs::path out = dir / "out";
+  ASSERT_EQ(RunQuadtune("run " + (dir / "toy.yaml").string() +
+                            " --set 'name=\"<!--<script>x</script>\"' --set budget.flights=2"
+                            " --set repeats=1 --out " + out.string() + " --no-plot --quiet",
+                        dir / "run.log"),
+            0)
+      << ReadText(dir / "run.log");
+  ASSERT_EQ(RunQuadtune("report " + out.string(), dir / "report.log"), 0)
+      << ReadText(dir / "report.log");
+  const std::string page = ReadText(out / "report.html");
+  const std::string open = "id=\"qt-data\">";
+  const auto begin = page.find(open);
+  ASSERT_NE(begin, std::string::npos);
+  const auto end = page.find("</script>", begin);
+  ASSERT_NE(end, std::string::npos);
+  const std::string data = page.substr(begin + open.size(), end - begin - open.size());
+  EXPECT_EQ(data.find('<'), std::string::npos) << "a '<' in the embedded data";
+  EXPECT_THAT(data, HasSubstr("\\u003c!--\\u003cscript\\u003ex\\u003c/script\\u003e"));
+}
+
+TEST(FreeText, StudyLabelsThatOutputsWouldReadAsMarkupOrFormulasAreRefused) {
+  const fs::path dir = CaseDir("labels");
+  const auto study = [&](const std::string& labels) {
+    Write(dir / "study.yaml", "name: st\nseed: 4\nexperiment: toy.yaml\n"
+                              "sweep: {key: planner.toy.gates, values: [2, 4], labels: " +
+                                  labels + "}\n");
+    return std::vector<std::string>{"study", (dir / "study.yaml").string(), "--out",
+                                    (dir / "out").string(), "--no-plot", "--quiet"};
+  };
+  ExpectBoundedRefusal(study("['$\\foo$', b]"), dir,
+                       {"study.yaml: sweep.labels.0: '$\\foo$' holds '$'", "plain text"});
+  ExpectBoundedRefusal(study("[a, '=HYPERLINK(\"http://x\")']"), dir,
+                       {"sweep.labels.1: '=HYPERLINK(\"http://x\")' starts with '='"});
+  ExpectBoundedRefusal(study("[a, '<b>']"), dir, {"sweep.labels.1: '<b>' holds '<'"});
+  ExpectBoundedRefusal(study("[a, 'x|y']"), dir, {"sweep.labels.1: 'x|y' holds '|'"});
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+TEST(FreeText, StudyResumeOfAFolderWithoutAStudyIsRefused) {
+  const fs::path dir = CaseDir("study_resume");
+  Write(dir / "study.yaml", "name: st\nseed: 4\nexperiment: toy.yaml\n"
+                            "sweep: {key: planner.toy.gates, values: [2, 4]}\n");
+  ExpectBoundedRefusal({"study", (dir / "study.yaml").string(), "--out", (dir / "out").string(),
+                        "--resume", "--no-plot", "--quiet"},
+                       dir, {"out: --resume: holds no study to continue"});
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+TEST(FreeText, ANegativeSweepSeedIsRefusedInOneShortLine) {
+  const fs::path dir = CaseDir("seed");
+  BoundedChild child({"sweep", (dir / "toy.yaml").string(), "--seed", "-1", "--out",
+                      (dir / "out").string()},
+                     dir / "log", kAddressSpaceMib);
+  const BoundedResult r = child.Wait(kDeadlineS);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_THAT(r.err, HasSubstr("--seed: a seed is a decimal integer >= 0, got '-1'"));
+  EXPECT_LT(r.err.size(), 120u) << r.err;
+}
+
+TEST(FreeText, ADirectoryGivenAsAPlannerFileNamesTheFileAndKey) {
+  const fs::path dir = CaseDir("dir_as_file");
+  fs::create_directories(dir / "d.yaml");
+  const std::string tiny = std::string(QUADTUNE_SOURCE_DIR) + "/experiments/tiny.yaml";
+  ExpectBoundedRefusal({"run", tiny, "--set", "planner.drone=" + (dir / "d.yaml").string(),
+                        "--out", (dir / "out").string(), "--no-plot", "--quiet"},
+                       dir, {"tiny.yaml: planner.drone: '" + (dir / "d.yaml").string() +
+                             "' is a directory; expected a file"});
+  ExpectBoundedRefusal({"run", tiny, "--set", "planner.layout=null", "--set",
+                        "planner.layout_file=" + (dir / "d.yaml").string(), "--out",
+                        (dir / "out").string(), "--no-plot", "--quiet"},
+                       dir, {"tiny.yaml: planner.layout_file: '" + (dir / "d.yaml").string() +
+                             "' is a directory; expected a file"});
 }
 
 }  // namespace

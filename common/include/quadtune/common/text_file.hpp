@@ -20,6 +20,9 @@ namespace quadtune {
 /// The whole content of a file. A missing file, a directory, a device, an unreadable file or one
 /// past kMaxYamlBytes throws ConfigError(path, "", ...) saying which.
 [[nodiscard]] std::string ReadFileText(const std::string& path);
+/// What keeps `path` from being read as a file ("cannot open the file: no such file", "is a
+/// directory; expected a file", "is not a regular file"), or "" when it is a regular file.
+[[nodiscard]] std::string FileProblem(const std::string& path);
 /// Whether `path` names something that exists; false (never a throw) for a path the system
 /// cannot even look up (a name too long, a file where a folder should be, no permission).
 [[nodiscard]] bool PathExists(const std::string& path) noexcept;

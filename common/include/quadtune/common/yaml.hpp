@@ -90,6 +90,9 @@ class YamlMap {
 
   /// Throws ConfigError(file, KeyPath(key), message).
   [[noreturn]] void Fail(std::string_view key, const std::string& message) const;
+  /// Fails at `key` unless `path` (the file `key` names, resolved) is a readable regular file:
+  /// "file 'PATH' not found<where>", or "'PATH' is a directory; expected a file", ...
+  void CheckFile(std::string_view key, const std::string& path, const std::string& where = "") const;
 
  private:
   [[nodiscard]] YAML::Node Lookup(std::string_view key) const;
