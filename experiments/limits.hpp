@@ -12,6 +12,16 @@ namespace quadtune::cli {
 
 /// Why engine::kMaxThreads bounds `--threads`.
 inline constexpr const char* kThreadsWhy = "worker threads of one process; more run on more ranks";
+/// `sweep --points`: base rows N of the Saltelli design (N·(d+2) points).
+inline constexpr int kMaxSweepPoints = 1 << 20;
+/// `sweep --maps`: maps K every point flies on.
+inline constexpr int kMaxSweepMaps = 1000;
+/// `sweep --queries`: recorded queries Q re-solved per θ_s.
+inline constexpr int kMaxSweepQueries = 1 << 20;
+/// Why a count is bounded, as the refusals and docs/hardening.md say it.
+inline constexpr const char* kQueuedWhy = "all are queued at once";
+inline constexpr const char* kBenchThreadsWhy = "bench runs every thread count from 1 up";
+inline constexpr const char* kSoakWhy = "10 million flights take over a day at 100 flights/s";
 /// `bench --max-threads`: bench runs every count from 1 up, so its time grows with the square.
 inline constexpr int kMaxBenchThreads = 256;
 /// `bench --flights`: flights per thread count, all queued at once.

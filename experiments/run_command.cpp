@@ -640,19 +640,19 @@ void RegisterBench(CLI::App& app, int& exit_code) {
                                      "(repeatable), e.g. --set planner.max_time=20");
   cmd->add_option("--max-threads", args.max_threads, "largest thread count")
       ->capture_default_str()
-      ->check(CountIn(1, kMaxBenchThreads, "bench runs every thread count from 1 up"));
+      ->check(CountIn(1, kMaxBenchThreads, kBenchThreadsWhy));
   cmd->add_option("--flights", args.flights, "flights per thread count")
       ->capture_default_str()
-      ->check(CountIn(1, kMaxBenchFlights, "all are queued at once"));
+      ->check(CountIn(1, kMaxBenchFlights, kQueuedWhy));
   cmd->add_option("--resolves", args.resolves, "re-solves per thread count")
       ->capture_default_str()
-      ->check(CountIn(1, kMaxBenchResolves, "all are queued at once"));
+      ->check(CountIn(1, kMaxBenchResolves, kQueuedWhy));
   cmd->add_option("--csv", args.csv, "also write one row per thread count to this CSV file");
   cmd->add_flag("--plot", args.plot, "draw the thread-scaling figure next to the CSV (PNG)");
   cmd->add_option("--soak", args.soak,
                   "instead: N closed-loop flights through one world pool on --max-threads "
                   "threads, resident memory sampled; says whether it stays flat (within 5 %)")
-      ->check(CountIn(1, kMaxSoakFlights, "10 million flights take over a day at 100 flights/s"));
+      ->check(CountIn(1, kMaxSoakFlights, kSoakWhy));
   cmd->callback([&exit_code] { exit_code = Bench(args); });
 }
 

@@ -361,13 +361,13 @@ void RegisterSweep(CLI::App& app, int& exit_code) {
       ->required();
   cmd->add_option("--points", args.points, "N base rows of the design (N·(d+2) points)")
       ->capture_default_str()
-      ->check(CLI::Range(2, 1 << 20));
+      ->check(CLI::Range(2, kMaxSweepPoints));
   cmd->add_option("--maps", args.maps, "K maps every point flies on")
       ->capture_default_str()
-      ->check(CLI::Range(1, 1000));
+      ->check(CLI::Range(1, kMaxSweepMaps));
   cmd->add_option("--queries", args.queries, "Q recorded planning queries re-solved per θ_s")
       ->capture_default_str()
-      ->check(CLI::Range(1, 1 << 20));
+      ->check(CLI::Range(1, kMaxSweepQueries));
   cmd->add_option("--seed", args.seed, "sweep seed (default: the experiment's)")
       ->check(SeedValidator());
   cmd->add_option("--threads", args.threads, "worker threads (default: the experiment's)")

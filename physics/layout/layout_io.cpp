@@ -168,10 +168,6 @@ void Layout::Save(const std::string& path) const {
   if (!file) throw ConfigError(path, "", "cannot write the file");
 }
 
-namespace {
-/// The values a saved layout at the obstacle cap holds: at most 12 per obstacle (a ring: its
-/// mapping, 4 keys, a 3-list and 6 numbers) and 10 000 for the options and statistics. A larger
-/// file is refused while it is parsed, before yaml-cpp builds its nodes.
 YamlBounds SavedLayoutBounds() {
   YamlBounds b;
   b.max_nodes = static_cast<std::size_t>(kMaxObstaclesPerLayout) * 12 + 10000;
@@ -180,6 +176,7 @@ YamlBounds SavedLayoutBounds() {
   return b;
 }
 
+namespace {
 /// A saved layout holds at most what the generator may make: refused before any obstacle is read.
 void CheckObstacleCount(const YamlMap& obs) {
   const auto count = [&](const char* key) {
