@@ -133,25 +133,28 @@ std::string WithLimitsReference(const std::string& page, const std::string& file
   return page.substr(0, begin) + LimitsReference() + after;
 }
 
+namespace {
+/// Rewrites the limits section of the page `path` in place.
+void RewriteLimitsSection(const std::string& path) {
+  const std::string page = WithLimitsReference(ReadFileText(path), path);
+  std::ofstream file(path, std::ios::binary);
+  file << page;
+  file.close();
+  if (!file) throw ConfigError(path, "--out", "cannot write the file");
+}
+}  // namespace
+
 void RegisterLimitsReference(CLI::App& app, int& exit_code) {
   static std::string out_path;
-  auto* cmd = app.add_subcommand(
-      "limits-reference",
-      "print every limit quadtune checks before work (value and reason) as Markdown; the "
-      "limits section of docs/hardening.md is this output");
-  cmd->add_option("--out", out_path, "rewrite the limits section of this file instead");
-  cmd->callback([&exit_code] {
-    exit_code = 0;
-    if (out_path.empty()) {
-      std::cout << LimitsReference();
-      return;
-    }
-    const std::string page = WithLimitsReference(ReadFileText(out_path), out_path);
-    std::ofstream file(out_path, std::ios::binary);
-    file << page;
-    file.close();
-    if (!file) throw ConfigError(out_path, "--out", "cannot write the file");
-  });
+  app.add_subcommand("limits-reference",
+                     "print every limit quadtune checks before work (value and reason) as "
+                     "Markdown; the limits section of docs/hardening.md is this output")
+      ->callback([&exit_code] {
+        if (out_path.empty()) std::cout << LimitsReference();
+        if (!out_path.empty()) RewriteLimitsSection(out_path);
+        exit_code = 0;
+      })
+      ->add_option("--out", out_path, "rewrite the limits section of this file instead");
 }
 
 }  // namespace quadtune::cli
