@@ -241,6 +241,16 @@ TEST(PromptCancellation, LayoutGenerationStopsOnSigtermWithExit130) {
   EXPECT_FALSE(fs::exists(dir / "l.yaml"));
 }
 
+TEST(PromptCancellation, ALongSoakStopsOnSigtermWithFlatMemory) {
+  // Ten million toy flights: the queue holds one task per thread, so memory stays small.
+  const fs::path dir = CaseDir("soak");
+  const BoundedResult r = ExpectPromptStop(
+      {"bench", (dir / "toy.yaml").string(), "--soak", "10000000", "--max-threads", "2"}, dir,
+      1.0);
+  EXPECT_THAT(r.err, HasSubstr("soak interrupted after"));
+  EXPECT_LT(r.peak_rss_mib, kPeakRssMib);
+}
+
 // ---- free text checked for where it goes ----
 
 TEST(FreeText, ANulByteInATextValueIsRefused) {
