@@ -341,5 +341,18 @@ TEST(FreeText, ADirectoryGivenAsAPlannerFileNamesTheFileAndKey) {
                              "' is a directory; expected a file"});
 }
 
+TEST(FreeText, ASavedLayoutGivenAsLayoutOptionsIsNamedAsSuch) {
+  const fs::path dir = CaseDir("saved_as_options");
+  const std::string saved =
+      std::string(QUADTUNE_SOURCE_DIR) + "/assets/layouts/forest_1p3_seed1.layout.yaml";
+  ExpectBoundedRefusal({"run", std::string(QUADTUNE_SOURCE_DIR) + "/experiments/tiny.yaml", "--set",
+                        "planner.layout=null", "--set", "planner.layout_file=" + saved, "--out",
+                        (dir / "out").string(), "--no-plot", "--quiet"},
+                       dir, {"forest_1p3_seed1.layout.yaml: is a saved layout (written by "
+                             "`quadtune layout`), not layout generator options"});
+  ExpectBoundedRefusal({"layout", "--layout-options", saved, "--out", (dir / "l.yaml").string()},
+                       dir, {"is a saved layout", "quadtune fly --layout FILE"});
+}
+
 }  // namespace
 }  // namespace quadtune::test
