@@ -3,7 +3,10 @@
 
 #include <yaml-cpp/depthguard.h>
 
+#include <unistd.h>
+
 #include <cerrno>
+#include <cstdio>
 #include <charconv>
 #include <cstdint>
 #include <cmath>
@@ -108,6 +111,22 @@ std::string FileProblem(const std::string& path) {
   if (fs::is_directory(st)) return "is a directory; expected a file";
   if (!fs::is_regular_file(st)) return "is not a regular file";
   return "";
+}
+
+void WriteFileAtomically(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
+  std::FILE* f = std::fopen(tmp.c_str(), "wb");
+  if (f == nullptr) {
+    throw ConfigError(path, "", std::string("cannot write the file: ") + std::strerror(errno));
+  }
+  const bool written = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+  const int write_errno = errno;
+  const bool closed = std::fclose(f) == 0;
+  if (!written || !closed || std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int err = !written ? write_errno : errno;
+    std::remove(tmp.c_str());
+    throw ConfigError(path, "", std::string("cannot write the file: ") + std::strerror(err));
+  }
 }
 
 std::string ReadFileText(const std::string& path) {

@@ -354,5 +354,12 @@ TEST(FreeText, ASavedLayoutGivenAsLayoutOptionsIsNamedAsSuch) {
                        dir, {"is a saved layout", "quadtune fly --layout FILE"});
 }
 
+TEST(Writers, ExportOfAFileThatIsNotAStoreWritesNothing) {
+  const fs::path dir = CaseDir("export");
+  ExpectBoundedRefusal({"export", (dir / "toy.yaml").string(), "--csv", (dir / "csv").string()},
+                       dir, {"toy.yaml: the results file is damaged (file is not a database)"});
+  EXPECT_FALSE(fs::exists(dir / "csv"));
+}
+
 }  // namespace
 }  // namespace quadtune::test

@@ -20,6 +20,10 @@ namespace quadtune {
 /// The whole content of a file. A missing file, a directory, a device, an unreadable file or one
 /// past kMaxYamlBytes throws ConfigError(path, "", ...) saying which.
 [[nodiscard]] std::string ReadFileText(const std::string& path);
+/// Writes `text` to `path` through a temporary file beside it and a rename: a reader sees the
+/// old file or the whole new one, never a part. Throws ConfigError(path, "", ...) naming the
+/// system's reason (the temporary file is removed).
+void WriteFileAtomically(const std::string& path, const std::string& text);
 /// What keeps `path` from being read as a file ("cannot open the file: no such file", "is a
 /// directory; expected a file", "is not a regular file"), or "" when it is a regular file.
 [[nodiscard]] std::string FileProblem(const std::string& path);
