@@ -361,5 +361,28 @@ TEST(Writers, ExportOfAFileThatIsNotAStoreWritesNothing) {
   EXPECT_FALSE(fs::exists(dir / "csv"));
 }
 
+TEST(Writers, AReportIntoADirectoryARunIsWritingIsRefused) {
+  const fs::path dir = CaseDir("report_lock");
+  const std::string toy = ReadText(dir / "toy.yaml");
+  Write(dir / "slow.yaml", toy.substr(0, toy.find("plan_interval: 1.0}")) +
+                               "plan_interval: 1.0, flight_delay_s: 0.2}" +
+                               toy.substr(toy.find("plan_interval: 1.0}") + 19));
+  const fs::path out = dir / "out";
+  BoundedChild run({"run", (dir / "slow.yaml").string(), "--out", out.string(), "--no-plot",
+                    "--quiet"},
+                   dir / "run", kAddressSpaceMib);
+  while (run.Running() && ReadText(out / ".quadtune.lock").empty()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  BoundedChild report({"report", out.string()}, dir / "report", kAddressSpaceMib);
+  const BoundedResult r = report.Wait(kDeadlineS);
+  run.Signal(SIGTERM);
+  EXPECT_EQ(run.Wait(30.0).exit_code, 130);
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("out: DIR: another quadtune process (pid " +
+                               std::to_string(run.pid()) + ") is writing this result directory"));
+  EXPECT_FALSE(fs::exists(out / "report.html"));
+}
+
 }  // namespace
 }  // namespace quadtune::test
