@@ -3,7 +3,10 @@
 
 #include <yaml-cpp/depthguard.h>
 
+#include <unistd.h>
+
 #include <cerrno>
+#include <cstdio>
 #include <charconv>
 #include <cstdint>
 #include <cmath>
@@ -29,8 +32,10 @@ std::string JoinAllowed(const std::vector<std::string>& allowed) {
   return out;
 }
 
-/// The parse of `text` (from `origin`), with duplicated keys and too-deep nesting refused.
-YAML::Node ParseChecked(const std::string& text, const std::string& origin) {
+/// The parse of `text` (from `origin`): not UTF-8, or a shape CheckYamlShape refuses, is a
+/// ConfigError.
+YAML::Node ParseChecked(const std::string& text, const std::string& origin,
+                        const YamlBounds& bounds) {
   if (!IsValidUtf8(text)) {
     // Name the first line that holds a byte sequence that is not UTF-8.
     std::size_t line_start = 0;
@@ -45,9 +50,9 @@ YAML::Node ParseChecked(const std::string& text, const std::string& origin) {
     throw ConfigError(origin, "", "line " + std::to_string(line) +
                                       " is not valid UTF-8 text (YAML files are UTF-8)");
   }
-  YAML::Node root;
   try {
-    root = YAML::Load(text);
+    CheckYamlShape(text, origin, "", bounds);
+    return YAML::Load(text);  // within the limits, without aliases: linear in the text
   } catch (const YAML::DeepRecursion& e) {
     throw ConfigError(origin, "", "nesting deeper than yaml-cpp's limit at line " +
                                       std::to_string(e.mark.line + 1));
@@ -55,49 +60,8 @@ YAML::Node ParseChecked(const std::string& text, const std::string& origin) {
     throw ConfigError(origin, "", "malformed YAML at line " + std::to_string(e.mark.line + 1) +
                                       ": " + e.msg);
   }
-  RejectDuplicateKeys(root, origin);
-  return root;
 }
 }  // namespace
-
-void RejectDuplicateKeys(const YAML::Node& root, const std::string& origin) {
-  // Iterative walk (the parser already bounds the depth; the walk keeps no recursion of its own).
-  std::vector<std::pair<YAML::Node, std::string>> todo{{root, ""}};
-  while (!todo.empty()) {
-    const YAML::Node node = todo.back().first;
-    const std::string path = std::move(todo.back().second);
-    todo.pop_back();
-    const auto child_path = [&path](const std::string& part) {
-      return path.empty() ? part : path + "." + part;
-    };
-    if (node.IsMap()) {
-      std::vector<std::string> seen;
-      for (const auto& kv : node) {
-        if (!kv.first.IsScalar()) {
-          throw ConfigError(origin, child_path("?"),
-                            "a key that is a list or a mapping (line " +
-                                std::to_string(kv.first.Mark().line + 1) +
-                                "); keys are plain names");
-        }
-        const std::string key = kv.first.Scalar();
-        for (const auto& s : seen) {
-          if (s == key) {
-            throw ConfigError(origin, child_path(key),
-                              "key given twice in one mapping (line " +
-                                  std::to_string(kv.first.Mark().line + 1) +
-                                  "); give each key once");
-          }
-        }
-        seen.push_back(key);
-        todo.emplace_back(kv.second, child_path(key));
-      }
-    } else if (node.IsSequence()) {
-      for (std::size_t i = 0; i < node.size(); ++i) {
-        todo.emplace_back(node[i], child_path(std::to_string(i)));
-      }
-    }
-  }
-}
 
 bool IsValidUtf8(std::string_view text) {
   std::size_t i = 0;
@@ -139,13 +103,42 @@ bool PathExists(const std::string& path) noexcept {
   return std::filesystem::exists(path, ec) && !ec;
 }
 
-std::string ReadFileText(const std::string& path) {
+std::string FileProblem(const std::string& path) {
   namespace fs = std::filesystem;
   std::error_code ec;
   const fs::file_status st = fs::status(path, ec);
-  if (ec || !fs::exists(st)) throw ConfigError(path, "", "cannot open the file: no such file");
-  if (fs::is_directory(st)) throw ConfigError(path, "", "is a directory; expected a file");
-  if (!fs::is_regular_file(st)) throw ConfigError(path, "", "is not a regular file");
+  if (ec || !fs::exists(st)) return "cannot open the file: no such file";
+  if (fs::is_directory(st)) return "is a directory; expected a file";
+  if (!fs::is_regular_file(st)) return "is not a regular file";
+  return "";
+}
+
+void WriteFileAtomically(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
+  std::FILE* f = std::fopen(tmp.c_str(), "wb");
+  if (f == nullptr) {
+    throw ConfigError(path, "", std::string("cannot write the file: ") + std::strerror(errno));
+  }
+  const bool written = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+  const int write_errno = errno;
+  const bool closed = std::fclose(f) == 0;
+  if (!written || !closed || std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int err = !written ? write_errno : errno;
+    std::remove(tmp.c_str());
+    throw ConfigError(path, "", std::string("cannot write the file: ") + std::strerror(err));
+  }
+}
+
+std::string ReadFileText(const std::string& path) {
+  namespace fs = std::filesystem;
+  if (const std::string why = FileProblem(path); !why.empty()) throw ConfigError(path, "", why);
+  std::error_code ec;
+  const std::uintmax_t bytes = fs::file_size(path, ec);
+  if (!ec && bytes > kMaxYamlBytes) {
+    throw ConfigError(path, "", std::to_string(bytes) + " bytes; a configuration file holds at most " +
+                                    std::to_string(kMaxYamlBytes) +
+                                    " (the limit bounds the memory of reading)");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw ConfigError(path, "", std::string("cannot open the file: ") + std::strerror(errno));
   std::stringstream ss;
@@ -176,12 +169,13 @@ void CheckInRange(double value, const Range& range, const std::string& file,
   }
 }
 
-YamlMap YamlMap::LoadFile(const std::string& path) {
-  return FromString(ReadFileText(path), path);
+YamlMap YamlMap::LoadFile(const std::string& path, const YamlBounds& bounds) {
+  return FromString(ReadFileText(path), path, bounds);
 }
 
-YamlMap YamlMap::FromString(const std::string& text, const std::string& origin) {
-  const YAML::Node root = ParseChecked(text, origin);
+YamlMap YamlMap::FromString(const std::string& text, const std::string& origin,
+                            const YamlBounds& bounds) {
+  const YAML::Node root = ParseChecked(text, origin, bounds);
   if (!root.IsMap() && !root.IsNull()) {
     throw ConfigError(origin, "", "the top level must be a mapping of keys to values");
   }
@@ -193,6 +187,12 @@ YamlMap::YamlMap(YAML::Node node, std::string file, std::string path)
   if (!node_.IsMap() && !node_.IsNull() && node_.IsDefined()) {
     throw ConfigError(file_, path_, "expected a mapping of keys to values");
   }
+}
+
+void YamlMap::CheckFile(std::string_view key, const std::string& path,
+                        const std::string& where) const {
+  if (!PathExists(path)) Fail(key, "file '" + path + "' not found" + where);
+  if (const std::string why = FileProblem(path); !why.empty()) Fail(key, "'" + path + "' " + why);
 }
 
 std::string YamlMap::KeyPath(std::string_view key) const {
@@ -301,6 +301,10 @@ std::string YamlMap::String(std::string_view key, std::optional<std::string> fal
     if (!n.IsScalar()) Fail(key, "expected a string");
     v = n.Scalar();
     if (!IsValidUtf8(v)) Fail(key, "the text is not valid UTF-8");
+    if (v.find('\0') != std::string::npos) {
+      Fail(key, "the text holds a NUL byte (\\0) at offset " + std::to_string(v.find('\0')) +
+                    "; text values cannot hold one (it would cut the stored text)");
+    }
   }
   if (!allowed.empty()) {
     bool ok = false;
@@ -460,13 +464,16 @@ std::string ApplyAssignments(const std::string& text, const std::vector<std::str
     if (eq == std::string::npos || eq == 0) {
       throw ConfigError(file, "--set", "'" + a + "' is not KEY=VALUE (e.g. budget.flights=10)");
     }
+    const std::string key = "--set " + a.substr(0, eq);
+    const std::string text = a.substr(eq + 1);
     YAML::Node value;
     try {
-      value = YAML::Load(a.substr(eq + 1));
+      CheckYamlShape(text, file, key);
+      value = YAML::Load(text);
     } catch (const YAML::Exception& e) {
       throw ConfigError(file, "--set", "'" + a + "': the value is not YAML: " + e.msg);
     }
-    YamlSetPath(root, a.substr(0, eq), value, file, "--set " + a.substr(0, eq));
+    YamlSetPath(root, a.substr(0, eq), value, file, key);
   }
   return YamlEmit(root);
 }

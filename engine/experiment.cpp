@@ -381,7 +381,7 @@ const Fields<Experiment>& ExperimentFields() {
           .Text("name", &E::name, {}, "name stored with the results")
           .Integer("seed", &E::seed, Range::Closed(0, 9.0e15),
                    "master seed; every random stream derives from it")
-          .Integer("threads", &E::threads, Range::Closed(1, 1024),
+          .Integer("threads", &E::threads, Range::Closed(1, kMaxThreads),
                    "worker threads (`--threads` overrides)")
           .Choice("mode", &E::mode,
                   "how solve time t_c is taken: `reproducible` derives it from the solver's "

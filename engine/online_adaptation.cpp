@@ -387,11 +387,8 @@ const Fields<AdaptExperiment>& AdaptExperimentFields() {
               [](const YamlMap& map, E& e) {
                 e.drone_file = ResolvePath(
                     map.String("drone", std::string("drones/research_1kg.yaml")), e.base_dir);
-                if (!PathExists(e.drone_file)) {
-                  map.Fail("drone", "file '" + e.drone_file +
-                                        "' not found (searched next to the experiment and in "
-                                        "assets/)");
-                }
+                map.CheckFile("drone", e.drone_file,
+                              " (searched next to the experiment and in assets/)");
                 e.drone = physics::LoadDroneDescription(e.drone_file);
               },
               [](YAML::Emitter& out, const E& e) {

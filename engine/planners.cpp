@@ -45,7 +45,7 @@ constexpr double kDefaultMaxTime = 60.0;  // planner.max_time (s)
 std::string ExistingFile(const YamlMap& p, const std::string& key, const std::string& base_dir,
                          const std::string& where) {
   const std::string path = ResolvePath(p.String(key), base_dir);
-  if (!PathExists(path)) p.Fail(key, "file '" + path + "' not found" + where);
+  p.CheckFile(key, path, where);
   return path;
 }
 
@@ -98,11 +98,7 @@ const Fields<IpoptPlannerSection>& IpoptPlannerFields() {
               [](const YamlMap& p, S& s) {
                 s.drone = p.String("drone", s.drone);
                 const std::string drone = ResolvePath(s.drone, s.base_dir);
-                if (!PathExists(drone)) {
-                  p.Fail("drone", "file '" + drone +
-                                      "' not found (searched next to the experiment and in "
-                                      "assets/)");
-                }
+                p.CheckFile("drone", drone, " (searched next to the experiment and in assets/)");
                 s.options.drone = physics::LoadDroneDescription(drone);
               },
               [](YAML::Emitter& out, const S& s) { WriteText(out, "drone", s.drone); })

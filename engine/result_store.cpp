@@ -7,6 +7,7 @@
 #include <climits>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
 #include <thread>
 
@@ -373,36 +374,36 @@ std::vector<TrialRow> ResultStore::Trials() const {
 
 void ResultStore::ExportCsv(const std::string& directory) const {
   namespace fs = std::filesystem;
-  fs::create_directories(directory);
-  {
-    std::ofstream out(fs::path(directory) / "experiment.csv");
-    out << "id,name,seed,version,machine,threads,mode,started\n";
-    Statement s(db_.get(),
-                "SELECT id, name, seed, version, machine, threads, mode, started FROM experiment");
-    while (s.Step()) {
-      out << s.Int(0) << ',' << CsvField(s.Text(1)) << ',' << s.Int(2) << ',' << CsvField(s.Text(3))
-          << ',' << CsvField(s.Text(4)) << ',' << s.Int(5) << ',' << s.Text(6) << ','
-          << Num(s.Double(7)) << '\n';
-    }
+  // Every row is read before a file is written: a store that cannot be read leaves none.
+  std::ostringstream experiment;
+  experiment << "id,name,seed,version,machine,threads,mode,started\n";
+  Statement s(db_.get(),
+              "SELECT id, name, seed, version, machine, threads, mode, started FROM experiment");
+  while (s.Step()) {
+    experiment << s.Int(0) << ',' << CsvField(s.Text(1)) << ',' << s.Int(2) << ','
+               << CsvField(s.Text(3)) << ',' << CsvField(s.Text(4)) << ',' << s.Int(5) << ','
+               << s.Text(6) << ',' << Num(s.Double(7)) << '\n';
   }
-  {
-    std::ofstream out(fs::path(directory) / "trials.csv");
-    out << "id,method,repeat,status,best_params,best_value\n";
-    for (const auto& t : Trials()) {
-      out << t.id << ',' << t.method << ',' << t.repeat << ',' << t.status << ','
-          << CsvField(t.best_params) << ',' << Num(t.best_value) << '\n';
-    }
+  std::ostringstream trials;
+  trials << "id,method,repeat,status,best_params,best_value\n";
+  for (const auto& t : Trials()) {
+    trials << t.id << ',' << t.method << ',' << t.repeat << ',' << t.status << ','
+           << CsvField(t.best_params) << ',' << Num(t.best_value) << '\n';
   }
-  std::ofstream out(fs::path(directory) / "evaluations.csv");
-  out << "trial_id,method,kind,iteration,index,params,terms,value,status,message,wall_s,started,"
-         "finished,map_seed,flight_seed\n";
+  std::ostringstream evaluations;
+  evaluations << "trial_id,method,kind,iteration,index,params,terms,value,status,message,wall_s,"
+                 "started,finished,map_seed,flight_seed\n";
   for (const auto& r : Evaluations()) {
-    out << r.trial_id << ',' << r.method << ',' << r.kind << ',' << r.iteration << ',' << r.index
-        << ',' << CsvField(r.params) << ',' << CsvField(r.terms) << ',' << Num(r.value) << ','
-        << r.status << ',' << CsvField(r.message) << ',' << Num(r.wall_s) << ','
-        << Num(r.started) << ',' << Num(r.finished) << ',' << SeedText(r.map_seed) << ','
-        << SeedText(r.flight_seed) << '\n';
+    evaluations << r.trial_id << ',' << r.method << ',' << r.kind << ',' << r.iteration << ','
+                << r.index << ',' << CsvField(r.params) << ',' << CsvField(r.terms) << ','
+                << Num(r.value) << ',' << r.status << ',' << CsvField(r.message) << ','
+                << Num(r.wall_s) << ',' << Num(r.started) << ',' << Num(r.finished) << ','
+                << SeedText(r.map_seed) << ',' << SeedText(r.flight_seed) << '\n';
   }
+  fs::create_directories(directory);
+  WriteFileAtomically((fs::path(directory) / "experiment.csv").string(), experiment.str());
+  WriteFileAtomically((fs::path(directory) / "trials.csv").string(), trials.str());
+  WriteFileAtomically((fs::path(directory) / "evaluations.csv").string(), evaluations.str());
 }
 
 }  // namespace quadtune::engine

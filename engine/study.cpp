@@ -2,11 +2,13 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cctype>
 #include <chrono>
 #include <filesystem>
 #include <limits>
 #include <map>
 #include <sstream>
+#include <string_view>
 
 #include "field_util.hpp"
 #include "quadtune/common/error.hpp"
@@ -31,6 +33,31 @@ std::string Slug(const std::string& label) {
 
 std::string StagePath(const std::string& out, const std::string& label, const std::string& stage) {
   return (fs::path(out) / Slug(label) / stage).string();
+}
+
+/// Refuses a study label that its destinations would read as something else: a NUL or control
+/// character (a folder name, stored text), `$` or `\` (matplotlib mathtext in the figures), `<`,
+/// `>`, `|` or a backtick (HTML and Markdown tables in study.md), or a leading `=`, `+`, `@` or a
+/// `-` that does not start a number (a formula in a spreadsheet opening study.csv).
+void CheckLabel(const YamlMap& sweep, std::size_t i, const std::string& label) {
+  const auto fail = [&](const std::string& what) {
+    sweep.Fail("labels." + std::to_string(i),
+               "'" + label + "' " + what +
+                   "; a label is plain text: it names a folder and appears in study.md, "
+                   "study.csv and the figures (give sweep.labels)");
+  };
+  for (const char ch : label) {
+    if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) fail("holds a control character");
+    if (std::string_view("$\\<>|`").find(ch) != std::string_view::npos) {
+      fail(std::string("holds '") + ch + "'");
+    }
+  }
+  const bool number = label.size() > 1 && label[0] == '-' &&
+                      (std::isdigit(static_cast<unsigned char>(label[1])) || label[1] == '.');
+  if (!label.empty() && std::string_view("=+@-").find(label[0]) != std::string_view::npos &&
+      !number) {
+    fail(std::string("starts with '") + label[0] + "'");
+  }
 }
 
 /// A parameter set flown in validation, and where it came from.
@@ -87,6 +114,7 @@ const Fields<Study>& StudySweepFields() {
                   }
                 }
                 for (std::size_t i = 0; i < s.labels.size(); ++i) {
+                  CheckLabel(sweep, i, s.labels[i]);
                   for (std::size_t j = 0; j < i; ++j) {
                     if (Slug(s.labels[i]) == Slug(s.labels[j])) {
                       sweep.Fail("labels", "two points are both named '" + Slug(s.labels[i]) + "'");

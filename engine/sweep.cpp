@@ -4,6 +4,8 @@
 #include <boost/random/sobol.hpp>
 #include <chrono>
 #include <cmath>
+#include <iomanip>
+#include <sstream>
 #include <limits>
 #include <stdexcept>
 #include <thread>
@@ -223,18 +225,6 @@ void FlySweep(const Experiment& e, WorldPool& pool, const Opaque& map, const Par
   out.objective = LongTermObjective(rec, e.objective);
   out.status = rec.status;
   out.message = rec.message;
-}
-
-void CheckOptions(const SweepOptions& o) {
-  const auto bad = [](const char* key, const std::string& what) {
-    throw ConfigError("", key, what);
-  };
-  if (o.points < 2) bad("--points", "need at least 2 base rows, got " + std::to_string(o.points));
-  if (o.maps < 1) bad("--maps", "need at least 1 map, got " + std::to_string(o.maps));
-  if (o.queries < 1) bad("--queries", "need at least 1 query, got " + std::to_string(o.queries));
-  if (o.threads < 1) bad("--threads", "need at least 1 thread, got " + std::to_string(o.threads));
-  if (o.bootstrap < 1)
-    bad("--bootstrap", "need at least 1 resample, got " + std::to_string(o.bootstrap));
 }
 
 /// Waits for `group`, reporting progress about twice a second.
@@ -499,8 +489,35 @@ void EstimateIndices(const SweepOptions& o, int n, int d, const std::vector<bool
 
 }  // namespace
 
+void CheckSweepOptions(const SweepOptions& o, int dims) {
+  const auto bad = [](const char* key, const std::string& what) {
+    throw ConfigError("", key, what);
+  };
+  if (o.points < 2) bad("--points", "need at least 2 base rows, got " + std::to_string(o.points));
+  if (o.maps < 1) bad("--maps", "need at least 1 map, got " + std::to_string(o.maps));
+  if (o.queries < 1) bad("--queries", "need at least 1 query, got " + std::to_string(o.queries));
+  if (o.threads < 1) bad("--threads", "need at least 1 thread, got " + std::to_string(o.threads));
+  if (o.bootstrap < 1)
+    bad("--bootstrap", "need at least 1 resample, got " + std::to_string(o.bootstrap));
+  // In double: N·(d+2)·K of ints is exact far past the limits and cannot overflow.
+  const double points = static_cast<double>(o.points) * (static_cast<double>(dims) + 2.0);
+  const auto size = [&](const char* key, int factor, const char* factor_key, double limit,
+                        const char* what) {
+    const double total = points * factor;
+    if (total <= limit) return;
+    std::ostringstream s;
+    s << "got " << o.points << ": " << o.points << " × (" << dims << " parameters + 2) × "
+      << factor_key << " " << factor << " = " << std::fixed << std::setprecision(0) << total
+      << " " << what << " per layout; at most " << limit << " (a sweep queues every one at once "
+      << "and keeps its result in memory): lower --points or " << factor_key;
+    bad(key, s.str());
+  };
+  size("--points", o.maps, "--maps", kMaxSweepFlights, "flights");
+  size("--points", o.queries, "--queries", kMaxSweepResolves, "re-solves");
+}
+
 SweepResult RunSweep(const Experiment& e, const SweepOptions& o) {
-  CheckOptions(o);
+  CheckSweepOptions(o, e.space.Dim());
   const auto t0 = Clock::now();
   SweepResult result;
   result.names = e.space.Names();

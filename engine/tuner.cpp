@@ -651,6 +651,7 @@ class Trial {
       const Opaque query = subset[j];
       ShortEvaluation::Resolve* resolve = &eval.resolves[j];
       c_.scheduler.Submit(group, Priority::kShort, [this, query, theta_s, resolve] {
+        if (c_.CancelRequested()) return;  // the generation is dropped: stop within one re-solve
         const auto t0 = Clock::now();
         ResolveRecord rec;
         try {

@@ -21,6 +21,7 @@
 
 #include "file_kind.hpp"
 #include "commands.hpp"
+#include "limits.hpp"
 #include "result_dir.hpp"
 #include "quadtune/common/text_file.hpp"
 #include "quadtune/common/yaml.hpp"
@@ -153,6 +154,7 @@ int RunAdapt(const AdaptArgs& a) {
       ApplyAssignments(ReadFileText(a.experiment), a.set, a.experiment), a.experiment,
       dir_of_file.empty() ? "." : dir_of_file);
   if (a.seed) e.SetSeed(*a.seed);
+  CheckThreadsFitAddressSpace(a.threads, "", "--threads");
   const ResultDir out_dir(a.out, ResultDirPolicy{false, a.overwrite, false});
   const layout::Layout layout = layout::GenerateLayout(e.layout, e.seed);
   layout.Save((fs::path(a.out) / "layout.yaml").string());
@@ -369,7 +371,7 @@ void RegisterAdapt(CLI::App& app, int& exit_code) {
   cmd->add_option("--threads", args.threads,
                   "flights flown at once (the adapted flight and each baseline)")
       ->capture_default_str()
-      ->check(CLI::Range(1, 1024));
+      ->check(CountIn(1, engine::kMaxThreads, kThreadsWhy));
   cmd->add_option("--set", args.set,
                   "KEY=VALUE: change the experiment file's dotted KEY, e.g. --set "
                   "adaptation.trials_per_segment=4 --set 'baselines=[2.0]' (repeatable)");

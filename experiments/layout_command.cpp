@@ -4,6 +4,7 @@
 
 #include "commands.hpp"
 #include "result_dir.hpp"
+#include "quadtune/common/cancel.hpp"
 #include "quadtune/layout/layout.hpp"
 
 namespace quadtune::cli {
@@ -24,7 +25,15 @@ int RunLayout(const LayoutArgs& a) {
   } else {
     options = ForestOptions(a.spacing);
   }
-  const layout::Layout layout = layout::GenerateLayout(options, a.seed);
+  InstallCancelSignalHandlers();  // SIGINT/SIGTERM stop the generator (it checks the flag)
+  layout::Layout layout;
+  try {
+    layout = layout::GenerateLayout(options, a.seed);
+    ThrowIfCancelled("layout generation");
+  } catch (const Cancelled&) {
+    spdlog::warn("layout generation interrupted; nothing written");
+    return 130;
+  }
   layout.Save(a.out);
   const auto& s = layout.stats.overall;
   spdlog::info("{} cylinders, {} rings (density: {}); mean nearest-neighbour spacing {:.3f} m "

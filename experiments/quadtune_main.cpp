@@ -12,6 +12,7 @@
 
 #include "commands.hpp"
 #include "config_reference.hpp"
+#include "limits_reference.hpp"
 #include "quadtune/common/error.hpp"
 
 namespace {
@@ -80,6 +81,7 @@ int main(int argc, char** argv) {
   quadtune::cli::RegisterSweep(app, exit_code);
   quadtune::cli::RegisterEvaluate(app, exit_code);
   quadtune::cli::RegisterConfigReference(app, exit_code);
+  quadtune::cli::RegisterLimitsReference(app, exit_code);
   // Every command's --help, nested ones (plot run, …) included, ends with the exit codes.
   const std::function<void(CLI::App*)> add_footer = [&add_footer](CLI::App* command) {
     command->footer(quadtune::cli::kExitCodes);

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "result_dir.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/text_file.hpp"
 #include "stored_flight.hpp"
@@ -122,7 +123,15 @@ void RegisterReport(CLI::App& app, int& exit_code) {
                   "(each method's best first)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  cmd->callback([&exit_code] { exit_code = Report(args); });
+  cmd->callback([&exit_code] {
+    // Held while the report is written: a run, study or second report into DIR is refused
+    // meanwhile, and this report waits for none of them (refused while one writes).
+    ResultDirPolicy lock;
+    lock.lock_only = true;
+    lock.key = "DIR";
+    const ResultDir held(args.dir, lock);
+    exit_code = Report(args);
+  });
 }
 
 }  // namespace quadtune::cli

@@ -18,8 +18,9 @@ namespace {
 namespace fs = std::filesystem;
 constexpr const char* kLockName = ".quadtune.lock";
 
-[[noreturn]] void Refuse(const std::string& out, const std::string& message) {
-  throw ConfigError(out, "--out", message);
+[[noreturn]] void Refuse(const std::string& out, const std::string& key,
+                         const std::string& message) {
+  throw ConfigError(out, key, message);
 }
 
 /// The pid written into the lock file by its holder ("" when unreadable).
@@ -78,30 +79,33 @@ bool HoldsFiles(const std::string& out) {
 ResultDir::ResultDir(const std::string& out, const ResultDirPolicy& policy) : out_(out) {
   std::error_code ec;
   if (fs::exists(out, ec) && !fs::is_directory(out, ec)) {
-    Refuse(out, "exists and is not a directory; give a directory path");
+    Refuse(out, policy.key, "exists and is not a directory; give a directory path");
   }
   fs::create_directories(out, ec);
-  if (ec) Refuse(out, "cannot create the directory: " + ec.message());
+  if (ec) Refuse(out, policy.key, "cannot create the directory: " + ec.message());
   const std::string lock_path = (fs::path(out) / kLockName).string();
   fd_ = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  if (fd_ < 0) Refuse(out, std::string("cannot create the lock file: ") + std::strerror(errno));
+  if (fd_ < 0) {
+    Refuse(out, policy.key, std::string("cannot create the lock file: ") + std::strerror(errno));
+  }
   if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
     const int err = errno;
     const std::string pid = HolderPid(fd_);
     ::close(fd_);
     fd_ = -1;
     if (err == EWOULDBLOCK) {
-      Refuse(out, "another quadtune process" + (pid.empty() ? "" : " (pid " + pid + ")") +
-                      " is writing this result directory; wait for it to end or choose another "
-                      "--out");
+      Refuse(out, policy.key,
+             "another quadtune process" + (pid.empty() ? "" : " (pid " + pid + ")") +
+                 " is writing this result directory; wait for it to end or choose another " +
+                 policy.key);
     }
-    Refuse(out, std::string("cannot lock the directory: ") + std::strerror(err));
+    Refuse(out, policy.key, std::string("cannot lock the directory: ") + std::strerror(err));
   }
   try {
     if (!policy.lock_only && HoldsRun(out)) {
-      if (policy.resume && policy.overwrite) Refuse(out, "give --resume or --overwrite, not both");
+      if (policy.resume && policy.overwrite) Refuse(out, policy.key, "give --resume or --overwrite, not both");
       if (!policy.resume && !policy.overwrite) {
-        Refuse(out, policy.resume_allowed
+        Refuse(out, policy.key, policy.resume_allowed
                         ? "already holds a run; give --resume to continue it or --overwrite to "
                           "replace it"
                         : "already holds a run; give --overwrite to replace it or choose another "

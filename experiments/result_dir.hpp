@@ -24,6 +24,7 @@ struct ResultDirPolicy {
   bool overwrite = false;      ///< remove the old run first
   bool resume_allowed = true;  ///< false: the command has no --resume (adapt)
   bool lock_only = false;      ///< create and lock OUT, whatever it holds
+  std::string key = "--out";   ///< the option that named OUT, in refusals
 };
 
 class ResultDir {

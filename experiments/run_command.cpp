@@ -24,6 +24,7 @@
 #include "file_kind.hpp"
 #include "commands.hpp"
 #include "eta.hpp"
+#include "limits.hpp"
 #include "soak.hpp"
 #include "stored_flight.hpp"
 #include "result_dir.hpp"
@@ -274,6 +275,7 @@ int RunMpi(const RunArgs& a, const engine::FaultInjection& fault) {
   InstallCancelSignalHandlers();
   try {
     const engine::Experiment e = engine::LoadExperimentShared(mpi, a.experiment, a.set);
+    CheckThreadsFitAddressSpace(a.threads, e.threads, a.experiment);
     const bool tty = rank == 0 && isatty(fileno(stderr)) != 0 && !a.quiet;
     engine::DistributedOptions options;
     options.run.threads = a.threads;
@@ -337,6 +339,7 @@ int Run(const RunArgs& a) {
   // Every configuration error is reported here, before any work starts.
   CheckFileKind(a.experiment, FileKind::kExperiment);
   const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
+  CheckThreadsFitAddressSpace(a.threads, e.threads, a.experiment);
   namespace fs = std::filesystem;
   const ResultDir dir(a.out, ResultDirPolicy{a.resume, a.overwrite, true});
   const std::string store = (fs::path(a.out) / "results.sqlite").string();
@@ -409,9 +412,11 @@ int Soak(const engine::Experiment& e, int flights, int threads, const std::strin
   const double rss_start = ResidentMiB();
   const auto t0 = Clock::now();
   engine::TaskGroup group;
-  for (int i = 0; i < flights; ++i) {
-    sched.Submit(group, engine::Priority::kFlight, [&, i] {
-      if (CancelRequested()) return;
+  // One task per worker, each taking the next flight until all are flown or a signal came: the
+  // queue stays `threads` long however many flights are asked for.
+  std::atomic<int> next{0};
+  const auto fly_next = [&] {
+    for (int i = next++; i < flights && !CancelRequested(); i = next++) {
       const engine::WorldPool::Lease slot = pool.Borrow();
       engine::FlightRequest req;
       req.map = map;
@@ -425,8 +430,9 @@ int Soak(const engine::Experiment& e, int flights, int threads, const std::strin
         const std::lock_guard<std::mutex> lock(mutex);
         samples.emplace_back(d, rss);
       }
-    });
-  }
+    }
+  };
+  for (int w = 0; w < threads; ++w) sched.Submit(group, engine::Priority::kFlight, fly_next);
   sched.Wait(group);
   const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
   std::sort(samples.begin(), samples.end());
@@ -456,6 +462,7 @@ int Soak(const engine::Experiment& e, int flights, int threads, const std::strin
 int Bench(const BenchArgs& a) {
   CheckFileKind(a.experiment, FileKind::kExperiment);
   const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
+  CheckThreadsFitAddressSpace(a.max_threads, "", "--max-threads");
   if (a.soak > 0) return Soak(e, a.soak, a.max_threads, a.csv);
   const engine::Opaque map = e.planner.PrepareMap(e.MapSeed(0));
   const engine::ParamValues defaults = e.planner.Defaults();
@@ -581,7 +588,7 @@ void RegisterRun(CLI::App& app, int& exit_code) {
                                  "OUT/report.html");
   cmd->add_option("experiment", args.experiment, "experiment file (YAML)")->required();
   cmd->add_option("--threads", args.threads, "worker threads (default: the experiment's)")
-      ->check(CLI::Range(1, 1024));
+      ->check(CountIn(1, engine::kMaxThreads, kThreadsWhy));
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();
   cmd->add_flag("--resume", args.resume, "continue the run stored in OUT/results.sqlite");
   cmd->add_flag("--overwrite", args.overwrite,
@@ -634,15 +641,21 @@ void RegisterBench(CLI::App& app, int& exit_code) {
       ->required();
   cmd->add_option("--set", args.set, "KEY=VALUE: change the experiment file's dotted KEY "
                                      "(repeatable), e.g. --set planner.max_time=20");
-  cmd->add_option("--max-threads", args.max_threads, "largest thread count")->capture_default_str();
-  cmd->add_option("--flights", args.flights, "flights per thread count")->capture_default_str();
-  cmd->add_option("--resolves", args.resolves, "re-solves per thread count")->capture_default_str();
+  cmd->add_option("--max-threads", args.max_threads, "largest thread count")
+      ->capture_default_str()
+      ->check(CountIn(1, kMaxBenchThreads, kBenchThreadsWhy));
+  cmd->add_option("--flights", args.flights, "flights per thread count")
+      ->capture_default_str()
+      ->check(CountIn(1, kMaxBenchFlights, kQueuedWhy));
+  cmd->add_option("--resolves", args.resolves, "re-solves per thread count")
+      ->capture_default_str()
+      ->check(CountIn(1, kMaxBenchResolves, kQueuedWhy));
   cmd->add_option("--csv", args.csv, "also write one row per thread count to this CSV file");
   cmd->add_flag("--plot", args.plot, "draw the thread-scaling figure next to the CSV (PNG)");
   cmd->add_option("--soak", args.soak,
                   "instead: N closed-loop flights through one world pool on --max-threads "
                   "threads, resident memory sampled; says whether it stays flat (within 5 %)")
-      ->check(CLI::Range(1, 10000000));
+      ->check(CountIn(1, kMaxSoakFlights, kSoakWhy));
   cmd->callback([&exit_code] { exit_code = Bench(args); });
 }
 

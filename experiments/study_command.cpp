@@ -15,8 +15,10 @@
 
 #include "file_kind.hpp"
 #include "commands.hpp"
+#include "limits.hpp"
 #include "eta.hpp"
 #include "quadtune/common/cancel.hpp"
+#include "quadtune/common/error.hpp"
 #include "quadtune/engine/distributed.hpp"
 #include "quadtune/engine/study.hpp"
 #include "result_dir.hpp"
@@ -40,10 +42,16 @@ int RunStudyCommand(const StudyArgs& a) {
   engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "study");
   CheckFileKind(a.file, FileKind::kStudy);
   const engine::Study study = engine::Study::LoadFile(a.file, a.set);  // all errors before any work
+  if (a.threads > 0) CheckThreadsFitAddressSpace(a.threads, "", "--threads");
   spdlog::info("study '{}' ({}): {} point(s){}, {} stage(s), {} validation flights per tuned trial",
                study.name, a.file, study.labels.size(),
                study.sweep_key.empty() ? "" : " over " + study.sweep_key, study.stages.size(),
                study.validation_flights);
+  if (a.resume && !HoldsRun(a.out)) {
+    throw ConfigError(a.out, "--resume",
+                      "holds no study to continue (no stage store or study.json in it); run "
+                      "without --resume to start one");
+  }
   const ResultDir dir(a.out, ResultDirPolicy{a.resume, a.overwrite, true});
   engine::StudyOptions options;
   options.out_dir = a.out;
@@ -148,7 +156,7 @@ void RegisterStudy(CLI::App& app, int& exit_code) {
   cmd->add_option("study", args.file, "study file (YAML)")->required()->check(CLI::ExistingFile);
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();
   cmd->add_option("--threads", args.threads, "worker threads (default: the experiment's)")
-      ->check(CLI::Range(1, 1024));
+      ->check(CountIn(1, engine::kMaxThreads, kThreadsWhy));
   cmd->add_flag("--resume", args.resume, "continue the stages stored in OUT");
   cmd->add_flag("--overwrite", args.overwrite, "replace the study already in OUT")
       ->excludes("--resume");

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "limits.hpp"
 #include "file_kind.hpp"
 #include "result_dir.hpp"
 #include "quadtune/common/error.hpp"
@@ -313,10 +314,6 @@ int RunSweepCommand(const SweepArgs& a) {
       if (ipopt->options().layout.zones.empty()) g.spacing = ipopt->options().layout.spacing;
     }
   }
-  // Held until the files are written: a second sweep into OUT is refused meanwhile.
-  ResultDirPolicy lock;
-  lock.lock_only = true;
-  const ResultDir out_dir(a.out, lock);
   const engine::Experiment& first = groups.front().experiment;
   const std::uint64_t seed = a.seed >= 0 ? static_cast<std::uint64_t>(a.seed) : first.seed;
   engine::SweepOptions options;
@@ -328,11 +325,19 @@ int RunSweepCommand(const SweepArgs& a) {
   options.bootstrap = a.bootstrap;
   options.cancel = &g_sweep_interrupted;
   const int d = first.space.Dim();
+  // Before the lock: a refusal leaves OUT as it was.
+  engine::CheckSweepOptions(options, d);
+  CheckThreadsFitAddressSpace(a.threads, first.threads, a.experiment);
+  // Held until the files are written: a second sweep into OUT is refused meanwhile.
+  ResultDirPolicy lock;
+  lock.lock_only = true;
+  const ResultDir out_dir(a.out, lock);
+  const long long design_points = static_cast<long long>(a.points) * (d + 2);
   spdlog::info(
       "sweep of '{}' ({}): planner {}, {} parameters, N = {} → {} points × {} maps = {} "
       "flights per layout, {} layout(s), {} re-solved queries, seed {}, {} threads",
-      first.name, a.experiment, first.planner.Name(), d, a.points, a.points * (d + 2), a.maps,
-      a.points * (d + 2) * a.maps, groups.size(), a.queries, seed, options.threads);
+      first.name, a.experiment, first.planner.Name(), d, a.points, design_points, a.maps,
+      design_points * a.maps, groups.size(), a.queries, seed, options.threads);
   std::signal(SIGINT, OnSweepSignal);
   std::signal(SIGTERM, OnSweepSignal);
   const bool tty = isatty(fileno(stderr)) != 0 && !a.quiet;
@@ -381,17 +386,17 @@ void RegisterSweep(CLI::App& app, int& exit_code) {
       ->required();
   cmd->add_option("--points", args.points, "N base rows of the design (N·(d+2) points)")
       ->capture_default_str()
-      ->check(CLI::Range(2, 1 << 20));
+      ->check(CLI::Range(2, kMaxSweepPoints));
   cmd->add_option("--maps", args.maps, "K maps every point flies on")
       ->capture_default_str()
-      ->check(CLI::Range(1, 1000));
+      ->check(CLI::Range(1, kMaxSweepMaps));
   cmd->add_option("--queries", args.queries, "Q recorded planning queries re-solved per θ_s")
       ->capture_default_str()
-      ->check(CLI::Range(1, 1 << 20));
+      ->check(CLI::Range(1, kMaxSweepQueries));
   cmd->add_option("--seed", args.seed, "sweep seed (default: the experiment's)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(SeedValidator());
   cmd->add_option("--threads", args.threads, "worker threads (default: the experiment's)")
-      ->check(CLI::Range(1, 1024));
+      ->check(CountIn(1, engine::kMaxThreads, kThreadsWhy));
   cmd->add_option("--bootstrap", args.bootstrap, "bootstrap resamples for the 95% intervals")
       ->capture_default_str()
       ->check(CLI::Range(1, 1000000));

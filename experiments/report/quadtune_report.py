@@ -227,7 +227,10 @@ def main():
         page = fh.read()
     with open(os.path.join(HERE, "report.js"), encoding="utf-8") as fh:
         script = fh.read()
-    data_json = json.dumps(data, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
+    # Every "<" (and ">", "&") as a JSON escape: no "</script" or "<!--" can end or change the
+    # script element that holds the data.
+    data_json = (json.dumps(data, separators=(",", ":"), allow_nan=False)
+                 .replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026"))
     parts = {"TITLE": html.escape(data["title"]), "PLOTLY": plotly.replace("</script", "<\\/script"),
              "IMPORTMAP": json.dumps(importmap), "DATA": data_json, "SCRIPT": script}
     page = re.sub(r"\{\{([A-Z]+)\}\}", lambda m: parts[m.group(1)], page)  # one pass

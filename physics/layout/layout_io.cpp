@@ -168,6 +168,32 @@ void Layout::Save(const std::string& path) const {
   if (!file) throw ConfigError(path, "", "cannot write the file");
 }
 
+YamlBounds SavedLayoutBounds() {
+  YamlBounds b;
+  b.max_nodes = static_cast<std::size_t>(kMaxObstaclesPerLayout) * 12 + 10000;
+  b.nodes_why = "a saved layout holds at most " + Num(kMaxObstaclesPerLayout) +
+                " obstacles (the cap on generated layouts) of at most 12 values each";
+  return b;
+}
+
+namespace {
+/// A saved layout holds at most what the generator may make: refused before any obstacle is read.
+void CheckObstacleCount(const YamlMap& obs) {
+  const auto count = [&](const char* key) {
+    const YAML::Node n = obs.node()[key];
+    return n.IsSequence() ? static_cast<double>(n.size()) : 0.0;
+  };
+  const double total = count("cylinders") + count("rings");
+  if (total > kMaxObstaclesPerLayout) {
+    obs.Fail("cylinders", Num(count("cylinders")) + " cylinders + " + Num(count("rings")) +
+                              " rings = " + Num(total) + " obstacles; a layout holds at most " +
+                              Num(kMaxObstaclesPerLayout) +
+                              " (the cap on generated layouts, which bounds memory and the time "
+                              "of building a world)");
+  }
+}
+}  // namespace
+
 Layout Layout::FromYaml(const YamlMap& map) {
   map.RejectUnknownKeys({"format", "seed", "options", "obstacles", "stats"});
   const std::string format = map.String("format", std::string(kFormat), {kFormat});
@@ -185,6 +211,7 @@ Layout Layout::FromYaml(const YamlMap& map) {
 
   const YamlMap obs = map.Map("obstacles", true);
   obs.RejectUnknownKeys({"ground", "cylinders", "rings"});
+  CheckObstacleCount(obs);
   layout.obstacles.ground = obs.Bool("ground", true);
   for (const YamlMap& c : obs.Maps("cylinders")) {
     c.RejectUnknownKeys({"center", "radius", "z_min", "z_max"});
@@ -231,9 +258,11 @@ Layout Layout::FromYaml(const YamlMap& map) {
 }
 
 Layout Layout::FromYamlString(const std::string& text, const std::string& origin) {
-  return FromYaml(YamlMap::FromString(text, origin));
+  return FromYaml(YamlMap::FromString(text, origin, SavedLayoutBounds()));
 }
 
-Layout Layout::Load(const std::string& path) { return FromYaml(YamlMap::LoadFile(path)); }
+Layout Layout::Load(const std::string& path) {
+  return FromYaml(YamlMap::LoadFile(path, SavedLayoutBounds()));
+}
 
 }  // namespace quadtune::layout

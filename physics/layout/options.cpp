@@ -445,7 +445,14 @@ LayoutOptions LayoutOptions::FromYaml(const YamlMap& map) {
 }
 
 LayoutOptions LayoutOptions::LoadFile(const std::string& path) {
-  return FromYaml(YamlMap::LoadFile(path));
+  const YamlMap map = YamlMap::LoadFile(path);
+  if (map.Has("format")) {  // the first key of every file Layout::Save writes
+    throw ConfigError(path, "",
+                      "is a saved layout (written by `quadtune layout`), not layout generator "
+                      "options; give generator options here (e.g. assets/layouts/forest_1p3.yaml), "
+                      "or fly the saved layout with `quadtune fly --layout FILE`");
+  }
+  return FromYaml(map);
 }
 
 void LayoutOptions::ToYaml(YAML::Emitter& out) const {

@@ -10,6 +10,8 @@
 #include <iterator>
 #include <limits>
 
+#include "quadtune/common/cancel.hpp"
+
 #include "delaunay_index.hpp"
 #include "quadtune/common/error.hpp"
 
@@ -36,6 +38,8 @@ std::vector<double> NearestNeighbourDistances(const std::vector<Eigen::Vector2d>
   Delaunay dt;
   Delaunay::Vertex_handle hint;
   for (std::size_t i = 0; i < n; ++i) {
+    // SIGINT/SIGTERM (quadtune/common/cancel.hpp): a large layout's insertions take seconds.
+    if (i % 1024 == 0) ThrowIfCancelled("layout measurement");
     const std::size_t before = dt.number_of_vertices();
     Delaunay::Vertex_handle v =
         dt.insert(ToCgal(points_W[i]),

@@ -174,6 +174,71 @@ TEST(TextFile, DirectoriesAndMissingFilesAreNamed) {
   std::filesystem::remove_all(dir);
 }
 
+/// A flow list of `n` copies of `item`.
+std::string FlowList(std::size_t n, const std::string& item) {
+  std::string s = "[";
+  for (std::size_t i = 0; i < n; ++i) s.append(i ? ", " : "").append(item);
+  return s + "]";
+}
+
+/// A block mapping of `n` distinct keys.
+std::string BlockMap(std::size_t n) {
+  std::string s;
+  for (std::size_t i = 0; i < n; ++i) s.append("k").append(std::to_string(i)).append(": 1\n");
+  return s;
+}
+
+TEST(TextFile, AliasesAreRefusedAndNeverExpanded) {
+  EXPECT_THAT(ErrorOf([] { (void)YamlMap::FromString("a: &x 1\nb: *x\n", "al.yaml"); }),
+              HasSubstr("al.yaml: b: an alias (*name) (line 2); quadtune files do not use YAML "
+                        "anchors and aliases"));
+  EXPECT_THAT(ErrorOf([] { (void)YamlMap::FromString("a: [&x [1, 2], [*x]]\n", "al.yaml"); }),
+              HasSubstr("al.yaml: a.1.0: an alias"));
+  EXPECT_THAT(ErrorOf([] { (void)YamlMap::FromString("a: &x {b: 1}\n*x : 2\n", "al.yaml"); }),
+              HasSubstr("al.yaml: ?: an alias"));
+  EXPECT_EQ(ErrorOf([] { (void)YamlMap::FromString("a: &x 1\n", "al.yaml"); }), "<no error>");
+  // The same check on --set values.
+  EXPECT_THAT(ErrorOf([] { (void)ApplyAssignments("a: 1\n", {"b=[&x 1, *x]"}, "e.yaml"); }),
+              HasSubstr("e.yaml: --set b.1: an alias"));
+}
+
+TEST(TextFile, MappingsListsAndNestingHaveStatedLimits) {
+  EXPECT_EQ(ErrorOf([] { (void)YamlMap::FromString(BlockMap(kMaxYamlMapKeys), "m.yaml"); }),
+            "<no error>");
+  EXPECT_THAT(ErrorOf([] { (void)YamlMap::FromString(BlockMap(kMaxYamlMapKeys + 1), "m.yaml"); }),
+              HasSubstr("m.yaml: more than 1000 keys in one mapping (line 1001)"));
+  const std::string long_list = FlowList(kMaxYamlListEntries + 1, "0");
+  EXPECT_THAT(ErrorOf([&] { (void)YamlMap::FromString("a: {}\nb:\n  c: " + long_list, "l.yaml"); }),
+              HasSubstr("l.yaml: b.c: more than 100000 entries in one list (line 3)"));
+  EXPECT_EQ(ErrorOf([] {
+              (void)YamlMap::FromString("c: " + FlowList(kMaxYamlListEntries, "0"), "l.yaml");
+            }),
+            "<no error>");
+  std::string nested = "0";
+  for (std::size_t i = 0; i + 1 < kMaxYamlDepth; ++i) nested = "[" + nested + "]";
+  EXPECT_EQ(ErrorOf([&] { (void)YamlMap::FromString("a: " + nested, "d.yaml"); }), "<no error>");
+  EXPECT_THAT(ErrorOf([&] { (void)YamlMap::FromString("a: [" + nested + "]", "d.yaml"); }),
+              HasSubstr("d.yaml: nesting deeper than 64 levels (line 1)"));
+}
+
+TEST(TextFile, ValuesAndBytesHaveStatedLimits) {
+  // 20 lists of 100 000 zeros: past the values of one text in the last list.
+  const std::string list = FlowList(kMaxYamlListEntries, "0");
+  std::string text = "a: [" + list;
+  for (int i = 1; i * kMaxYamlListEntries < kMaxYamlNodes; ++i) text += ", " + list;
+  EXPECT_THAT(ErrorOf([&] { (void)YamlMap::FromString(text + "]", "n.yaml"); }),
+              HasSubstr("n.yaml: a.19.99976: more than 2000000 values in the text (line 1)"));
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("qt_text_bytes_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const auto big = dir / "big.yaml";
+  std::ofstream(big) << "a: 1\n";
+  std::filesystem::resize_file(big, kMaxYamlBytes + 1);  // sparse: nothing is written
+  EXPECT_THAT(ErrorOf([&] { (void)YamlMap::LoadFile(big.string()); }),
+              HasSubstr("big.yaml: 67108865 bytes; a configuration file holds at most 67108864"));
+  std::filesystem::remove_all(dir);
+}
+
 TEST(TextFile, DeepNestingIsAConfigError) {
   const std::string deep = std::string(100000, '[') + std::string(100000, ']');
   EXPECT_THAT(ErrorOf([&] { (void)YamlMap::FromString("a: " + deep, "d.yaml"); }),

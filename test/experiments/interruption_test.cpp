@@ -264,6 +264,45 @@ TEST_F(Interruption, SigtermDuringARunLeavesAConsistentStoreThatResumesToTheSame
   EXPECT_EQ(resumed, Rows(ref / "results.sqlite", kEvaluations));
 }
 
+TEST_F(Interruption, SigtermDuringAShortTermPhaseResumesToTheSameResult) {
+  // bo_pso on the sleep planner: each generation re-solves 4 × 40 queries of about 10 ms.
+  const std::string yaml =
+      "name: short\nseed: 6\nthreads: 2\nmode: reproducible\nrepeats: 1\nmethods: [bo_pso]\n"
+      "planner:\n  type: sleep\n  sleep: {resolve_median_s: 0.01, resolve_p95_s: 0.02,"
+      " flight_median_s: 0.01, flight_p95_s: 0.02, queries_per_flight: 10}\n"
+      "parameters:\n  - {name: effort, lower: 0.25, upper: 4.0, default: 1.0}\n"
+      "  - {name: pace, lower: 0.5, upper: 4.0, default: 1.0}\n"
+      "short_term: [effort]\nlong_term: [pace]\n"
+      "budget: {flights: 3, flight_batch: 1, short_evals_per_flight: 8, queries_per_eval: 40}\n"
+      "pso: {num_particles: 4}\nbo: {initial_design_size: 2, acquisition_pool: 100}\n";
+  std::ofstream(dir_ / "short.yaml") << yaml;
+  const fs::path out = dir_ / "out";
+  const Child run =
+      Start({"run", "--no-plot", (dir_ / "short.yaml").string(), "--out", out.string(), "--quiet"},
+            dir_ / "run.err");
+  const auto shorts = [&] {
+    const auto rows =
+        Rows(out / "results.sqlite", "SELECT COUNT(*) FROM evaluation WHERE kind='short'");
+    return rows.empty() ? 0 : std::stoi(rows[0]);
+  };
+  WaitUntil(run, [&] { return shorts() >= 4; });
+  kill(run.pid, SIGTERM);
+  EXPECT_EQ(Wait(run), 130) << ReadText(dir_ / "run.err");
+  EXPECT_EQ(Rows(out / "results.sqlite", "PRAGMA integrity_check"), std::vector<std::string>{"ok"});
+  EXPECT_LT(shorts(), 3 * 8) << "the run was not interrupted";
+  const fs::path ref = dir_ / "ref";
+  for (const bool resume : {true, false}) {  // finish the interrupted run; run it uninterrupted
+    std::vector<std::string> args{"run", "--no-plot", (dir_ / "short.yaml").string(), "--out",
+                                  (resume ? out : ref).string(), "--quiet"};
+    if (resume) args.push_back("--resume");
+    const fs::path err = dir_ / (resume ? "resume.err" : "ref.err");
+    ASSERT_EQ(RunToEnd(args, err), 0) << ReadText(err);
+  }
+  const auto resumed = Rows(out / "results.sqlite", kEvaluations);
+  EXPECT_FALSE(resumed.empty());
+  EXPECT_EQ(resumed, Rows(ref / "results.sqlite", kEvaluations));
+}
+
 TEST_F(Interruption, SigtermDuringLayoutGenerationExitsWithTheResumeCommand) {
   // A large forest: its map is generated before the first flight, for seconds.
   std::ofstream(dir_ / "big.yaml")

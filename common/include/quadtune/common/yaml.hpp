@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "quadtune/common/error.hpp"
+#include "quadtune/common/text_file.hpp"
 
 namespace quadtune {
 
@@ -43,10 +44,12 @@ void CheckInRange(double value, const Range& range, const std::string& file, con
 /// A YAML mapping together with the file it came from and its key path inside that file.
 class YamlMap {
  public:
-  /// Parses a file; unreadable or malformed files throw ConfigError naming the file (and line).
-  static YamlMap LoadFile(const std::string& path);
+  /// Parses a file; unreadable or malformed files, or files past the bounds (text_file.hpp),
+  /// throw ConfigError naming the file (and line).
+  static YamlMap LoadFile(const std::string& path, const YamlBounds& bounds = {});
   /// Parses text; `origin` stands in for the file name in error messages.
-  static YamlMap FromString(const std::string& text, const std::string& origin = "<string>");
+  static YamlMap FromString(const std::string& text, const std::string& origin = "<string>",
+                            const YamlBounds& bounds = {});
 
   /// Wraps `node`, which must be a map (or null, read as empty).
   YamlMap(YAML::Node node, std::string file, std::string path = "");
@@ -87,6 +90,9 @@ class YamlMap {
 
   /// Throws ConfigError(file, KeyPath(key), message).
   [[noreturn]] void Fail(std::string_view key, const std::string& message) const;
+  /// Fails at `key` unless `path` (the file `key` names, resolved) is a readable regular file:
+  /// "file 'PATH' not found<where>", or "'PATH' is a directory; expected a file", ...
+  void CheckFile(std::string_view key, const std::string& path, const std::string& where = "") const;
 
  private:
   [[nodiscard]] YAML::Node Lookup(std::string_view key) const;

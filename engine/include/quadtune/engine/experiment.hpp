@@ -145,6 +145,8 @@ inline constexpr int kMaxFlights = 100000;            ///< budget.flights, defau
 inline constexpr int kMaxRepeats = 1000;              ///< repeats
 inline constexpr double kMaxTotalFlights = 1.0e7;     ///< flights × methods × repeats per run
 inline constexpr int kMaxShortEvalsPerFlight = 100000;  ///< budget.short_evals_per_flight
+/// threads, and every command's --threads: worker threads of one process.
+inline constexpr int kMaxThreads = 1024;
 
 /// Budgets of one trial (YAML `budget:`).
 struct Budget {

@@ -119,7 +119,8 @@ class ResultStore : public EvaluationStore {
   /// Every evaluation, ordered by trial, kind, iteration, index.
   [[nodiscard]] std::vector<EvaluationRow> Evaluations() const;
   [[nodiscard]] std::vector<TrialRow> Trials() const;
-  /// Writes experiment.csv, trials.csv and evaluations.csv into `directory` (created).
+  /// Writes experiment.csv, trials.csv and evaluations.csv into `directory` (created), each
+  /// atomically and only once every row was read (a damaged store leaves no file).
   void ExportCsv(const std::string& directory) const;
   /// Number of evaluations loaded from the file when it was opened for resume.
   [[nodiscard]] std::size_t Replayable() const { return stored_.size(); }

@@ -175,8 +175,20 @@ struct SweepResult {
 /// Outputs whose indices RunSweep estimates, in order: f_l, its terms, f_s.
 const std::vector<std::string>& SweepOutputNames();
 
-/// Runs the sweep (see the file comment). Options out of range throw ConfigError naming the
-/// option; flight and re-solve failures are recorded, never thrown. Cancelled (options.cancel)
+/// Flights of one sweep on one layout, N·(d+2)·K: every flight is queued at once and its record
+/// kept in memory.
+inline constexpr double kMaxSweepFlights = 1.0e6;
+/// Re-solves of one sweep on one layout, at most N·(d+2)·Q: each has a queued task and a result
+/// slot in memory.
+inline constexpr double kMaxSweepResolves = 1.0e7;
+
+/// Throws ConfigError naming the option (`--points`, `--maps`, `--queries`, `--threads`,
+/// `--bootstrap`), its value and what is allowed, for options out of range or a design of `dims`
+/// parameters past kMaxSweepFlights or kMaxSweepResolves (computed without overflow).
+void CheckSweepOptions(const SweepOptions& options, int dims);
+
+/// Runs the sweep (see the file comment). Options out of range (CheckSweepOptions) throw
+/// ConfigError naming the option; flight and re-solve failures are recorded, never thrown. Cancelled (options.cancel)
 /// → status kCancelled and no indices.
 SweepResult RunSweep(const Experiment& experiment, const SweepOptions& options);
 

@@ -38,6 +38,7 @@
 #include <string>
 #include <vector>
 
+#include "quadtune/common/text_file.hpp"
 #include "quadtune/layout/options.hpp"
 #include "quadtune/layout/spacing.hpp"
 #include "quadtune/physics/obstacles.hpp"
@@ -96,11 +97,17 @@ struct Layout {
   static Layout FromYaml(const YamlMap& map);
   /// Reads a layout from YAML text (`origin` names it in errors).
   static Layout FromYamlString(const std::string& text, const std::string& origin = "<string>");
-  /// Reads a layout file written by Save.
+  /// Reads a layout file written by Save; a file past SavedLayoutBounds() or with more than
+  /// kMaxObstaclesPerLayout obstacles is refused before any obstacle is read.
   static Layout Load(const std::string& path);
 
   friend bool operator==(const Layout&, const Layout&) = default;
 };
+
+/// The values a saved layout at the obstacle cap holds: at most 12 per obstacle (a ring: its
+/// mapping, 4 keys, a 3-list and 6 numbers) and 10 000 for the options and statistics. A larger
+/// file is refused while it is parsed, before yaml-cpp builds its nodes.
+[[nodiscard]] YamlBounds SavedLayoutBounds();
 
 /// Generates a layout from `options` (Validate()d first) and `seed`. The result depends only on
 /// (options, seed): same inputs give bit-identical layouts on every machine.

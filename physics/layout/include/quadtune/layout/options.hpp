@@ -226,7 +226,8 @@ struct LayoutOptions {
   /// Reads the keys of LayoutFields() (see the struct's documentation), then Validate()s them.
   /// Unknown keys, wrong types and bad values throw ConfigError naming the file and key.
   static LayoutOptions FromYaml(const YamlMap& map);
-  /// Reads options from a YAML file (LoadFile + FromYaml).
+  /// Reads options from a YAML file (LoadFile + FromYaml); a saved layout (Layout::Save's file)
+  /// is refused as such.
   static LayoutOptions LoadFile(const std::string& path);
   /// Writes every field as a YAML map (LayoutFields().Write, doubles with 17 significant
   /// digits), so that FromYaml(ToYaml(o)) == o.

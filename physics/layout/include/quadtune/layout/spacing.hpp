@@ -26,6 +26,7 @@ struct SpacingStats {
 
 /// Nearest-neighbour distance (m) of every point in `points_W` (xy, m), in input order.
 /// Coincident points have NN distance 0; a single point gets +inf; none gives an empty vector.
+/// Throws Cancelled (quadtune/common/cancel.hpp) once cancellation is requested.
 [[nodiscard]] std::vector<double> NearestNeighbourDistances(
     const std::vector<Eigen::Vector2d>& points_W);
 
