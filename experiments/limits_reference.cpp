@@ -16,6 +16,7 @@
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/optimizers/bayes_opt.hpp"
 #include "quadtune/optimizers/pso.hpp"
+#include "quadtune/optimizers/racing.hpp"
 
 namespace quadtune::cli {
 namespace {
@@ -87,6 +88,7 @@ std::vector<Limit> KeyLimits() {
   AddCountKeys(engine::MapsFields().Docs(), "maps.", out);
   AddCountKeys(engine::ValidationFields().Docs(), "validation.", out);
   AddCountKeys(engine::RecommendFields().Docs(), "recommend.", out);
+  AddCountKeys(optimizers::RaceFields().Docs(), "race.", out);
   AddCountKeys(engine::StudyFields().Docs(), "study: ", out);
   AddCountKeys(engine::StudyValidationFields().Docs(), "study: validation.", out);
   AddCountKeys(engine::AdaptExperimentFields().Docs(), "adapt: ", out);
