@@ -105,7 +105,8 @@ Every limit is checked before any work; a value past it is refused with exit 2 a
 naming the file (or option), the key, the value, the limit and why. This section is generated
 from the constants the checks use and the field lists (`quadtune limits-reference --out
 docs/hardening.md` rewrites it; the test `LimitsReference.HardeningPageIsCurrent` fails when
-they differ). `bounded_inputs_tests` runs the hostile cases under a 2 s deadline, a 200 MiB peak
+they differ). `bounded_inputs_tests` runs the hostile cases under a 2 s deadline (8 s for the
+8–18 MB saved layouts, refused in about 1 s on an idle machine), a 200 MiB peak
 resident set and a 4 GiB address space, and SIGTERM in long loops under a 1 s deadline to
 exit 130: `ctest --test-dir build -R 'Bounded|PromptCancellation|FreeText'`.
 )";
