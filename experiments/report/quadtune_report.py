@@ -235,8 +235,18 @@ def main():
              "IMPORTMAP": json.dumps(importmap), "DATA": data_json, "SCRIPT": script}
     page = re.sub(r"\{\{([A-Z]+)\}\}", lambda m: parts[m.group(1)], page)  # one pass
     out = args.out or os.path.join(directory, "report.html")
-    with open(out, "w", encoding="utf-8") as fh:
-        fh.write(page)
+    # Written whole or not at all: a full disk leaves the previous page (or none), never half.
+    partial = out + ".partial"
+    try:
+        with open(partial, "w", encoding="utf-8") as fh:
+            fh.write(page)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(partial, out)
+    except OSError as e:
+        if os.path.exists(partial):
+            os.remove(partial)
+        fail("{}: {}".format(out, e.strerror or e))
     print(f"quadtune report: wrote {out} ({len(page) / 1e6:.1f} MB)")
 
 

@@ -7,6 +7,7 @@
 // - Signals: SIGTERM deep in a long loop ends the program with exit 130 within kSignalDeadlineS.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
 #include <algorithm>
 #include <chrono>
@@ -387,6 +388,29 @@ TEST(Writers, AReportIntoADirectoryARunIsWritingIsRefused) {
   EXPECT_THAT(r.err, HasSubstr("out: DIR: another quadtune process (pid " +
                                std::to_string(run.pid()) + ") is writing this result directory"));
   EXPECT_FALSE(fs::exists(out / "report.html"));
+}
+
+TEST(Writers, AReportThatCannotBeWrittenWholeLeavesNoPage) {
+  // A file-size limit stands in for a full disk: the page (megabytes: the JavaScript libraries
+  // are inlined) cannot be written whole, so none may be left, and no partial file either.
+  const fs::path dir = CaseDir("report_full");
+  const fs::path out = dir / "out";
+  ASSERT_EQ(RunQuadtune("--log-level warn run --no-plot --quiet " + (dir / "toy.yaml").string() +
+                            " --out " + out.string() + " --set 'methods=[default]'",
+                        dir / "run.log"),
+            0)
+      << ReadText(dir / "run.log");
+  const std::string cmd = "ulimit -f 256; " + QuadtuneBinary() + " report " + out.string() +
+                          " > " + (dir / "report.log").string() + " 2>&1";
+  const int status = std::system(("sh -c '" + cmd + "'").c_str());
+  EXPECT_EQ(WIFEXITED(status) ? WEXITSTATUS(status) : -1, 1) << ReadText(dir / "report.log");
+  EXPECT_THAT(ReadText(dir / "report.log"), HasSubstr("report.html: File too large"));
+  EXPECT_FALSE(fs::exists(out / "report.html"));
+  EXPECT_FALSE(fs::exists(out / "report.html.partial"));
+  // Without the limit the page is written.
+  ASSERT_EQ(RunQuadtune("report " + out.string(), dir / "report2.log"), 0)
+      << ReadText(dir / "report2.log");
+  EXPECT_TRUE(fs::exists(out / "report.html"));
 }
 
 }  // namespace
