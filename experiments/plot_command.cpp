@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "quadtune/common/error.hpp"
 #include "quadtune/common/text_file.hpp"
 
 namespace quadtune::cli {
@@ -86,15 +87,16 @@ struct SingleInputPlot {
   const char* input_help;
   const char* out_help;
   bool input_is_file;  ///< false: a directory
+  const char* must_hold = nullptr;  ///< a file the directory must hold (refused before plotting)
 };
 
 constexpr SingleInputPlot kSingleInputPlots[] = {
     {"flight", "top-down figure of a flight directory", "DIR",
      "directory written by `quadtune fly`", "figure (PNG; default: DIR/flight_topdown.png)", false},
     {"run", "figures and table of a tuning run (`quadtune run` output)", "DIR",
-     "directory holding results.sqlite", "output folder (default: DIR)", false},
+     "directory holding results.sqlite", "output folder (default: DIR)", false, "results.sqlite"},
     {"study", "figures and tables of a study (`quadtune study` output)", "DIR",
-     "directory holding study.json", "output folder (default: DIR)", false},
+     "directory holding study.json", "output folder (default: DIR)", false, "study.json"},
     {"bench", "thread-scaling figure of `quadtune bench --csv` output", "CSV",
      "CSV written by `quadtune bench --csv`", "figure (PNG; default: next to the CSV)", true},
     {"adapt", "velocity along the path and top-down view of a `quadtune adapt` directory", "DIR",
@@ -111,7 +113,12 @@ void AddSingleInputPlot(CLI::App& plot, const SingleInputPlot& spec, int& exit_c
       ->check(spec.input_is_file ? CLI::Validator(CLI::ExistingFile)
                                  : CLI::Validator(CLI::ExistingDirectory));
   sub->add_option("--out", value.second, spec.out_help);
-  sub->callback([&exit_code, &value, name = std::string(spec.name)] {
+  sub->callback([&exit_code, &value, name = std::string(spec.name), must_hold = spec.must_hold] {
+    if (must_hold != nullptr && !PathExists(value.first + "/" + must_hold)) {
+      throw ConfigError(value.first, "DIR",
+                        std::string("holds no ") + must_hold + "; give a directory written by "
+                        "`quadtune " + name + "`");
+    }
     exit_code = RunPlotScript(name + " '" + value.first + "'" + OutArgument(value.second));
   });
 }
