@@ -2,7 +2,9 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -73,6 +75,9 @@ planning::PlannerParams ParseOverrides(const std::vector<std::string>& items) {
   return params;
 }
 
+std::atomic<bool> g_fly_interrupted{false};
+void OnFlySignal(int) { g_fly_interrupted.store(true); }
+
 int RunFly(const FlyArgs& a) {
   if (!a.from.empty() || a.evaluation >= 0) {
     if (a.from.empty() || a.evaluation < 0) {
@@ -118,7 +123,16 @@ int RunFly(const FlyArgs& a) {
   std::shared_ptr<physics::World> world;
   sim::MakeWorld(scenario, world);
   const sim::Mission& mission = scenario.mission;
-  const sim::FlightResult result = sim::Fly(*world, mission, params, options, *backend);
+  // SIGINT/SIGTERM end the flight at its next tick: nothing is written, exit 130.
+  std::signal(SIGINT, OnFlySignal);
+  std::signal(SIGTERM, OnFlySignal);
+  sim::FlightHooks hooks;
+  hooks.cancelled = [] { return g_fly_interrupted.load(); };
+  const sim::FlightResult result = sim::Fly(*world, mission, params, options, *backend, hooks);
+  if (g_fly_interrupted.load()) {
+    spdlog::error("fly interrupted; nothing written");
+    return 130;
+  }
   const auto& m = result.metrics;
 
   std::filesystem::create_directories(a.out);

@@ -360,6 +360,18 @@ TEST(FreeText, ASavedLayoutGivenAsLayoutOptionsIsNamedAsSuch) {
                        dir, {"is a saved layout", "quadtune fly --layout FILE"});
 }
 
+TEST(PromptCancellation, AFlightStopsOnSigtermAndWritesNothing) {
+  // 360 s of simulated flight at 0.3 m/s along the 48 m corridor: about 3 s of wall time.
+  const fs::path dir = CaseDir("fly");
+  const std::string corridor = std::string(QUADTUNE_SOURCE_DIR) + "/assets/layouts/changing_density.yaml";
+  const BoundedResult r = ExpectPromptStop(
+      {"fly", "--layout-options", corridor, "--seed", "1", "--out", (dir / "out").string(),
+       "--set", "v_des=0.3", "--max-time", "3000", "--no-plot"},
+      dir, 0.8);
+  EXPECT_THAT(r.err, HasSubstr("fly interrupted; nothing written"));
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
 TEST(Writers, ExportOfAFileThatIsNotAStoreWritesNothing) {
   const fs::path dir = CaseDir("export");
   ExpectBoundedRefusal({"export", (dir / "toy.yaml").string(), "--csv", (dir / "csv").string()},
