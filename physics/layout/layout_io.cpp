@@ -180,6 +180,7 @@ namespace {
 /// A saved layout holds at most what the generator may make: refused before any obstacle is read.
 void CheckObstacleCount(const YamlMap& obs) {
   const auto count = [&](const char* key) {
+    if (!obs.Has(key)) return 0.0;  // also when `obstacles:` is empty (a null node)
     const YAML::Node n = obs.node()[key];
     return n.IsSequence() ? static_cast<double>(n.size()) : 0.0;
   };
