@@ -31,7 +31,9 @@ import sys
 import matplotlib
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
 matplotlib.use("Agg")
+import quadtune  # noqa: E402  (experiments/python/quadtune: the store reader)
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.patches import Circle  # noqa: E402
 
@@ -264,7 +266,7 @@ def load_run(path):
     flown), the parameters of each flight, whether each
     flight failed (f_l at objective.failure_value), the number of re-solves (θ_s candidates ×
     queries_per_eval) before each flight, and the f_s of each θ_s candidate."""
-    con = sqlite3.connect("file:{}?mode=ro".format(path), uri=True)
+    con = quadtune.connect(path)
     config = con.execute("SELECT config FROM experiment ORDER BY id LIMIT 1").fetchone()
     queries_per_eval = 1
     failure_value = float("inf")
@@ -282,8 +284,8 @@ def load_run(path):
         trials[tid] = {"method": method, "repeat": repeat, "best_value": best_value,
                        "best_params": best_params, "long": [], "params": [], "short_before": [],
                        "long_failed": [], "short_values": [], "shorts": 0, "failed": 0}
-    for tid, kind, value, status, params in con.execute(
-            "SELECT trial_id, kind, value, status, params FROM evaluation "
+    for row_id, tid, kind, value, status, params in con.execute(
+            "SELECT id, trial_id, kind, value, status, params FROM evaluation "
             "ORDER BY trial_id, id"):
         t = trials.get(tid)
         if t is None:
@@ -293,7 +295,7 @@ def load_run(path):
             t["short_values"].append((t["shorts"], value))
         elif kind in ("long", "race"):  # every flight, racing flights included, in order
             t["long"].append(value)
-            t["params"].append(json.loads(params) if params else {})
+            t["params"].append(quadtune.json_field(params, path, row_id, "params"))
             t["short_before"].append(t["shorts"])
             t["long_failed"].append(status != "ok" or value >= failure_value)
             t["failed"] += status != "ok"
@@ -564,9 +566,9 @@ def plot_validation(directory, out_dir=None):
     held-out maps, ranked; (B) n_d, the count of θ_s changes the BO discount has seen, against
     the flight, for the BO+PSO trials."""
     import quadtune_validation as qv
-    con = sqlite3.connect("file:{}?mode=ro".format(os.path.join(directory, "results.sqlite")),
-                          uri=True)
-    flights = qv.read_store(con)
+    store = os.path.join(directory, "results.sqlite")
+    con = quadtune.connect(store)
+    flights = qv.read_store(con, store)
     config = con.execute("SELECT config FROM experiment ORDER BY id LIMIT 1").fetchone()
     n_d = {}
     for tid, iteration, idx, terms in con.execute(

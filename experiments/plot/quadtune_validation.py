@@ -19,19 +19,20 @@ LABELS = {"default": "Default", "random": "Random", "pso": "PSO only", "bo": "BO
 ORDER = ["default", "random", "pso", "bo", "bo_pso"]
 
 
-def read_store(con):
-    """The validation flights of a run store (sqlite3 connection): kind 'validation' rows."""
-    import json
+def read_store(con, path):
+    """The validation flights of a run store (sqlite3 connection to `path`): kind 'validation'
+    rows; a row whose params or terms are not JSON raises quadtune.DamagedStore naming it."""
+    from quadtune import json_field
     repeats = {tid: rep for tid, rep in con.execute("SELECT id, repeat FROM trial")}
     flights = []
-    for tid, method, iteration, value, terms, params, status in con.execute(
-            "SELECT trial_id, method, iteration, value, terms, params, status FROM evaluation "
+    for row_id, tid, method, iteration, value, terms, params, status in con.execute(
+            "SELECT id, trial_id, method, iteration, value, terms, params, status FROM evaluation "
             "WHERE kind = 'validation' ORDER BY trial_id, iteration"):
-        t = json.loads(terms) if terms else {}
+        t = json_field(terms, path, row_id, "terms")
         flights.append(dict(method=method, repeat=repeats.get(tid, -1), map=iteration,
                             value=value, completed=t.get("completed", 0.0) > 0.5,
                             n_c=t.get("n_c", 0.0), n_e=t.get("n_e", 0.0),
-                            status=status, params=json.loads(params) if params else {}))
+                            status=status, params=json_field(params, path, row_id, "params")))
     # A `default` trial recommends the defaults; their flights are stored once (trial id 0).
     return flights
 

@@ -372,6 +372,40 @@ TEST(PromptCancellation, AFlightStopsOnSigtermAndWritesNothing) {
   EXPECT_FALSE(fs::exists(dir / "out"));
 }
 
+TEST(DamagedStores, PlotAndThePythonReaderNameTheFileTheRowAndTheColumn) {
+  const fs::path dir = CaseDir("damaged_store");
+  const fs::path out = dir / "out";
+  ASSERT_EQ(RunQuadtune("--log-level warn run --no-plot --quiet " + (dir / "toy.yaml").string() +
+                            " --out " + out.string() + " --set 'methods=[default, random]'",
+                        dir / "run.log"),
+            0)
+      << ReadText(dir / "run.log");
+  const std::string store = (out / "results.sqlite").string();
+  ASSERT_EQ(std::system(("sqlite3 '" + store + "' \"UPDATE evaluation SET params = '{broken' "
+                         "WHERE id = 5\"").c_str()),
+            0);
+  ASSERT_EQ(RunQuadtune("plot run " + out.string(), dir / "plot.log"), 1);
+  EXPECT_THAT(ReadText(dir / "plot.log"),
+              HasSubstr(store + ": damaged results store: evaluation 5: params is not JSON"));
+  const std::string python = "PYTHONPATH='" + std::string(QUADTUNE_SOURCE_DIR) +
+                             "/experiments/python' /usr/bin/python3 -c \"import quadtune; "
+                             "quadtune.load('" + out.string() + "')\" > '" +
+                             (dir / "py.log").string() + "' 2>&1";
+  EXPECT_NE(std::system(python.c_str()), 0);
+  EXPECT_THAT(ReadText(dir / "py.log"),
+              HasSubstr("quadtune.DamagedStore: " + store +
+                        ": damaged results store: evaluation 5: params is not JSON"));
+  // A file that is no store at all.
+  Write(dir / "junk.sqlite", "not a database, just text\n");
+  const std::string junk = "PYTHONPATH='" + std::string(QUADTUNE_SOURCE_DIR) +
+                           "/experiments/python' /usr/bin/python3 -c \"import quadtune; "
+                           "quadtune.load('" + (dir / "junk.sqlite").string() + "')\" > '" +
+                           (dir / "junk.log").string() + "' 2>&1";
+  EXPECT_NE(std::system(junk.c_str()), 0);
+  EXPECT_THAT(ReadText(dir / "junk.log"), HasSubstr("junk.sqlite: not a readable quadtune results "
+                                                    "store (file is not a database)"));
+}
+
 TEST(Writers, ExportOfAFileThatIsNotAStoreWritesNothing) {
   const fs::path dir = CaseDir("export");
   ExpectBoundedRefusal({"export", (dir / "toy.yaml").string(), "--csv", (dir / "csv").string()},

@@ -28,6 +28,27 @@ Results = collections.namedtuple(
     "Results", "long short validation recheck race incumbent trials experiment")
 
 
+class DamagedStore(ValueError):
+    """A results store that cannot be read as one: the message names the file, and the row and
+    column where one is at fault."""
+
+
+def json_field(text, path, row_id, column):
+    """The JSON object stored in `column` of evaluation `row_id` ({} for NULL or empty);
+    DamagedStore naming the file, the row and the column when it is not a JSON object."""
+    if not text:
+        return {}
+    try:
+        value = json.loads(text)
+    except ValueError as e:
+        raise DamagedStore("{}: damaged results store: evaluation {}: {} is not JSON ({})".format(
+            path, row_id, column, e)) from None
+    if not isinstance(value, dict):
+        raise DamagedStore("{}: damaged results store: evaluation {}: {} is not a JSON object"
+                           .format(path, row_id, column))
+    return value
+
+
 def store_path(path):
     """The results.sqlite file of `path` (the file itself or a run directory holding it)."""
     candidate = os.path.join(path, "results.sqlite") if os.path.isdir(path) else path
@@ -36,9 +57,21 @@ def store_path(path):
     return candidate
 
 
-def _connect(path):
-    uri = "file:" + os.path.abspath(store_path(path)) + "?mode=ro"
-    return sqlite3.connect(uri, uri=True)
+def connect(path):
+    """A read-only connection to a quadtune store; DamagedStore when the file is not one."""
+    file = store_path(path)
+    con = sqlite3.connect("file:" + os.path.abspath(file) + "?mode=ro", uri=True)
+    try:
+        tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+    except sqlite3.DatabaseError as e:
+        con.close()
+        raise DamagedStore("{}: not a readable quadtune results store ({})".format(file, e)) \
+            from None
+    if not {"evaluation", "trial", "experiment"} <= tables:
+        con.close()
+        raise DamagedStore("{}: not a quadtune results store (no evaluation, trial and "
+                           "experiment tables)".format(file))
+    return con
 
 
 def _seed(row_seed, trial_seed, kind):
@@ -50,7 +83,8 @@ def _seed(row_seed, trial_seed, kind):
 def rows(path):
     """{kind: [dict per evaluation]} for every kind in KINDS (standard library)."""
     out = {k: [] for k in KINDS}
-    with _connect(path) as db:
+    file = store_path(path)
+    with connect(path) as db:
         query = ("SELECT e.id, e.trial_id, e.method, t.repeat, e.kind, e.iteration, e.idx, e.status,"
                  " e.value, e.wall_s, e.map_seed, e.flight_seed, e.params, e.terms, t.map_seed"
                  " FROM evaluation e LEFT JOIN trial t ON t.id = e.trial_id"
@@ -60,8 +94,8 @@ def rows(path):
             row = dict(zip(FIXED, r[:12]))
             row["map_seed"] = _seed(r[10], r[14], kind)
             row["flight_seed"] = int(r[11]) if r[11] else None
-            for source, prefix in ((json.loads(r[12] or "{}"), "param_"),
-                                   (json.loads(r[13] or "{}"), "term_")):
+            for source, prefix in ((json_field(r[12], file, r[0], "params"), "param_"),
+                                   (json_field(r[13], file, r[0], "terms"), "term_")):
                 for name, value in source.items():
                     row[prefix + name if name in FIXED else name] = value
             out.setdefault(kind, []).append(row)
@@ -71,10 +105,12 @@ def rows(path):
 def parameter_names(path):
     """({kind: [parameter names]}, {kind: [term names]}) in the order the store records them."""
     params, terms = {}, {}
-    with _connect(path) as db:
-        for kind, p, t in db.execute("SELECT kind, params, terms FROM evaluation"):
-            for names, text in ((params.setdefault(kind, []), p), (terms.setdefault(kind, []), t)):
-                for n in json.loads(text or "{}"):
+    file = store_path(path)
+    with connect(path) as db:
+        for row_id, kind, p, t in db.execute("SELECT id, kind, params, terms FROM evaluation"):
+            for names, text, column in ((params.setdefault(kind, []), p, "params"),
+                                        (terms.setdefault(kind, []), t, "terms")):
+                for n in json_field(text, file, row_id, column):
                     if n not in names:
                         names.append(n)
     return params, terms
@@ -82,7 +118,7 @@ def parameter_names(path):
 
 def trials(path):
     """The trial table as dicts (id, method, repeat, map_seed, status, best_params, best_value)."""
-    with _connect(path) as db:
+    with connect(path) as db:
         cur = db.execute("SELECT id, method, repeat, map_seed, status, best_params, best_value"
                          " FROM trial ORDER BY id")
         names = [c[0] for c in cur.description]
@@ -91,7 +127,7 @@ def trials(path):
 
 def experiment(path):
     """The experiment row as a dict (name, config text, seed, version, machine, threads, mode)."""
-    with _connect(path) as db:
+    with connect(path) as db:
         cur = db.execute("SELECT id, name, config, seed, version, machine, threads, mode, started"
                          " FROM experiment ORDER BY id LIMIT 1")
         names = [c[0] for c in cur.description]
