@@ -508,7 +508,8 @@ void AdaptExperiment::SetSeed(std::uint64_t new_seed) {
 
 AdaptFlight RunAdaptFlight(const AdaptExperiment& e, const layout::Layout& layout,
                            std::optional<double> fixed_v_des,
-                           const std::function<void(const AdaptationSegment&)>& on_segment) {
+                           const std::function<void(const AdaptationSegment&)>& on_segment,
+                           const std::atomic<bool>* cancel) {
   AdaptFlight out;
   out.adapted = !fixed_v_des.has_value();
   planning::PlannerParams params = e.params;
@@ -532,6 +533,7 @@ AdaptFlight RunAdaptFlight(const AdaptExperiment& e, const layout::Layout& layou
   const std::shared_ptr<const planning::TrajectoryBackend> backend =
       BuildClosedLoopBackend(e.planner_type, e.file, "planner.type");
   sim::FlightHooks hooks;
+  if (cancel != nullptr) hooks.cancelled = [cancel] { return cancel->load(); };
   std::unique_ptr<OnlineAdapter> adapter;
   if (out.adapted) {
     adapter = std::make_unique<OnlineAdapter>(*backend, options.planner, e.adaptation);

@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include <atomic>
+#include <csignal>
 #include <chrono>
 #include <exception>
 #include <filesystem>
@@ -145,6 +146,9 @@ void WriteSegmentsCsv(const std::string& path, const engine::AdaptFlight& f,
 
 double Ratio(double num, double den) { return den > 0.0 ? num / den : 0.0; }
 
+std::atomic<bool> g_adapt_interrupted{false};
+void OnAdaptSignal(int) { g_adapt_interrupted.store(true); }
+
 int RunAdapt(const AdaptArgs& a) {
   engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "adapt");
   CheckFileKind(a.experiment, FileKind::kAdaptation);
@@ -193,6 +197,9 @@ int RunAdapt(const AdaptArgs& a) {
   // in order afterwards.
   std::vector<engine::AdaptFlight> flown(runs.size());
   std::vector<double> walls(runs.size(), 0.0);
+  // SIGINT/SIGTERM end every flight at its next tick: nothing is written, exit 130.
+  std::signal(SIGINT, OnAdaptSignal);
+  std::signal(SIGTERM, OnAdaptSignal);
   {
     std::atomic<std::size_t> next{0};
     std::mutex error_mutex;
@@ -211,7 +218,8 @@ int RunAdapt(const AdaptArgs& a) {
                     z >= 0 ? fmt::format("{:.1f} m", layout.options.zones[z].spacing) : "-",
                     s.v_des_before, s.v_des, quadtune::ToString(s.outcome), s.successes,
                     s.trials, s.best_f_s);
-              });
+              },
+              &g_adapt_interrupted);
           walls[i] =
               std::chrono::duration<double>(std::chrono::steady_clock::now() - fly_start).count();
         } catch (...) {
@@ -227,6 +235,10 @@ int RunAdapt(const AdaptArgs& a) {
     worker();
     for (auto& t : pool) t.join();
     if (error) std::rethrow_exception(error);
+  }
+  if (g_adapt_interrupted.load()) {
+    spdlog::error("adapt interrupted; no flight written");
+    return 130;
   }
   for (std::size_t run = 0; run < runs.size(); ++run) {
     engine::AdaptFlight f = std::move(flown[run]);

@@ -372,6 +372,20 @@ TEST(PromptCancellation, AFlightStopsOnSigtermAndWritesNothing) {
   EXPECT_FALSE(fs::exists(dir / "out"));
 }
 
+TEST(PromptCancellation, AnAdaptRunStopsOnSigtermAndWritesNoFlight) {
+  // Five flights one after another, four of them 0.3 m/s baselines along the 48 m corridor
+  // (about 0.7 s of wall time each).
+  const fs::path dir = CaseDir("adapt");
+  const BoundedResult r = ExpectPromptStop(
+      {"adapt", std::string(QUADTUNE_SOURCE_DIR) + "/experiments/changing_environment.yaml",
+       "--out", (dir / "out").string(), "--no-plot", "--threads", "1", "--set",
+       "baselines=[0.3, 0.31, 0.32, 0.33]", "--set", "max_time=1000"},
+      dir, 0.8);
+  EXPECT_THAT(r.err, HasSubstr("adapt interrupted; no flight written"));
+  EXPECT_FALSE(fs::exists(dir / "out" / "summary.json"));
+  EXPECT_FALSE(fs::exists(dir / "out" / "adapted"));
+}
+
 TEST(DamagedStores, PlotAndThePythonReaderNameTheFileTheRowAndTheColumn) {
   const fs::path dir = CaseDir("damaged_store");
   const fs::path out = dir / "out";

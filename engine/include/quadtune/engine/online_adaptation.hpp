@@ -45,6 +45,7 @@
 /// AdaptExperiment are values; RunAdaptFlight only uses its arguments and may run concurrently.
 
 #include <Eigen/Core>
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -243,6 +244,7 @@ struct AdaptFlight {
 [[nodiscard]] AdaptFlight RunAdaptFlight(
     const AdaptExperiment& experiment, const layout::Layout& layout,
     std::optional<double> fixed_v_des,
-    const std::function<void(const AdaptationSegment&)>& on_segment = {});
+    const std::function<void(const AdaptationSegment&)>& on_segment = {},
+    const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace quadtune::engine
