@@ -87,6 +87,20 @@ std::string Number(const nlohmann::json& v) {
   return v.is_string() ? v.get<std::string>() : v.dump();
 }
 
+/// The JSON object in `column` of evaluation `id` ({} when empty); ConfigError naming the store,
+/// the evaluation and the column when it is not one.
+nlohmann::json StoredObject(const std::string& store, const std::string& id, const char* column,
+                            const std::string& text) {
+  if (text.empty()) return nlohmann::json::object();
+  nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (!j.is_object()) {
+    throw ConfigError(store, std::string("evaluation ") + id + ": " + column,
+                      "damaged results store: not a JSON object (" +
+                          (text.size() > 40 ? text.substr(0, 40) + "…" : text) + ")");
+  }
+  return j;
+}
+
 }  // namespace
 
 StoredFlight LoadStoredFlight(const std::string& store, std::int64_t id) {
@@ -157,7 +171,7 @@ int FlyStored(const std::string& store, std::int64_t id, const std::string& out)
   // The map and world exactly as IpoptPlanner::PrepareMap and ::Fly build them.
   const layout::Layout layout = layout::GenerateLayout(o.layout, f.map_seed);
   planning::PlannerParams params = o.base;
-  const nlohmann::json stored_params = nlohmann::json::parse(f.params);
+  const nlohmann::json stored_params = StoredObject(store, std::to_string(id), "params", f.params);
   for (auto it = stored_params.begin(); it != stored_params.end(); ++it) {
     params.Set(it.key(), it.value().get<double>());
   }
@@ -223,8 +237,8 @@ void WriteTidyCsv(const std::string& store, const std::string& directory) {
         Row r;
         for (int c = 0; c < 12; ++c) r.fixed.push_back(Exact(s, c));
         if (r.fixed[10].empty() && r.fixed[4] != "short") r.fixed[10] = Text(s, 14);
-        r.params = nlohmann::json::parse(Text(s, 12).empty() ? "{}" : Text(s, 12));
-        r.terms = nlohmann::json::parse(Text(s, 13).empty() ? "{}" : Text(s, 13));
+        r.params = StoredObject(store, r.fixed[0], "params", Text(s, 12));
+        r.terms = StoredObject(store, r.fixed[0], "terms", Text(s, 13));
         const std::string kind = r.fixed[4];
         auto note = [](std::vector<std::string>& names, const nlohmann::json& obj) {
           for (auto it = obj.begin(); it != obj.end(); ++it) {

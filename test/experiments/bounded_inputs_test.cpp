@@ -386,7 +386,7 @@ TEST(PromptCancellation, AnAdaptRunStopsOnSigtermAndWritesNoFlight) {
   EXPECT_FALSE(fs::exists(dir / "out" / "adapted"));
 }
 
-TEST(DamagedStores, PlotAndThePythonReaderNameTheFileTheRowAndTheColumn) {
+TEST(DamagedStores, ExportPlotAndThePythonReaderNameTheFileTheRowAndTheColumn) {
   const fs::path dir = CaseDir("damaged_store");
   const fs::path out = dir / "out";
   ASSERT_EQ(RunQuadtune("--log-level warn run --no-plot --quiet " + (dir / "toy.yaml").string() +
@@ -398,6 +398,12 @@ TEST(DamagedStores, PlotAndThePythonReaderNameTheFileTheRowAndTheColumn) {
   ASSERT_EQ(std::system(("sqlite3 '" + store + "' \"UPDATE evaluation SET params = '{broken' "
                          "WHERE id = 5\"").c_str()),
             0);
+  EXPECT_EQ(RunQuadtune("export " + store + " --tidy " + (dir / "tidy").string(),
+                        dir / "export.log"),
+            2);
+  EXPECT_THAT(ReadText(dir / "export.log"),
+              HasSubstr(store + ": evaluation 5: params: damaged results store: not a JSON object"));
+  EXPECT_FALSE(fs::exists(dir / "tidy"));
   ASSERT_EQ(RunQuadtune("plot run " + out.string(), dir / "plot.log"), 1);
   EXPECT_THAT(ReadText(dir / "plot.log"),
               HasSubstr(store + ": damaged results store: evaluation 5: params is not JSON"));
