@@ -4,7 +4,12 @@
 #include <boost/random/sobol.hpp>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <iomanip>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <limits>
 #include <stdexcept>
@@ -12,6 +17,7 @@
 
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/random.hpp"
+#include "quadtune/common/text_file.hpp"
 #include "quadtune/engine/scheduler.hpp"
 
 namespace quadtune::engine {
@@ -227,6 +233,87 @@ void FlySweep(const Experiment& e, WorldPool& pool, const Opaque& map, const Par
   out.message = rec.message;
 }
 
+/// What a journal belongs to: the sweep's sizes, its seed and the experiment's text (FNV-1a).
+nlohmann::json JournalHeader(const Experiment& e, const SweepOptions& o) {
+  std::uint64_t h = 1469598103934665603ULL;
+  for (const unsigned char c : e.text) h = (h ^ c) * 1099511628211ULL;
+  return {{"quadtune_sweep_journal", 1}, {"points", o.points}, {"maps", o.maps},
+          {"queries", o.queries}, {"seed", o.seed}, {"experiment", std::to_string(h)}};
+}
+
+/// The sweep's journal (SweepOptions::journal): finished flights ("f": point · K + map) and
+/// re-solves ("r": slot) as JSON lines after a header; thread-safe appends.
+class SweepJournal {
+ public:
+  SweepJournal(const std::string& path, const nlohmann::json& header) : path_(path) {
+    if (PathExists(path)) Load(header);
+    out_.open(path, std::ios::app);
+    if (!out_) throw ConfigError(path, "journal", "cannot be written");
+    if (!loaded_header_) Append(header);
+  }
+  const SweepFlight* Flight(long index) const {
+    const auto it = flights_.find(index);
+    return it == flights_.end() ? nullptr : &it->second;
+  }
+  const std::pair<ObjectiveValue, char>* Resolve(long slot) const {
+    const auto it = resolves_.find(slot);
+    return it == resolves_.end() ? nullptr : &it->second;
+  }
+  void RecordFlight(long index, const SweepFlight& f) {
+    if (f.status == EvalStatus::kCancelled) return;
+    Append({{"f", index}, {"v", f.objective.value}, {"t", f.objective.terms},
+            {"s", ToString(f.status)}, {"m", f.message}});
+  }
+  void RecordResolve(long slot, const ObjectiveValue& v, char failed) {
+    Append({{"r", slot}, {"v", v.value}, {"t", v.terms}, {"x", failed != 0}});
+  }
+
+ private:
+  void Append(const nlohmann::json& line) {
+    const std::lock_guard lock(mutex_);
+    out_ << line.dump() << '\n';
+    out_.flush();
+  }
+  void Load(const nlohmann::json& header) {
+    std::ifstream in(path_);
+    std::string text;
+    int line_no = 0;
+    while (std::getline(in, text)) {
+      ++line_no;
+      const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+      if (line_no == 1) {
+        if (j != header) {
+          throw ConfigError(path_, "--resume",
+                            "the journal belongs to another sweep (" + text + "; this one is " +
+                                header.dump() + ")");
+        }
+        loaded_header_ = true;
+        continue;
+      }
+      if (j.is_discarded()) break;  // a line cut by the interruption: the rest is redone
+      ObjectiveValue v;
+      v.value = j.at("v").get<double>();
+      v.terms = j.at("t").get<std::map<std::string, double>>();
+      if (j.contains("f")) {
+        SweepFlight f;
+        f.objective = v;
+        f.status = FromString<EvalStatus>(j.at("s").get<std::string>()).value_or(EvalStatus::kFailed);
+        f.message = j.at("m").get<std::string>();
+        flights_[j.at("f").get<long>()] = f;
+      } else {
+        resolves_[j.at("r").get<long>()] = {v, static_cast<char>(j.at("x").get<bool>() ? 1 : 0)};
+      }
+    }
+  }
+
+  std::string path_;
+  bool loaded_header_ = false;
+  std::map<long, SweepFlight> flights_;
+  std::map<long, std::pair<ObjectiveValue, char>> resolves_;
+  std::mutex mutex_;
+  std::ofstream out_;
+};
+
 /// Waits for `group`, reporting progress about twice a second.
 void WaitReporting(Scheduler& scheduler, TaskGroup& group, const SweepOptions& o,
                    const std::atomic<int>& flights, int flights_total,
@@ -329,7 +416,7 @@ std::vector<ParamValues> DesignPoints(const Experiment& e, const SaltelliDesign&
 void SubmitFlights(const Experiment& e, const SweepOptions& o, Scheduler& scheduler,
                    TaskGroup& group, WorldPool& pool, const std::vector<Opaque>& maps,
                    const ParamValues& defaults, std::atomic<int>& flights_done,
-                   SweepResult& result) {
+                   SweepJournal* journal, SweepResult& result) {
   const int points = static_cast<int>(result.points.size());
   const int k_maps = static_cast<int>(maps.size());
   result.flights.resize(static_cast<std::size_t>(points * k_maps));
@@ -345,8 +432,18 @@ void SubmitFlights(const Experiment& e, const SweepOptions& o, Scheduler& schedu
       const std::uint64_t seed =
           DeriveSeed(o.seed, {0xf1, static_cast<std::uint64_t>(p), static_cast<std::uint64_t>(k)});
       const Opaque* map = &maps[static_cast<std::size_t>(k)];
-      scheduler.Submit(group, Priority::kFlight, [&, out, params, seed, map] {
+      const long index = static_cast<long>(p) * k_maps + k;
+      if (const SweepFlight* done = journal != nullptr ? journal->Flight(index) : nullptr) {
+        out->objective = done->objective;
+        out->status = done->status;
+        out->message = done->message;
+        out->flight_seed = seed;
+        flights_done.fetch_add(1);
+        continue;
+      }
+      scheduler.Submit(group, Priority::kFlight, [&, out, params, seed, map, index] {
         FlySweep(e, pool, *map, params, seed, o.cancel, nullptr, *out);
+        if (journal != nullptr) journal->RecordFlight(index, *out);
         flights_done.fetch_add(1);
       });
     }
@@ -359,11 +456,17 @@ void SubmitResolves(const Experiment& e, Scheduler& scheduler, TaskGroup& group,
                     const std::vector<Opaque>& queries,
                     const std::vector<ParamValues>& short_values,
                     std::vector<ObjectiveValue>& solved, std::vector<char>& solve_failed,
-                    std::atomic<long>& resolves_done) {
+                    std::atomic<long>& resolves_done, SweepJournal* journal) {
   const std::size_t q = queries.size();
   for (std::size_t s = 0; s < short_values.size(); ++s) {
     for (std::size_t j = 0; j < q; ++j) {
       const std::size_t slot = s * q + j;
+      if (const auto* done = journal != nullptr ? journal->Resolve(static_cast<long>(slot)) : nullptr) {
+        solved[slot] = done->first;
+        solve_failed[slot] = done->second;
+        resolves_done.fetch_add(1);
+        continue;
+      }
       scheduler.Submit(group, Priority::kShort, [&, s, j, slot] {
         ResolveRecord rec;
         try {
@@ -375,6 +478,10 @@ void SubmitResolves(const Experiment& e, Scheduler& scheduler, TaskGroup& group,
         }
         solved[slot] = ShortTermObjective(rec, e.objective, e.mode);
         solve_failed[slot] = rec.status != EvalStatus::kOk ? 1 : 0;
+        const bool cancelled = rec.status == EvalStatus::kCancelled;
+        if (journal != nullptr && !cancelled) {
+          journal->RecordResolve(static_cast<long>(slot), solved[slot], solve_failed[slot]);
+        }
         resolves_done.fetch_add(1);
       });
     }
@@ -553,9 +660,15 @@ SweepResult RunSweep(const Experiment& e, const SweepOptions& o) {
   const std::size_t q = queries.size();
   std::vector<ObjectiveValue> solved(short_values.size() * q);
   std::vector<char> solve_failed(short_values.size() * q, 0);
+  std::unique_ptr<SweepJournal> journal;
+  if (!o.journal.empty()) {
+    journal = std::make_unique<SweepJournal>(o.journal, JournalHeader(e, o));
+  }
   TaskGroup group;
-  SubmitFlights(e, o, scheduler, group, pool, maps, defaults, flights_done, result);
-  SubmitResolves(e, scheduler, group, queries, short_values, solved, solve_failed, resolves_done);
+  SubmitFlights(e, o, scheduler, group, pool, maps, defaults, flights_done, journal.get(),
+                result);
+  SubmitResolves(e, scheduler, group, queries, short_values, solved, solve_failed, resolves_done,
+                 journal.get());
   WaitReporting(scheduler, group, o, flights_done, design.Points() * k_maps, resolves_done,
                 static_cast<long>(short_values.size() * q), t0);
   result.resolves = resolves_done.load();

@@ -46,9 +46,17 @@ struct SweepArgs {
   std::vector<std::string> layouts;  ///< values of layout_key, one sweep each
   std::string layout_key = "planner.layout_file";
   bool overwrite = false;
+  bool resume = false;
   bool plot = true;
   bool quiet = false;
 };
+
+/// The journal of layout group `group` in OUT (engine::SweepOptions::journal).
+std::string JournalPath(const std::string& out, std::size_t group) {
+  return (fs::path(out) / (group == 0 ? std::string("sweep.journal")
+                                      : "sweep_" + std::to_string(group) + ".journal"))
+      .string();
+}
 
 /// One sweep of the command: a layout (or the experiment as given) and its result.
 struct Group {
@@ -285,10 +293,16 @@ int RunSweepCommand(const SweepArgs& a) {
   engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "sweep");
   CheckFileKind(a.experiment, FileKind::kExperiment);
   CheckOutputDir(a.out, "--out");
-  if (HoldsFiles(a.out) && !a.overwrite) {
+  if (a.resume && !PathExists(JournalPath(a.out, 0))) {
+    throw ConfigError(a.out, "--resume",
+                      "holds no sweep to continue (no sweep.journal); run the sweep without "
+                      "--resume");
+  }
+  if (!a.resume && HoldsFiles(a.out) && !a.overwrite) {
     throw ConfigError(a.out, "--out",
-                      "the output directory exists and is not empty; choose another --out or "
-                      "pass --overwrite to replace its sweep files");
+                      "the output directory exists and is not empty; choose another --out, "
+                      "pass --overwrite to replace its sweep files, or --resume to continue an "
+                      "interrupted sweep");
   }
   // Every configuration error is reported here, before any flight.
   std::vector<Group> groups;
@@ -332,6 +346,7 @@ int RunSweepCommand(const SweepArgs& a) {
   ResultDirPolicy lock;
   lock.lock_only = true;
   const ResultDir out_dir(a.out, lock);
+  for (std::size_t i = 0; !a.resume && i < groups.size(); ++i) fs::remove(JournalPath(a.out, i));
   const long long design_points = static_cast<long long>(a.points) * (d + 2);
   spdlog::info(
       "sweep of '{}' ({}): planner {}, {} parameters, N = {} → {} points × {} maps = {} "
@@ -344,10 +359,13 @@ int RunSweepCommand(const SweepArgs& a) {
   const auto t0 = std::chrono::steady_clock::now();
   for (std::size_t i = 0; i < groups.size(); ++i) {
     options.on_progress = Printer(tty, a.quiet, i, groups.size());
+    options.journal = JournalPath(a.out, i);
     groups[i].result = engine::RunSweep(groups[i].experiment, options);
     if (tty) std::fprintf(stderr, "\n");
     if (groups[i].result.status != engine::RunStatus::kCompleted) {
-      spdlog::error("sweep interrupted; nothing written");
+      spdlog::error("sweep interrupted; the finished flights and re-solves are in {}; continue "
+                    "with the same command and --resume",
+                    options.journal);
       return 130;
     }
     const auto& r = groups[i].result;
@@ -368,6 +386,7 @@ int RunSweepCommand(const SweepArgs& a) {
   WriteSummary(groups, a, seed, wall_s, out / "summary.json");
   spdlog::info("wrote {}/sweep.csv, points.csv, indices.csv, indices.md, summary.json ({:.1f} s)",
                a.out, wall_s);
+  for (std::size_t i = 0; i < groups.size(); ++i) fs::remove(JournalPath(a.out, i));
   if (a.plot) return RunPlotScript("sweep '" + a.out + "'");
   return 0;
 }
@@ -410,6 +429,9 @@ void RegisterSweep(CLI::App& app, int& exit_code) {
                   "planner.layout takes e.g. planner.layout.spacing and spacings as values)")
       ->capture_default_str();
   cmd->add_flag("--overwrite", args.overwrite, "write into a non-empty --out");
+  cmd->add_flag("--resume", args.resume,
+                "continue the interrupted sweep in --out (same experiment and options): the "
+                "flights and re-solves its journal holds are not run again");
   AddNoPlotFlag(*cmd, args.plot, "do not draw OUT/sweep.png");
   cmd->add_flag("--quiet", args.quiet, "no progress line");
   cmd->callback([&exit_code] { exit_code = RunSweepCommand(args); });

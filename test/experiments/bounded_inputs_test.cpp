@@ -386,6 +386,36 @@ TEST(PromptCancellation, AnAdaptRunStopsOnSigtermAndWritesNoFlight) {
   EXPECT_FALSE(fs::exists(dir / "out" / "adapted"));
 }
 
+TEST(PromptCancellation, AnInterruptedSweepResumesToTheSameResult) {
+  // 80 flights of 0.05 s each (toy planner) and their re-solves, on 2 threads: about 2.5 s.
+  const fs::path dir = CaseDir("sweep_resume");
+  const std::vector<std::string> sweep = {"sweep", (dir / "toy.yaml").string(), "--points", "8",
+                                          "--maps", "2", "--no-plot", "--quiet", "--set",
+                                          "planner.toy.flight_delay_s=0.05"};
+  auto with = [&](const std::string& out, std::vector<std::string> more) {
+    std::vector<std::string> args = sweep;
+    args.push_back("--out");
+    args.push_back(out);
+    args.insert(args.end(), more.begin(), more.end());
+    return args;
+  };
+  const std::string full = (dir / "full").string();
+  const std::string cut = (dir / "cut").string();
+  BoundedChild whole(with(full, {}), dir / "full_log", kAddressSpaceMib);
+  ASSERT_EQ(whole.Wait(60.0).exit_code, 0);
+  const BoundedResult r = ExpectPromptStop(with(cut, {}), dir, 0.8);
+  EXPECT_THAT(r.err, HasSubstr("continue with the same command and --resume"));
+  ASSERT_TRUE(fs::exists(fs::path(cut) / "sweep.journal"));
+  EXPECT_FALSE(fs::exists(fs::path(cut) / "points.csv"));
+  BoundedChild resumed(with(cut, {"--resume"}), dir / "resumed_log", kAddressSpaceMib);
+  const BoundedResult rr = resumed.Wait(60.0);
+  ASSERT_EQ(rr.exit_code, 0) << rr.err;
+  for (const char* file : {"points.csv", "sweep.csv", "indices.csv"}) {
+    EXPECT_EQ(ReadText(fs::path(cut) / file), ReadText(fs::path(full) / file)) << file;
+  }
+  EXPECT_FALSE(fs::exists(fs::path(cut) / "sweep.journal"));
+}
+
 TEST(DamagedStores, ExportPlotAndThePythonReaderNameTheFileTheRowAndTheColumn) {
   const fs::path dir = CaseDir("damaged_store");
   const fs::path out = dir / "out";

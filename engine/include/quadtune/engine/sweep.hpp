@@ -112,6 +112,11 @@ struct SweepOptions {
   int bootstrap = 1000;    ///< bootstrap resamples for the intervals, >= 1
   std::function<void(const SweepProgress&)> on_progress;  ///< may be empty
   const std::atomic<bool>* cancel = nullptr;              ///< set → skip the jobs not started
+  /// A journal file ("" = none): every flight and re-solve that finishes is appended to it as one
+  /// JSON line (after a header naming the sweep); when the file exists, the evaluations it holds
+  /// are taken from it instead of being run again, so an interrupted sweep resumes to the same
+  /// result (reproducible mode). A journal of another sweep throws ConfigError.
+  std::string journal;
 };
 
 /// One flight of the design.
