@@ -445,6 +445,14 @@ TEST(DamagedStores, ExportPlotAndThePythonReaderNameTheFileTheRowAndTheColumn) {
   EXPECT_THAT(ReadText(dir / "py.log"),
               HasSubstr("quadtune.DamagedStore: " + store +
                         ": damaged results store: evaluation 5: params is not JSON"));
+  // A seed no flight can have (pandas would raise OverflowError on it).
+  ASSERT_EQ(std::system(("sqlite3 '" + store + "' \"UPDATE evaluation SET params = '{}', "
+                         "map_seed = '-5' WHERE id = 5\"").c_str()),
+            0);
+  EXPECT_NE(std::system(python.c_str()), 0);
+  EXPECT_THAT(ReadText(dir / "py.log"),
+              HasSubstr(store + ": damaged results store: evaluation 5: map_seed is '-5', not a "
+                                "seed"));
   // A file that is no store at all.
   Write(dir / "junk.sqlite", "not a database, just text\n");
   const std::string junk = "PYTHONPATH='" + std::string(QUADTUNE_SOURCE_DIR) +

@@ -74,10 +74,18 @@ def connect(path):
     return con
 
 
-def _seed(row_seed, trial_seed, kind):
-    if row_seed:
-        return int(row_seed)
-    return int(trial_seed) if trial_seed and kind != "short" else None
+def _seed(value, file, row_id, column):
+    """A stored seed as an int in [0, 2^64), None when absent; DamagedStore otherwise."""
+    if value is None or value == "" or value == 0:
+        return None
+    try:
+        seed = int(value)
+    except (TypeError, ValueError):
+        seed = -1
+    if not 0 <= seed < 2 ** 64 or (isinstance(value, float) and value != seed):
+        raise DamagedStore("{}: damaged results store: evaluation {}: {} is {!r}, not a seed (an "
+                           "integer in [0, 2^64))".format(file, row_id, column, value))
+    return seed
 
 
 def rows(path):
@@ -92,8 +100,10 @@ def rows(path):
         for r in db.execute(query):
             kind = r[4]
             row = dict(zip(FIXED, r[:12]))
-            row["map_seed"] = _seed(r[10], r[14], kind)
-            row["flight_seed"] = int(r[11]) if r[11] else None
+            row["map_seed"] = _seed(r[10], file, r[0], "map_seed")
+            if row["map_seed"] is None and kind != "short":
+                row["map_seed"] = _seed(r[14], file, r[0], "the trial's map_seed")
+            row["flight_seed"] = _seed(r[11], file, r[0], "flight_seed")
             for source, prefix in ((json_field(r[12], file, r[0], "params"), "param_"),
                                    (json_field(r[13], file, r[0], "terms"), "term_")):
                 for name, value in source.items():
