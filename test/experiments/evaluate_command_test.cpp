@@ -14,37 +14,19 @@
 #include <vector>
 
 #include "../cli_util.hpp"
+#include "../sqlite_util.hpp"
 
 namespace quadtune {
 namespace {
 
 namespace fs = std::filesystem;
+using test::Query;
 using test::ReadCsv;
 using test::ReadText;
 using test::RunQuadtune;
 using test::ToyExperimentFile;
 
 fs::path Fresh(const std::string& name) { return test::FreshTempDir("quadtune_evaluate_" + name); }
-
-/// Rows of `sql` on the store, each column as text.
-std::vector<std::vector<std::string>> Query(const fs::path& db, const std::string& sql) {
-  sqlite3* h = nullptr;
-  std::vector<std::vector<std::string>> out;
-  if (sqlite3_open_v2(db.c_str(), &h, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) return out;
-  sqlite3_stmt* s = nullptr;
-  sqlite3_prepare_v2(h, sql.c_str(), -1, &s, nullptr);
-  while (sqlite3_step(s) == SQLITE_ROW) {
-    std::vector<std::string> row;
-    for (int c = 0; c < sqlite3_column_count(s); ++c) {
-      const auto* t = sqlite3_column_text(s, c);
-      row.emplace_back(t ? reinterpret_cast<const char*>(t) : "");
-    }
-    out.push_back(row);
-  }
-  sqlite3_finalize(s);
-  sqlite3_close(h);
-  return out;
-}
 
 TEST(Evaluate, HeldOutRowsEqualTheRunsValidationOfTheDefaults) {
   const fs::path dir = Fresh("heldout");

@@ -23,11 +23,13 @@
 #include <vector>
 
 #include "../cli_util.hpp"
+#include "../sqlite_util.hpp"
 
 namespace quadtune {
 namespace {
 
 namespace fs = std::filesystem;
+using test::Query;
 using test::ReadCsv;
 using test::ReadText;
 using test::RunQuadtune;
@@ -55,30 +57,6 @@ double Number(const std::map<std::string, std::string>& row, const std::string& 
   const auto it = row.find(key);
   EXPECT_NE(it, row.end()) << key;
   return it == row.end() ? std::nan("") : std::stod(it->second);
-}
-
-/// Rows of one SQL query (every column as text).
-std::vector<std::vector<std::string>> Query(const fs::path& db, const std::string& sql) {
-  sqlite3* h = nullptr;
-  std::vector<std::vector<std::string>> rows;
-  if (sqlite3_open_v2(db.c_str(), &h, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
-    ADD_FAILURE() << "cannot open " << db;
-    sqlite3_close(h);
-    return rows;
-  }
-  sqlite3_stmt* st = nullptr;
-  EXPECT_EQ(sqlite3_prepare_v2(h, sql.c_str(), -1, &st, nullptr), SQLITE_OK) << sqlite3_errmsg(h);
-  while (st != nullptr && sqlite3_step(st) == SQLITE_ROW) {
-    std::vector<std::string> row;
-    for (int c = 0; c < sqlite3_column_count(st); ++c) {
-      const auto* text = sqlite3_column_text(st, c);
-      row.emplace_back(text != nullptr ? reinterpret_cast<const char*>(text) : "");
-    }
-    rows.push_back(std::move(row));
-  }
-  sqlite3_finalize(st);
-  sqlite3_close(h);
-  return rows;
 }
 
 /// Long-term values f_l of every trial of a store, in flight order, with the trial's method.

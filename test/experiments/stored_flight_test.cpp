@@ -17,34 +17,16 @@
 #include <vector>
 
 #include "../cli_util.hpp"
+#include "../sqlite_util.hpp"
 
 namespace quadtune {
 namespace {
 
 namespace fs = std::filesystem;
+using test::Query;
 using test::ReadCsv;
 using test::ReadText;
 using test::RunQuadtune;
-
-/// Rows of one SQL query (every column as text).
-std::vector<std::vector<std::string>> Query(const fs::path& db, const std::string& sql) {
-  sqlite3* h = nullptr;
-  std::vector<std::vector<std::string>> rows;
-  EXPECT_EQ(sqlite3_open_v2(db.c_str(), &h, SQLITE_OPEN_READONLY, nullptr), SQLITE_OK);
-  sqlite3_stmt* s = nullptr;
-  EXPECT_EQ(sqlite3_prepare_v2(h, sql.c_str(), -1, &s, nullptr), SQLITE_OK) << sql;
-  while (s != nullptr && sqlite3_step(s) == SQLITE_ROW) {
-    std::vector<std::string> row;
-    for (int c = 0; c < sqlite3_column_count(s); ++c) {
-      const auto* t = sqlite3_column_text(s, c);
-      row.emplace_back(t ? reinterpret_cast<const char*>(t) : "");
-    }
-    rows.push_back(std::move(row));
-  }
-  sqlite3_finalize(s);
-  sqlite3_close(h);
-  return rows;
-}
 
 /// Output of a shell command (stdout).
 std::string Capture(const std::string& command) {
