@@ -1,10 +1,9 @@
 #include "quadtune/engine/planners.hpp"
-#include "quadtune/planning/parameter_schema.hpp"
 
 #include <bit>
-#include <filesystem>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <stdexcept>
 #include <thread>
 
@@ -13,7 +12,9 @@
 #include "quadtune/common/text_file.hpp"
 #include "quadtune/engine/experiment.hpp"
 #include "quadtune/layout/layout.hpp"
+#include "quadtune/physics/depth_sensor.hpp"
 #include "quadtune/planning/local_planner.hpp"
+#include "quadtune/planning/parameter_schema.hpp"
 #include "quadtune/planning/trajectory_backend.hpp"
 
 namespace quadtune::engine {
@@ -73,6 +74,37 @@ void WriteLayout(YAML::Emitter& out, const IpoptPlannerSection& s) {
   s.options.layout.ToYaml(out);
 }
 
+// The closed loop's sensor and goal rule (keys of the planner section).
+Fields<IpoptPlannerSection> AddClosedLoopKeys(Fields<IpoptPlannerSection> f) {
+  using S = IpoptPlannerSection;
+  const auto unwritten = [](YAML::Emitter&, const S&) {};
+  f.Custom(
+       {"sensor", "map", "48 x 32 pixels, 87° x 58°, 15 Hz, 5 m",
+        "[depth sensor](#depth-sensor) keys",
+        "ipopt: the depth camera; keys not given keep the default's (EGO-Planner's "
+        "simulator: `{horizontal_fov_deg: 120, rate_hz: 12}`)"},
+       [](const YamlMap& p, S& s) {
+         if (!p.Has("sensor")) return;
+         physics::DepthSensorFields().Read(p.Map("sensor"), s.options.flight.sensor);
+         s.options.flight.sensor.Validate(p.file());
+       },
+       unwritten)
+      .Custom(
+          {"goal_braking", "bool", "false", "",
+           "ipopt: `true` gives a horizon goal within stopping distance d of the mission "
+           "goal the terminal speed min(v_des, √(2 a_max d)) (EGO-Planner's local-target "
+           "rule), so a fast drone can stop at the goal; `false`: v_des at every horizon goal"},
+          [](const YamlMap& p, S& s) {
+            s.options.flight.planner.goal_braking =
+                p.Bool("goal_braking", s.options.flight.planner.goal_braking);
+          },
+          [](YAML::Emitter& out, const S& s) {
+            if (s.options.flight.planner.goal_braking)
+              out << YAML::Key << "goal_braking" << YAML::Value << true;
+          });
+  return f;
+}
+
 }  // namespace
 
 const Fields<IpoptPlannerSection>& IpoptPlannerFields() {
@@ -80,7 +112,7 @@ const Fields<IpoptPlannerSection>& IpoptPlannerFields() {
   // world and fixed are written by nothing here: WorldOptions and PlannerParams have no writer.
   const auto unwritten = [](YAML::Emitter&, const S&) {};
   static const Fields<S> fields =
-      Fields<S>()
+      AddClosedLoopKeys(Fields<S>())
           .Custom(
               {"type", "string", "`ipopt`",
                "a registered type: `ipopt`, `ego`, or one a program registers "
@@ -102,11 +134,10 @@ const Fields<IpoptPlannerSection>& IpoptPlannerFields() {
                 s.options.drone = physics::LoadDroneDescription(drone);
               },
               [](YAML::Emitter& out, const S& s) { WriteText(out, "drone", s.drone); })
-          .Custom(
-              {"layout", "map", "one of `layout`, `layout_file` required",
-               "[layout options](#layout)",
-               "ipopt: the forest; give exactly one of `layout`, `layout_file`"},
-              ReadLayout, WriteLayout)
+          .Custom({"layout", "map", "one of `layout`, `layout_file` required",
+                   "[layout options](#layout)",
+                   "ipopt: the forest; give exactly one of `layout`, `layout_file`"},
+                  ReadLayout, WriteLayout)
           .Custom(
               {"layout_file", "path", "one of `layout`, `layout_file` required",
                "a [layout options](#layout) file", "ipopt: the forest, from a file"},
@@ -214,14 +245,15 @@ Opaque PrepareLayoutMap(const IpoptPlannerOptions& o, std::uint64_t map_seed) {
 }
 
 // One closed-loop flight of a planner built on sim::Fly with `backend`.
-FlightRecord FlyWithBackend(const IpoptPlannerOptions& o, const planning::TrajectoryBackend& backend,
+FlightRecord FlyWithBackend(const IpoptPlannerOptions& o,
+                            const planning::TrajectoryBackend& backend,
                             const FlightRequest& request, WorkerSlot& slot) {
   const IpoptMap& map = request.map.As<IpoptMap>();
   planning::PlannerParams params = o.base;
   for (const auto& [name, value] : request.params) params.Set(name, value);
   params.Validate("flight parameters");
-  const sim::Scenario scenario =
-      sim::Scenario::OverLayout(map.layout, o.mission, o.drone, o.world, request.seed, map.geometry);
+  const sim::Scenario scenario = sim::Scenario::OverLayout(map.layout, o.mission, o.drone, o.world,
+                                                           request.seed, map.geometry);
   // World pool: the slot keeps its World; MakeWorld re-uses it (static objects rebuilt only when
   // the geometry differs).
   auto* world = std::any_cast<std::shared_ptr<physics::World>>(&slot.state);
@@ -255,10 +287,10 @@ FlightRecord FlyWithBackend(const IpoptPlannerOptions& o, const planning::Trajec
       sim::Fly(**world, scenario.mission, params, flight, backend, hooks);
   const auto& m = result.metrics;
   FlightRecord r;
-  r.status = m.status == sim::FlightStatus::kError || m.status == sim::FlightStatus::kDiverged
-                 ? EvalStatus::kFailed
-                 : (m.status == sim::FlightStatus::kCancelled ? EvalStatus::kCancelled
-                                                                   : EvalStatus::kOk);
+  r.status =
+      m.status == sim::FlightStatus::kError || m.status == sim::FlightStatus::kDiverged
+          ? EvalStatus::kFailed
+          : (m.status == sim::FlightStatus::kCancelled ? EvalStatus::kCancelled : EvalStatus::kOk);
   r.message = std::string(sim::ToString(m.status)) + (m.message.empty() ? "" : ": " + m.message);
   r.completed = m.status == sim::FlightStatus::kCompleted;
   r.flight_time = m.flight_time;
@@ -278,8 +310,8 @@ FlightRecord FlyWithBackend(const IpoptPlannerOptions& o, const planning::Trajec
 
 // A re-solve of a recorded query with `backend`.
 ResolveRecord ResolveWithBackend(const planning::TrajectoryBackend& backend,
-                                 const planning::LocalPlannerOptions& options,
-                                 const Opaque& query, const ParamValues& theta_s) {
+                                 const planning::LocalPlannerOptions& options, const Opaque& query,
+                                 const ParamValues& theta_s) {
   const auto& q = query.As<planning::PlanningQuery>();
   planning::PlannerParams params = q.params;
   for (const auto& [name, value] : theta_s) params.Set(name, value);

@@ -78,7 +78,7 @@ int DrawFiguresAndReport(const std::string& plot_args, const std::string& dir);
 std::string AssetPath(const std::string& relative);
 /// The forest the experiments fly at `spacing` (m): assets/layouts/forest_<S>.yaml when one is
 /// shipped for that spacing (e.g. forest_1p3.yaml for 1.3), else forest_1p3.yaml with its
-/// spacing replaced. The layout files are the one source of truth for `fly --spacing` and
+/// spacing replaced and its min_gap scaled by the same factor. The layout files are the one source of truth for `fly --spacing` and
 /// `layout --spacing`. Throws ConfigError("--spacing", ...) for a spacing its obstacles cannot
 /// reach.
 layout::LayoutOptions ForestOptions(double spacing);

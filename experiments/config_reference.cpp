@@ -65,6 +65,7 @@ and `)` open.
 | adaptation experiment | `quadtune adapt` | [Adaptation experiment](#adaptation-experiment) |
 | drone (`assets/drones/*.yaml`) | experiments, `fly --drone` | [Drone](#drone) |
 | world options | `planner.world`, `fly --world` | [World](#world) |
+| depth sensor | `planner.sensor` | [Depth sensor](#depth-sensor) |
 | layout options (`assets/layouts/*.yaml`) | `planner.layout[_file]`, `fly --layout-options`, `layout` | [Layout](#layout) |
 | planner parameters | `planner.fixed`, `parameters`, `fly --set` | [Planner parameters](#planner-parameters) |
 | optimiser settings | `pso:`, `bo:` | [PSO](#pso), [Bayesian optimisation](#bayesian-optimisation) |
@@ -180,6 +181,11 @@ std::string PhysicsPart() {
   out += Section("### `measurement_noise`",
                  "Standard deviations of the noise on the state the controller sees.",
                  physics::MeasurementNoiseFields().Docs());
+  out += Section("## Depth sensor",
+                 "Source: `physics/include/quadtune/physics/depth_sensor.hpp` "
+                 "(`DepthSensorFields()`). Keys of `planner.sensor`; a key not given keeps the "
+                 "closed loop's default camera (48 x 32 pixels, 87° x 58°, 15 Hz, 5 m).",
+                 physics::DepthSensorFields().Docs());
   return out;
 }
 
@@ -192,10 +198,14 @@ in `assets/layouts/`. World frame, z up, metres and radians.
 keep-out zones included) holds round(A / (4 s²)) obstacles, at least 1: the intensity
 λ = 1 / (4 s²) of a uniform random forest whose expected mean nearest-neighbour distance is s.
 The count, and so the crowding, is fixed and grows as 1 / s². With `density: nearest_neighbour`
-obstacles are added until the mean nearest-neighbour distance between centres reaches s. Either
-way the achieved nearest-neighbour statistics are measured and reported.
+obstacles are added until the mean nearest-neighbour distance between centres reaches s. With
+`density: free_gap` obstacles are added until the mean nearest-neighbour free gap (from each
+footprint's boundary to the nearest other footprint of its zone) reaches s: one obstacle mix
+crowded by the room left between surfaces, the definition of the density study's forests. Every
+definition measures and reports the achieved centre spacing and free gap.
 
-A layout is refused when a spacing is below what its obstacles need side by side, when the
+A layout is refused when a spacing is below what its obstacles need side by side (below
+min_gap under `free_gap`), when the
 keep-out zones cover more than half the region, or when it asks for more than 100 000 obstacles.)";
 
 std::string LayoutPart() {

@@ -14,8 +14,6 @@
 #include <vector>
 
 #include "commands.hpp"
-#include "stored_flight.hpp"
-#include "result_dir.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/text_file.hpp"
 #include "quadtune/common/yaml.hpp"
@@ -27,6 +25,8 @@
 #include "quadtune/planning/trajectory_backend.hpp"
 #include "quadtune/sim/flight.hpp"
 #include "quadtune/sim/scenario.hpp"
+#include "result_dir.hpp"
+#include "stored_flight.hpp"
 
 namespace quadtune::cli {
 namespace {
@@ -44,7 +44,7 @@ struct FlyArgs {
   double max_time = 120.0;
   std::string planner = "ipopt";
   bool plot = true;
-  std::string from;              ///< a results store: fly its evaluation `evaluation` again
+  std::string from;  ///< a results store: fly its evaluation `evaluation` again
   std::int64_t evaluation = -1;
 };
 
@@ -150,14 +150,16 @@ int RunFly(const FlyArgs& a) {
     std::ofstream(path) << summary.dump(1) << '\n';
   }
 
-  spdlog::info("status {} ({}), flight time t_f {:.2f} s, collisions n_c {}, emergency stops n_e {}",
-               sim::ToString(m.status), m.message.empty() ? "ok" : m.message, m.flight_time,
-               m.collisions, m.emergency_stops);
-  spdlog::info("plans {} (failed {}, stop-and-go fallbacks {}, failed attempts n_s {}), solve time "
-               "t_c mean {:.2f} ms max {:.2f} ms, max tracking error {:.3f} m, min clearance "
-               "{:.2f} m, mean speed {:.2f} m/s",
-               m.plans, m.failed_plans, m.fallback_plans, m.failed_attempts, 1e3 * m.mean_solve_time,
-               1e3 * m.max_solve_time, m.max_tracking_error, m.min_clearance, m.mean_speed);
+  spdlog::info(
+      "status {} ({}), flight time t_f {:.2f} s, collisions n_c {}, emergency stops n_e {}",
+      sim::ToString(m.status), m.message.empty() ? "ok" : m.message, m.flight_time, m.collisions,
+      m.emergency_stops);
+  spdlog::info(
+      "plans {} (failed {}, stop-and-go fallbacks {}, failed attempts n_s {}), solve time "
+      "t_c mean {:.2f} ms max {:.2f} ms, max tracking error {:.3f} m, min clearance "
+      "{:.2f} m, mean speed {:.2f} m/s",
+      m.plans, m.failed_plans, m.fallback_plans, m.failed_attempts, 1e3 * m.mean_solve_time,
+      1e3 * m.max_solve_time, m.max_tracking_error, m.min_clearance, m.mean_speed);
   spdlog::info("simulated {:.1f} s in {:.2f} s wall time ({:.0f}x real time)", m.flight_time,
                m.wall_time, m.wall_time > 0 ? m.flight_time / m.wall_time : 0.0);
   spdlog::info("wrote {}/flight.csv, plans.csv, summary.json, obstacles.json, layout.yaml", a.out);
@@ -176,12 +178,16 @@ layout::LayoutOptions ForestOptions(double spacing) {
   }
   // forest_1p3.yaml for 1.3 m: the spacing with one decimal, the point written as 'p'.
   const long tenths = std::lround(10.0 * spacing);
-  const std::string name = "layouts/forest_" + std::to_string(tenths / 10) + "p" +
-                           std::to_string(tenths % 10) + ".yaml";
+  const std::string name =
+      "layouts/forest_" + std::to_string(tenths / 10) + "p" + std::to_string(tenths % 10) + ".yaml";
   const bool shipped =
       std::abs(10.0 * spacing - static_cast<double>(tenths)) < 1e-9 && PathExists(AssetPath(name));
   layout::LayoutOptions options =
       layout::LayoutOptions::LoadFile(AssetPath(shipped ? name : "layouts/forest_1p3.yaml"));
+  if (!shipped) {
+    // forest_1p3.yaml's mix at another free gap: its min_gap keeps its ratio to the spacing.
+    options.min_gap *= spacing / options.spacing;
+  }
   options.spacing = spacing;
   options.Validate("--spacing");
   return options;
@@ -191,27 +197,35 @@ void RegisterFly(CLI::App& app, int& exit_code) {
   static FlyArgs args;
   auto* cmd = app.add_subcommand(
       "fly", "fly one closed-loop mission (physics, sensing, mapping, planning) and write its log");
-  cmd->add_option("--drone", args.drone, "drone description (YAML; relative paths also searched "
-                                         "in assets/)")->capture_default_str();
+  cmd->add_option("--drone", args.drone,
+                  "drone description (YAML; relative paths also searched "
+                  "in assets/)")
+      ->capture_default_str();
   cmd->add_option("--layout", args.layout_file, "a saved layout (YAML) to fly through");
   cmd->add_option("--layout-options", args.layout_options_file,
                   "layout generator options (YAML) to generate from");
-  cmd->add_option("--spacing", args.spacing, "average obstacle spacing (m) when no layout is "
-                                             "given: the shipped forest of that spacing "
-                                             "(assets/layouts/forest_*.yaml), else "
-                                             "forest_1p3.yaml at that spacing")->capture_default_str();
+  cmd->add_option("--spacing", args.spacing,
+                  "average obstacle spacing (m) when no layout is "
+                  "given: the shipped forest of that spacing "
+                  "(assets/layouts/forest_*.yaml), else "
+                  "forest_1p3.yaml's mix at that spacing")
+      ->capture_default_str();
   cmd->add_option("--seed", args.seed, "seed of the layout and the world")
       ->capture_default_str()
       ->check(SeedValidator());
   cmd->add_option("--world", args.world_file, "world options (YAML): rates, wind, noise, …");
-  cmd->add_option("--set", args.set, "planner parameter override NAME=VALUE (repeatable), e.g. "
-                                     "--set v_des=3 --set n_pol=6");
-  cmd->add_option("--mission", args.mission, "go_and_return or go_to (as planner.mission in an "
-                                             "experiment file)")
-      ->transform([](std::string text) {  // go-and-return and go-to are read the same
-        std::replace(text.begin(), text.end(), '-', '_');
-        return text;
-      }, "", "")
+  cmd->add_option("--set", args.set,
+                  "planner parameter override NAME=VALUE (repeatable), e.g. "
+                  "--set v_des=3 --set n_pol=6");
+  cmd->add_option("--mission", args.mission,
+                  "go_and_return or go_to (as planner.mission in an "
+                  "experiment file)")
+      ->transform(
+          [](std::string text) {  // go-and-return and go-to are read the same
+            std::replace(text.begin(), text.end(), '-', '_');
+            return text;
+          },
+          "", "")
       ->check(CLI::IsMember(EnumNameList<sim::MissionKind>()))
       ->capture_default_str();
   cmd->add_option("--planner", args.planner,
@@ -222,8 +236,9 @@ void RegisterFly(CLI::App& app, int& exit_code) {
   cmd->add_option("--max-time", args.max_time, "flight time limit (s)")->capture_default_str();
   cmd->add_option("--out", args.out, "output directory")->capture_default_str();
   AddNoPlotFlag(*cmd, args.plot, "skip the figure");
-  cmd->add_option("--from", args.from, "a results store (results.sqlite): fly one of its stored "
-                                       "flights again exactly, with full logs");
+  cmd->add_option("--from", args.from,
+                  "a results store (results.sqlite): fly one of its stored "
+                  "flights again exactly, with full logs");
   cmd->add_option("--evaluation", args.evaluation, "with --from: the evaluation id to fly");
   cmd->callback([&exit_code] { exit_code = RunFly(args); });
 }

@@ -27,7 +27,8 @@ std::size_t PlanningQuery::MemoryBytes() const {
   std::size_t bytes = sizeof(PlanningQuery) + field.MemoryBytes() - sizeof(Esdf);
   bytes += initial_path_W.capacity() * sizeof(Eigen::Vector3d);
   if (occupancy) bytes += occupancy->MemoryBytes() + sizeof(LocalMap);
-  if (previous) bytes += previous->Durations().size() * (sizeof(double) + sizeof(Trajectory::Coefficients));
+  if (previous)
+    bytes += previous->Durations().size() * (sizeof(double) + sizeof(Trajectory::Coefficients));
   return bytes;
 }
 
@@ -90,9 +91,8 @@ LocalPlanner::LocalPlanner(const LocalPlannerOptions& options)
 
 std::optional<PlanningQuery> LocalPlanner::MakeQuery(
     const LocalMap& map, const Eigen::Vector3d& p0_W, const Eigen::Vector3d& v0_W,
-    const Eigen::Vector3d& a0_W, const Eigen::Vector3d& mission_goal_W,
-    const PlannerParams& params, const Trajectory* previous, double previous_time,
-    PathSearchResult* front_end) {
+    const Eigen::Vector3d& a0_W, const Eigen::Vector3d& mission_goal_W, const PlannerParams& params,
+    const Trajectory* previous, double previous_time, PathSearchResult* front_end) {
   options_.CheckParams(params);
   PathSearchResult path = searcher_.Plan(map, p0_W, mission_goal_W, params.h_pl);
   const bool ok = path.ok() && path.waypoints.size() >= 2;
@@ -111,7 +111,12 @@ std::optional<PlanningQuery> LocalPlanner::MakeQuery(
   if (!q.goal_is_mission_goal) {
     const std::size_t n = q.initial_path_W.size();
     const Eigen::Vector3d last = q.initial_path_W[n - 1] - q.initial_path_W[n - 2];
-    if (last.norm() > 1e-6) q.goal_v_W = params.v_des * last.normalized();
+    double speed = params.v_des;
+    if (options_.goal_braking) {
+      const double d = (mission_goal_W - q.goal_W).norm();
+      speed = std::min(speed, std::sqrt(2.0 * params.a_max * d));
+    }
+    if (last.norm() > 1e-6) q.goal_v_W = speed * last.normalized();
   }
   if (previous != nullptr && !previous->Empty()) {
     q.previous = *previous;

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+
+#include "quadtune/common/cancel.hpp"
 
 namespace quadtune::layout {
 namespace {
@@ -60,6 +63,20 @@ double FootprintGap(const Footprint& f, const Footprint& g) {
 
 double FootprintGap(const Footprint& f, const Eigen::Vector2d& p_W) {
   return PointSegmentDistance(p_W, f.a_W, f.b_W) - f.radius;
+}
+
+std::vector<double> NearestFreeGaps(const std::vector<Footprint>& footprints) {
+  const std::size_t n = footprints.size();
+  std::vector<double> gaps(n, std::numeric_limits<double>::infinity());
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i % 256 == 0) ThrowIfCancelled("free-gap measurement");
+    for (std::size_t j = i + 1; j < n; ++j) {
+      const double g = FootprintGap(footprints[i], footprints[j]);
+      gaps[i] = std::min(gaps[i], g);
+      gaps[j] = std::min(gaps[j], g);
+    }
+  }
+  return gaps;
 }
 
 }  // namespace quadtune::layout

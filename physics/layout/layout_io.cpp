@@ -251,6 +251,11 @@ Layout Layout::FromYaml(const YamlMap& map) {
       zs.darts = ReadCount(z, "darts");
       layout.stats.zones.push_back(zs);
     }
+    // Free gaps are measured, not saved.
+    const LayoutStats measured = MeasureLayout(layout.obstacles, layout.options);
+    for (std::size_t i = 0; i < layout.stats.zones.size() && i < measured.zones.size(); ++i) {
+      layout.stats.zones[i].gap = measured.zones[i].gap;
+    }
   } else {
     layout.stats = MeasureLayout(layout.obstacles, layout.options);  // a hand-written layout
   }

@@ -400,8 +400,15 @@ void LayoutOptions::Validate(const std::string& file, const std::string& key_pre
   for (std::size_t i = 0; i < effective.size(); ++i) {
     const ObstacleMix& mix = MixOf(effective[i]);
     const std::string k = zones.empty() ? "spacing" : "zones[" + std::to_string(i) + "].spacing";
+    if (density == DensityDefinition::kFreeGap) {
+      if (effective[i].spacing < min_gap) {
+        c.Fail(k, "target free gap " + Num(effective[i].spacing) +
+                      " m is smaller than min_gap (" + Num(min_gap) +
+                      " m), the least gap any two footprints keep; use a spacing >= min_gap");
+      }
+    }
     const double required = mix.RequiredSpacing(min_gap);
-    if (effective[i].spacing < required) {
+    if (density != DensityDefinition::kFreeGap && effective[i].spacing < required) {
       c.Fail(k, "target spacing " + Num(effective[i].spacing) +
                     " m is smaller than the obstacles allow: two of the widest obstacles need "
                     "their centres " +
@@ -449,7 +456,7 @@ LayoutOptions LayoutOptions::LoadFile(const std::string& path) {
   if (map.Has("format")) {  // the first key of every file Layout::Save writes
     throw ConfigError(path, "",
                       "is a saved layout (written by `quadtune layout`), not layout generator "
-                      "options; give generator options here (e.g. assets/layouts/forest_1p3.yaml), "
+                      "options; give generator options here (e.g. assets/layouts/forest_thin_1p3.yaml), "
                       "or fly the saved layout with `quadtune fly --layout FILE`");
   }
   return FromYaml(map);

@@ -65,24 +65,28 @@ std::vector<double> NearestNeighbourDistances(const std::vector<Eigen::Vector2d>
   return nn;
 }
 
-SpacingStats MeasureSpacing(const std::vector<Eigen::Vector2d>& points_W) {
+SpacingStats StatsOf(const std::vector<double>& distances) {
   SpacingStats s;
-  s.count = points_W.size();
+  s.count = distances.size();
   if (s.count < 2) return s;
-  const std::vector<double> nn = NearestNeighbourDistances(points_W);
   double sum = 0.0;
   s.min = std::numeric_limits<double>::infinity();
-  s.max = 0.0;
-  for (double d : nn) {
+  s.max = -std::numeric_limits<double>::infinity();
+  for (double d : distances) {
     sum += d;
     s.min = std::min(s.min, d);
     s.max = std::max(s.max, d);
   }
   s.mean = sum / static_cast<double>(s.count);
   double var = 0.0;
-  for (double d : nn) var += (d - s.mean) * (d - s.mean);
+  for (double d : distances) var += (d - s.mean) * (d - s.mean);
   s.std = std::sqrt(var / static_cast<double>(s.count));
   return s;
+}
+
+SpacingStats MeasureSpacing(const std::vector<Eigen::Vector2d>& points_W) {
+  if (points_W.size() < 2) return SpacingStats{points_W.size()};
+  return StatsOf(NearestNeighbourDistances(points_W));
 }
 
 namespace detail {

@@ -19,7 +19,7 @@ TEST(FileKind, ShippedFilesAreToldApart) {
   EXPECT_EQ(DetectFileKind(kRoot + "/experiments/changing_environment.yaml"),
             FileKind::kAdaptation);
   EXPECT_EQ(DetectFileKind(kRoot + "/assets/drones/crazyflie.yaml"), FileKind::kDrone);
-  EXPECT_EQ(DetectFileKind(kRoot + "/assets/layouts/forest_1p3.yaml"), FileKind::kLayout);
+  EXPECT_EQ(DetectFileKind(kRoot + "/assets/layouts/forest_thin_1p3.yaml"), FileKind::kLayout);
   EXPECT_EQ(DetectFileKind(kRoot + "/no/such/file.yaml"), FileKind::kUnknown);
   EXPECT_EQ(DetectFileKind(kRoot + "/README.md"), FileKind::kUnknown);
 }

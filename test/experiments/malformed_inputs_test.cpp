@@ -114,7 +114,7 @@ std::vector<Case> Cases() {
   const std::string study = kStudy;
   const std::string adapt = kAdapt;
   const std::string drone = Asset("drones/crazyflie.yaml");
-  const std::string options = Asset("layouts/forest_1p3.yaml");
+  const std::string options = Asset("layouts/forest_thin_1p3.yaml");
   const std::string saved = Asset("layouts/forest_1p3_seed1.layout.yaml");
   const std::string run = "run {d}/bad.yaml --out {d}/out --quiet";
   const std::string ip_run = "run {d}/ip.yaml --out {d}/out --quiet";
@@ -603,7 +603,7 @@ TEST_P(MalformedInputs, ExitsNonZeroWithOneLineOnStderrAndNoOutput) {
   Write(dir / "ip.yaml", kIpopt);
   Write(dir / "ad.yaml", kAdapt);
   Write(dir / "drone.yaml", Asset("drones/crazyflie.yaml"));
-  Write(dir / "options.yaml", Asset("layouts/forest_1p3.yaml"));
+  Write(dir / "options.yaml", Asset("layouts/forest_thin_1p3.yaml"));
   Write(dir / "saved.yaml", Asset("layouts/forest_1p3_seed1.layout.yaml"));
   if (!c.file.empty()) Write(dir / c.file, c.text);
   ASSERT_EQ(c.text.find("EDIT-NOT-FOUND"), std::string::npos) << c.text;

@@ -117,8 +117,9 @@ TEST(PaperExperiments, BenchmarkComparisonScaledDown) {
     ++per_method[t[0]];
   }
   for (const char* m : {"default", "random", "pso", "bo", "bo_pso"}) EXPECT_EQ(per_method[m], 2);
-  for (const auto& row : Query(db, "SELECT t.method, COUNT(*) FROM evaluation e JOIN trial t "
-                                   "ON e.trial_id = t.id WHERE e.kind = 'long' GROUP BY t.id")) {
+  for (const auto& row : Query(db,
+                               "SELECT t.method, COUNT(*) FROM evaluation e JOIN trial t "
+                               "ON e.trial_id = t.id WHERE e.kind = 'long' GROUP BY t.id")) {
     EXPECT_EQ(std::stoi(row[1]), row[0] == "default" ? 2 : 3) << row[0];
   }
   const auto shorts = Query(db, "SELECT COUNT(*) FROM evaluation WHERE kind = 'short'");
@@ -161,8 +162,9 @@ TEST(PaperExperiments, BenchmarkComparisonScaledDown) {
   }
   // Held-out validation: the defaults once (trial id 0) and each tuned trial's recommended point
   // on the same 2 maps; one table row per method with its flights.
-  const auto held_out = Query(db, "SELECT trial_id, COUNT(*), COUNT(DISTINCT map_seed) FROM "
-                                  "evaluation WHERE kind = 'validation' GROUP BY trial_id");
+  const auto held_out = Query(db,
+                              "SELECT trial_id, COUNT(*), COUNT(DISTINCT map_seed) FROM "
+                              "evaluation WHERE kind = 'validation' GROUP BY trial_id");
   ASSERT_EQ(held_out.size(), 9u);  // defaults + 4 tuned methods × 2 repeats
   for (const auto& row : held_out) {
     EXPECT_EQ(row[1], "2") << "trial " << row[0];
@@ -190,18 +192,19 @@ TEST(PaperExperiments, BenchmarkComparisonScaledDown) {
 TEST(PaperExperiments, DensityStudyScaledDown) {
   const fs::path dir = Fresh("density");
   const std::string out = (dir / "study").string();
-  ASSERT_EQ(RunQuadtune("--log-level warn study " + kExperiments + "density_study.yaml --out " +
-                            out +
-                            " --quiet --set override.repeats=1 --set override.budget.flights=3 "
-                            "--set override.budget.short_evals_per_flight=4 "
-                            "--set override.budget.queries_per_eval=2 "
-                            "--set override.bo.initial_design_size=2 "
-                            "--set override.pso.num_particles=4 --set validation.flights=2 "
-                            "--set override.recommend.flights=2 "
-                            "--set 'sweep.values=[layouts/forest_3p0.yaml, layouts/forest_0p9.yaml]' "
-                            "--set 'sweep.labels=[\"3.0\", \"0.9\"]'",
-                        dir / "study.log"),
-            0)
+  ASSERT_EQ(
+      RunQuadtune(
+          "--log-level warn study " + kExperiments + "density_study.yaml --out " + out +
+              " --quiet --set override.repeats=1 --set override.budget.flights=3 "
+              "--set override.budget.short_evals_per_flight=4 "
+              "--set override.budget.queries_per_eval=2 "
+              "--set override.bo.initial_design_size=2 "
+              "--set override.pso.num_particles=4 --set validation.flights=2 "
+              "--set override.recommend.flights=2 "
+              "--set 'sweep.values=[layouts/forest_thin_3p0.yaml, layouts/forest_thin_0p9.yaml]' "
+              "--set 'sweep.labels=[\"3.0\", \"0.9\"]'",
+          dir / "study.log"),
+      0)
       << ReadText(dir / "study.log");
   const auto rows = ReadCsv(fs::path(out) / "study.csv");
   ASSERT_EQ(rows.size(), 2u);
@@ -272,15 +275,15 @@ TEST(PaperExperiments, DensityStudyScaledDown) {
 TEST(PaperExperiments, RefinementStudyScaledDown) {
   const fs::path dir = Fresh("refinement");
   const std::string out = (dir / "study").string();
-  ASSERT_EQ(RunQuadtune("--log-level warn study " + kExperiments + "refinement_study.yaml --out " +
-                            out +
-                            " --quiet --set override.budget.flights=3 "
-                            "--set override.bo.initial_design_size=2 "
-                            "--set stages.1.override.budget.flights=3 "
-                            "--set stages.1.override.bo.initial_design_size=1 "
-                            "--set validation.flights=1 --set override.recommend.flights=2",
-                        dir / "study.log"),
-            0)
+  ASSERT_EQ(
+      RunQuadtune("--log-level warn study " + kExperiments + "refinement_study.yaml --out " + out +
+                      " --quiet --set override.budget.flights=3 "
+                      "--set override.bo.initial_design_size=2 "
+                      "--set stages.1.override.budget.flights=3 "
+                      "--set stages.1.override.bo.initial_design_size=1 "
+                      "--set validation.flights=1 --set override.recommend.flights=2",
+                  dir / "study.log"),
+      0)
       << ReadText(dir / "study.log");
   const nlohmann::json study = nlohmann::json::parse(ReadText(fs::path(out) / "study.json"));
   ASSERT_EQ(study["points"].size(), 2u);  // research_1kg and agile_small
@@ -294,8 +297,9 @@ TEST(PaperExperiments, RefinementStudyScaledDown) {
     // The high-fidelity search starts inside start ± half_width (unit-cube widths, 0.1) of
     // every parameter: its first flight's parameters lie there.
     const fs::path db = fs::path(out) / std::string(high["store"]);
-    const auto first = Query(db, "SELECT params FROM evaluation WHERE kind = 'long' ORDER BY "
-                                 "iteration, idx LIMIT 1");
+    const auto first = Query(db,
+                             "SELECT params FROM evaluation WHERE kind = 'long' ORDER BY "
+                             "iteration, idx LIMIT 1");
     ASSERT_EQ(first.size(), 1u) << label;
     const nlohmann::json params = nlohmann::json::parse(first[0][0]);
     for (const auto& p : high["space"]) {
@@ -323,8 +327,10 @@ TEST(PaperExperiments, RefinementStudyScaledDown) {
 TEST(PaperExperiments, ThreadScalingWritesCsvAndFigure) {
   const fs::path dir = Fresh("scaling");
   const fs::path csv = dir / "bench.csv";
-  ASSERT_EQ(RunQuadtune("--log-level warn bench " + kExperiments + "tiny.yaml --max-threads 2 "
-                            "--flights 2 --resolves 40 --csv " + csv.string() + " --plot",
+  ASSERT_EQ(RunQuadtune("--log-level warn bench " + kExperiments +
+                            "tiny.yaml --max-threads 2 "
+                            "--flights 2 --resolves 40 --csv " +
+                            csv.string() + " --plot",
                         dir / "bench.log"),
             0)
       << ReadText(dir / "bench.log");
@@ -345,34 +351,42 @@ TEST(PaperExperiments, ThreadScalingWritesCsvAndFigure) {
   ExpectFigure(dir / "bench.png");
 }
 
-// `--spacing` uses the experiments' own forest files: `layout --spacing 1.3 --seed 1` writes the
-// shipped layout generated from assets/layouts/forest_1p3.yaml with seed 1, byte for byte.
+// `--spacing` uses the experiments' own forest files: `layout --spacing 1.3 --seed 1` writes what
+// `layout --layout-options assets/layouts/forest_1p3.yaml --seed 1` writes, and the thin forest's
+// options regenerate the shipped saved layout (made from forest_thin_1p3.yaml, seed 1) byte for
+// byte.
 TEST(PaperExperiments, SpacingOptionUsesTheShippedForest) {
   const fs::path dir = Fresh("spacing_forest");
-  ASSERT_EQ(RunQuadtune("--log-level warn layout --spacing 1.3 --seed 1 --out " +
-                            (dir / "l.yaml").string(),
-                        dir / "layout.log"),
-            0)
-      << ReadText(dir / "layout.log");
-  std::string shipped =
-      ReadText(fs::path(QUADTUNE_SOURCE_DIR) / "assets/layouts/forest_1p3_seed1.layout.yaml");
+  const std::string assets = std::string(QUADTUNE_SOURCE_DIR) + "/assets/layouts/";
+  for (const auto& [args, file] :
+       {std::pair<std::string, std::string>{"--spacing 1.3", "spacing.yaml"},
+        {"--layout-options " + assets + "forest_1p3.yaml", "options.yaml"},
+        {"--layout-options " + assets + "forest_thin_1p3.yaml", "thin.yaml"}}) {
+    ASSERT_EQ(
+        RunQuadtune("--log-level warn layout " + args + " --seed 1 --out " + (dir / file).string(),
+                    dir / "layout.log"),
+        0)
+        << ReadText(dir / "layout.log");
+  }
+  EXPECT_EQ(ReadText(dir / "spacing.yaml"), ReadText(dir / "options.yaml"));
+  EXPECT_NE(ReadText(dir / "spacing.yaml").find("density: free_gap"), std::string::npos);
+  std::string shipped = ReadText(fs::path(assets) / "forest_1p3_seed1.layout.yaml");
   shipped = shipped.substr(shipped.find("format:"));  // past the comment header
-  EXPECT_EQ(ReadText(dir / "l.yaml"), shipped);
+  EXPECT_EQ(ReadText(dir / "thin.yaml"), shipped);
 }
 
 // Any flight: a top-down figure of the layout with the flown and the planned trajectories.
 TEST(PaperExperiments, FlightWritesTopDownFigure) {
   const fs::path dir = Fresh("flight");
-  ASSERT_EQ(RunQuadtune("--log-level warn fly --spacing 3.0 --seed 2 --out " +
-                            (dir / "f").string(),
+  ASSERT_EQ(RunQuadtune("--log-level warn fly --spacing 3.0 --seed 2 --out " + (dir / "f").string(),
                         dir / "fly.log"),
             0)
       << ReadText(dir / "fly.log");
   ExpectFigure(dir / "f" / "flight_topdown.png");
-  ASSERT_EQ(RunQuadtune("plot flight " + (dir / "f").string() + " --out " +
-                            (dir / "again.png").string(),
-                        dir / "plot.log"),
-            0)
+  ASSERT_EQ(
+      RunQuadtune("plot flight " + (dir / "f").string() + " --out " + (dir / "again.png").string(),
+                  dir / "plot.log"),
+      0)
       << ReadText(dir / "plot.log");
   ExpectFigure(dir / "again.png");
   const nlohmann::json summary = nlohmann::json::parse(ReadText(dir / "f" / "summary.json"));

@@ -3,7 +3,8 @@
 
 Usage: golden_test.py QUADTUNE SOURCE_DIR [--regenerate]
 
-Flies `quadtune fly --planner ipopt --spacing 1.3` for the seeds in SEEDS and runs
+Flies `quadtune fly --planner ipopt --layout-options assets/layouts/forest_thin_1p3.yaml` (the
+1.3 m thin forest) for the seeds in SEEDS and runs
 experiments/tiny.yaml with the budgets in TINY_SETS, then compares a SHA-256 digest of every
 deterministic output (and, for reading, the flights' metrics) with test/golden/expected.json.
 Left out are only the measured wall-clock values: solve and wall times of a flight
@@ -59,9 +60,10 @@ def CsvWithout(path, column):
                    for line in lines)
 
 
-def Flight(quadtune, seed, work):
+def Flight(quadtune, source, seed, work):
   out = work / f"flight_{seed}"
-  Run([quadtune, "fly", "--planner", "ipopt", "--spacing", SPACING, "--seed", str(seed),
+  Run([quadtune, "fly", "--planner", "ipopt", "--layout-options",
+       str(source / "assets" / "layouts" / "forest_thin_1p3.yaml"), "--seed", str(seed),
        "--out", str(out), "--no-plot"])
   summary = json.loads((out / "summary.json").read_text())
   for key in FLIGHT_TIMING_KEYS:
@@ -112,7 +114,7 @@ def main():
   with tempfile.TemporaryDirectory(prefix="quadtune_golden_") as tmp:
     work = pathlib.Path(tmp)
     actual = {
-        "flights": {f"spacing_{SPACING}_seed_{s}": Flight(quadtune, s, work) for s in SEEDS},
+        "flights": {f"spacing_{SPACING}_seed_{s}": Flight(quadtune, source, s, work) for s in SEEDS},
         "tiny_store": Store(quadtune, source, work),
     }
   if len(sys.argv) == 4:

@@ -42,7 +42,7 @@ void BM_Generate(benchmark::State& state, const std::string& asset) {
 }
 
 void BM_MeasureSpacing(benchmark::State& state) {
-  const auto layout = GenerateLayout(Corridor40x10("forest_0p9.yaml"), 1);
+  const auto layout = GenerateLayout(Corridor40x10("forest_thin_0p9.yaml"), 1);
   std::vector<Eigen::Vector2d> points;
   for (const auto& c : layout.obstacles.cylinders) points.push_back(c.center_W);
   for (const auto& r : layout.obstacles.rings) points.push_back(r.center_W.head<2>());
@@ -54,13 +54,13 @@ void BM_MeasureSpacing(benchmark::State& state) {
 
 }  // namespace
 
-BENCHMARK_CAPTURE(BM_Generate, spacing_0p9_40x10, std::string("forest_0p9.yaml"))
+BENCHMARK_CAPTURE(BM_Generate, spacing_0p9_40x10, std::string("forest_thin_0p9.yaml"))
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_Generate, spacing_1p3_40x10, std::string("forest_1p3.yaml"))
+BENCHMARK_CAPTURE(BM_Generate, spacing_1p3_40x10, std::string("forest_thin_1p3.yaml"))
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_Generate, spacing_2p1_40x10, std::string("forest_2p1.yaml"))
+BENCHMARK_CAPTURE(BM_Generate, spacing_2p1_40x10, std::string("forest_thin_2p1.yaml"))
     ->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_Generate, spacing_3p0_40x10, std::string("forest_3p0.yaml"))
+BENCHMARK_CAPTURE(BM_Generate, spacing_3p0_40x10, std::string("forest_thin_3p0.yaml"))
     ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_MeasureSpacing)->Unit(benchmark::kMicrosecond);
 

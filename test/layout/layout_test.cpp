@@ -202,20 +202,84 @@ TEST_P(PaperSpacing, ReachesTargetWithinThreePercentOverManySeeds) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Layout, PaperSpacing,
-                         ::testing::Values(std::make_pair("forest_3p0.yaml", 3.0),
-                                           std::make_pair("forest_2p1.yaml", 2.1),
-                                           std::make_pair("forest_1p3.yaml", 1.3),
-                                           std::make_pair("forest_0p9.yaml", 0.9)),
+                         ::testing::Values(std::make_pair("forest_thin_3p0.yaml", 3.0),
+                                           std::make_pair("forest_thin_2p1.yaml", 2.1),
+                                           std::make_pair("forest_thin_1p3.yaml", 1.3),
+                                           std::make_pair("forest_thin_0p9.yaml", 0.9)),
                          [](const auto& param_info) {
                            return std::to_string(static_cast<int>(param_info.param.second * 10));
                          });
+
+// The density study's forests (density `free_gap`): at every spacing and seed the achieved mean
+// nearest-neighbour free gap, re-measured from the obstacles, lies within the options' tolerance
+// (1%) of the target; no gap is below min_gap; and the count rises as the gap closes.
+TEST(FreeGapForests, AchievedFreeGapMatchesTheTargetAtEveryDensity) {
+  double previous_count = 0.0;
+  for (const auto& [name, target] : {std::pair{"forest_3p0.yaml", 3.0}, {"forest_2p1.yaml", 2.1},
+                                     {"forest_1p3.yaml", 1.3}, {"forest_0p9.yaml", 0.9}}) {
+    const LayoutOptions options = Asset(name);
+    ASSERT_EQ(options.density, DensityDefinition::kFreeGap) << name;
+    double count = 0.0;
+    for (std::uint64_t seed = 1; seed <= 10; ++seed) {
+      const Layout layout = GenerateLayout(options, seed);
+      std::vector<Footprint> footprints;
+      for (const auto& c : layout.obstacles.cylinders) footprints.push_back(FootprintOf(c));
+      for (const auto& r : layout.obstacles.rings) footprints.push_back(FootprintOf(r));
+      const SpacingStats gap = StatsOf(NearestFreeGaps(footprints));
+      EXPECT_NEAR(gap.mean, target, options.tolerance * target) << name << " seed " << seed;
+      EXPECT_GE(gap.min, options.min_gap - 1e-9) << name << " seed " << seed;
+      EXPECT_DOUBLE_EQ(layout.stats.zones.at(0).gap.mean, gap.mean);
+      EXPECT_EQ(CountRuleViolations(layout), 0) << name << " seed " << seed;
+      count += static_cast<double>(footprints.size()) / 10.0;
+    }
+    EXPECT_GT(count, 1.3 * previous_count) << name;
+    previous_count = count;
+  }
+}
+
+// One obstacle mix at every density: the four forests differ only in spacing and min_gap, and
+// both kinds appear in every forest in shares near the mix's ring fraction.
+TEST(FreeGapForests, ObstacleMixIsTheSameAtEveryDensity) {
+  const LayoutOptions reference = Asset("forest_3p0.yaml");
+  for (const char* name : {"forest_2p1.yaml", "forest_1p3.yaml", "forest_0p9.yaml"}) {
+    const LayoutOptions options = Asset(name);
+    EXPECT_EQ(options.obstacles, reference.obstacles) << name;
+    EXPECT_DOUBLE_EQ(options.min_gap / options.spacing, reference.min_gap / reference.spacing);
+    std::size_t rings = 0;
+    std::size_t all = 0;
+    for (std::uint64_t seed = 1; seed <= 10; ++seed) {
+      const Layout layout = GenerateLayout(options, seed);
+      rings += layout.obstacles.rings.size();
+      all += layout.obstacles.size();
+      for (const auto& c : layout.obstacles.cylinders) {
+        EXPECT_GE(c.radius, options.obstacles.cylinder.radius.min);
+        EXPECT_LE(c.radius, options.obstacles.cylinder.radius.max);
+      }
+      for (const auto& r : layout.obstacles.rings) {
+        EXPECT_GE(r.radius, options.obstacles.ring.radius.min);
+        EXPECT_LE(r.radius, options.obstacles.ring.radius.max);
+      }
+    }
+    const double share = static_cast<double>(rings) / static_cast<double>(all);
+    EXPECT_GT(share, 0.25) << name;
+    EXPECT_LT(share, 0.6) << name;
+  }
+}
+
+// A free gap below min_gap cannot be built and is refused naming the key.
+TEST(FreeGapForests, GapBelowMinGapIsRefused) {
+  LayoutOptions options = Asset("forest_1p3.yaml");
+  options.spacing = 0.5 * options.min_gap;
+  EXPECT_TRUE(::quadtune::test::ThrowsConfigError([&] { options.Validate(); }, "spacing",
+                                                  {"smaller than min_gap"}));
+}
 
 TEST(GenerateLayout, AreaCountHitsItsTargetAcrossSpacingsAndRegionSizes) {
   std::size_t previous = 0;
   for (const double spacing : {4.0, 3.0, 2.1, 1.7, 1.3, 1.1, 0.9}) {
     for (const double width : {12.0, 24.0, 48.0}) {
       for (const double depth : {8.0, 10.0, 20.0}) {
-        LayoutOptions o = Asset("forest_0p9.yaml");  // thin pillars fit every spacing here
+        LayoutOptions o = Asset("forest_thin_0p9.yaml");  // thin pillars fit every spacing here
         o.spacing = spacing;
         o.region.max_W = {width, o.region.min_W.y() + depth};
         o.mission.goal_W.x() = width;
@@ -227,7 +291,7 @@ TEST(GenerateLayout, AreaCountHitsItsTargetAcrossSpacingsAndRegionSizes) {
       }
     }
     // Monotone in the spacing: a smaller spacing never holds fewer obstacles.
-    LayoutOptions o = Asset("forest_0p9.yaml");
+    LayoutOptions o = Asset("forest_thin_0p9.yaml");
     o.spacing = spacing;
     const std::size_t count = GenerateLayout(o, 1).obstacles.size();
     EXPECT_GT(count, previous) << spacing;
@@ -305,7 +369,7 @@ TEST(GenerateLayout, LargeFieldReachesTarget) {
 }
 
 TEST(GenerateLayout, KeepOutZonesAreRespected) {
-  LayoutOptions options = Asset("forest_1p3.yaml");
+  LayoutOptions options = Asset("forest_thin_1p3.yaml");
   options.keep_out.push_back({{12.0, 0.0}, 2.0});
   options.keep_out.push_back({{6.0, 3.0}, 1.0});
   for (std::uint64_t seed = 1; seed <= 5; ++seed) {
@@ -322,7 +386,7 @@ TEST(GenerateLayout, KeepOutZonesAreRespected) {
 }
 
 TEST(GenerateLayout, ShapesStayWithinTheirRanges) {
-  const LayoutOptions options = Asset("forest_3p0.yaml");
+  const LayoutOptions options = Asset("forest_thin_3p0.yaml");
   const ObstacleMix& mix = options.obstacles;
   std::size_t rings = 0;
   std::size_t cylinders = 0;
@@ -353,7 +417,7 @@ TEST(GenerateLayout, ShapesStayWithinTheirRanges) {
 }
 
 TEST(GenerateLayout, RingFractionSelectsTheKinds) {
-  LayoutOptions options = Asset("forest_3p0.yaml");
+  LayoutOptions options = Asset("forest_thin_3p0.yaml");
   options.obstacles.ring_fraction = 0.0;
   EXPECT_TRUE(GenerateLayout(options, 1).obstacles.rings.empty());
   options.obstacles.ring_fraction = 1.0;
@@ -377,7 +441,7 @@ TEST(GenerateLayout, SameSeedGivesIdenticalLayout) {
 }
 
 TEST(GenerateLayout, DifferentSeedGivesDifferentLayout) {
-  const LayoutOptions options = Asset("forest_1p3.yaml");
+  const LayoutOptions options = Asset("forest_thin_1p3.yaml");
   const Layout a = GenerateLayout(options, 1);
   const Layout b = GenerateLayout(options, 2);
   EXPECT_NE(a.obstacles, b.obstacles);
@@ -408,7 +472,7 @@ TEST(Layout, SaveLoadIsBitIdentical) {
 }
 
 TEST(Layout, SeedRoundTripsAllSixtyFourBits) {
-  const Layout a = GenerateLayout(Asset("forest_3p0.yaml"), 0xfedcba9876543210ULL);
+  const Layout a = GenerateLayout(Asset("forest_thin_3p0.yaml"), 0xfedcba9876543210ULL);
   const Layout b = Layout::FromYamlString(a.ToYamlString());
   EXPECT_EQ(b.seed, 0xfedcba9876543210ULL);
   EXPECT_EQ(a, b);
@@ -441,7 +505,7 @@ obstacles:
 // Bad layouts and impossible densities.
 
 TEST(Layout, ValidateRejectsOverlappingObstacles) {
-  Layout l = GenerateLayout(Asset("forest_2p1.yaml"), 1);
+  Layout l = GenerateLayout(Asset("forest_thin_2p1.yaml"), 1);
   ASSERT_GE(l.obstacles.cylinders.size(), 2u);
   l.obstacles.cylinders[1].center_W =
       l.obstacles.cylinders[0].center_W + Eigen::Vector2d(l.obstacles.cylinders[0].radius, 0.0);
@@ -450,7 +514,7 @@ TEST(Layout, ValidateRejectsOverlappingObstacles) {
 }
 
 TEST(Layout, ValidateRejectsObstacleInKeepOutZone) {
-  Layout l = GenerateLayout(Asset("forest_3p0.yaml"), 1);
+  Layout l = GenerateLayout(Asset("forest_thin_3p0.yaml"), 1);
   l.obstacles.cylinders.push_back({l.start_W().head<2>() + Eigen::Vector2d(0.5, 0.0), 0.2, 0, 3});
   const std::string key =
       "obstacles.cylinders[" + std::to_string(l.obstacles.cylinders.size() - 1) + "]";
@@ -458,7 +522,7 @@ TEST(Layout, ValidateRejectsObstacleInKeepOutZone) {
 }
 
 TEST(Layout, ValidateRejectsObstacleOutsideRegion) {
-  Layout l = GenerateLayout(Asset("forest_3p0.yaml"), 1);
+  Layout l = GenerateLayout(Asset("forest_thin_3p0.yaml"), 1);
   l.obstacles.rings.push_back({Eigen::Vector3d(12.0, 4.5, 1.5), 0.0, 1.0, 0.1});
   const std::string key = "obstacles.rings[" + std::to_string(l.obstacles.rings.size() - 1) + "]";
   EXPECT_TRUE(ThrowsConfigError([&] { l.Validate(); }, key, {"leaves the region"}));

@@ -104,6 +104,11 @@ struct LocalPlannerOptions {
   /// into the clearance by a few millimetres, and a drone hovering just outside it then fails
   /// the same way on every re-plan (measured: the usual cause of stalled benchmark flights).
   double retry_collision_gain = 10.0;
+  /// Braking for the mission goal (EGO-Planner's local-target rule): a local goal on the
+  /// horizon whose distance d to the mission goal is within stopping distance gets the terminal
+  /// speed min(v_des, sqrt(2 a_max d)) instead of v_des, so that the last plans before the goal
+  /// can stop there. false: every horizon goal is reached at v_des.
+  bool goal_braking = false;
   /// The map snapshot MakeQuery records (the Replanner sets it from its back end).
   QuerySnapshot snapshot = QuerySnapshot::kDistanceField;
 

@@ -12,6 +12,7 @@
 /// Thread safety: pure functions on values.
 
 #include <Eigen/Core>
+#include <vector>
 
 #include "quadtune/physics/obstacles.hpp"
 
@@ -52,5 +53,11 @@ struct Footprint {
 /// Gap (m) between a footprint and the point p_W: distance from p_W to the footprint's
 /// boundary, negative inside. The keep-out rule is FootprintGap(f, centre) >= radius.
 [[nodiscard]] double FootprintGap(const Footprint& f, const Eigen::Vector2d& p_W);
+
+/// Nearest-neighbour free gap (m) of every footprint in `footprints`, in input order: the
+/// smallest FootprintGap to any other footprint of the list (negative when they overlap). A
+/// single footprint gets +inf; none gives an empty vector. O(n²); throws Cancelled
+/// (quadtune/common/cancel.hpp) once cancellation is requested.
+[[nodiscard]] std::vector<double> NearestFreeGaps(const std::vector<Footprint>& footprints);
 
 }  // namespace quadtune::layout

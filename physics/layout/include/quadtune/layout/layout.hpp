@@ -26,6 +26,10 @@
 ///     the obstacles a Poisson forest of that spacing would hold (so a sparse start that
 ///     happens to hit the band does not end the zone). max_rejections darts rejected in a row
 ///     throw ConfigError naming the zone's spacing key.
+///  5. density `free_gap`: as 4, with the zone's mean nearest-neighbour free gap between
+///     footprints in place of the centre distance (every zone footprint is a candidate
+///     neighbour: O(n) per dart), and at least half the obstacles a Poisson forest of centre
+///     spacing spacing + the mix's largest reach would hold.
 /// Generation never loops forever, and Validate refuses layouts of more than
 /// kMaxObstaclesPerLayout obstacles before any dart is thrown.
 ///
@@ -51,6 +55,8 @@ struct ZoneStats {
   double x_max = 0.0;           ///< zone end along x (m)
   double target_spacing = 0.0;  ///< the zone's target spacing (m)
   SpacingStats spacing;         ///< achieved NN statistics among the zone's obstacles (m)
+  SpacingStats gap;             ///< achieved NN free-gap statistics among the zone's
+                                ///< footprints (m, NearestFreeGaps); measured, not saved
   std::size_t cylinders = 0;    ///< cylinders placed in the zone
   std::size_t rings = 0;        ///< rings placed in the zone
   std::size_t darts = 0;        ///< candidates drawn, accepted or not

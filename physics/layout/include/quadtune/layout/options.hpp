@@ -25,7 +25,13 @@
 ///   - `nearest_neighbour`: darts are added until the mean nearest-neighbour distance between
 ///     obstacle centres reaches s. At low counts that says little about crowding (a few
 ///     obstacles spread out reach a large mean with few obstacles).
-///   Either way the achieved nearest-neighbour statistics are measured and reported
+///   - `free_gap`: darts are added until the mean NEAREST-NEIGHBOUR FREE GAP reaches s: for each
+///     obstacle, the distance from its footprint's boundary to the nearest other footprint of
+///     its zone, averaged over the zone. It measures the room a drone has between neighbouring
+///     surfaces, so one obstacle mix (thick pillars and wide rings) can be crowded to any
+///     spacing down to min_gap, and the count rises steeply as the gap closes. The forests of
+///     the density study use it (docs/design.md, "Forest density").
+///   Every definition measures and reports the achieved nearest-neighbour statistics
 ///   (LayoutStats). Centres are in the xy-plane: a cylinder's centre is its axis, a ring's the
 ///   centre of its hole.
 /// - **footprint**: an obstacle's projection onto the xy-plane. A cylinder's footprint is its
@@ -135,10 +141,13 @@ struct KeepOutZone {
 enum class DensityDefinition {
   kArea,              ///< round(zone area / (4 spacing²)) obstacles per zone (YAML `area`)
   kNearestNeighbour,  ///< mean nearest-neighbour distance = spacing (YAML `nearest_neighbour`)
+  kFreeGap,           ///< mean nearest-neighbour free gap between footprints = spacing
+                      ///< (YAML `free_gap`)
 };
 constexpr auto EnumNames(DensityDefinition) {
   return std::array{EnumName{DensityDefinition::kArea, "area"},
-                    EnumName{DensityDefinition::kNearestNeighbour, "nearest_neighbour"}};
+                    EnumName{DensityDefinition::kNearestNeighbour, "nearest_neighbour"},
+                    EnumName{DensityDefinition::kFreeGap, "free_gap"}};
 }
 
 /// Most obstacles one layout may ask for (the sum of every zone's count under the `area`
@@ -166,7 +175,8 @@ struct ZoneOptions {
 /// keep_out:  [{center: [12, 0], radius: 1.0}]
 /// spacing: 1.3            # used when `zones` is absent
 /// density: area           # area: round(A / (4 spacing²)) obstacles in a zone of area A;
-///                         # nearest_neighbour: mean NN distance = spacing
+///                         # nearest_neighbour: mean NN distance = spacing;
+///                         # free_gap: mean NN free gap between footprints = spacing
 /// min_gap: 0.2
 /// hard_core_ratio: 0.5
 /// tolerance: 0.01
@@ -191,11 +201,11 @@ struct LayoutOptions {
   double hard_core_ratio = 0.5;       ///< no two centres of a zone closer than this times the
                                       ///< zone's spacing, in (0, 0.9]
   double tolerance = 0.01;            ///< relative tolerance on each zone's achieved spacing
-                                      ///< (`nearest_neighbour` only), in (0, 0.1]
+                                      ///< (`nearest_neighbour`, `free_gap`), in (0, 0.1]
   long max_rejections = 10000;        ///< darts rejected in a row before a zone is declared
                                       ///< impossible, in [100, 1e8]
   bool ground = true;                 ///< the world has a ground plane at z = 0
-  /// What a spacing means (YAML `density`: area | nearest_neighbour).
+  /// What a spacing means (YAML `density`: area | nearest_neighbour | free_gap).
   DensityDefinition density = DensityDefinition::kArea;
 
   /// The zones to generate: `zones`, or one zone over the whole region with `spacing`.

@@ -30,6 +30,9 @@ struct SpacingStats {
 [[nodiscard]] std::vector<double> NearestNeighbourDistances(
     const std::vector<Eigen::Vector2d>& points_W);
 
+/// SpacingStats of a list of nearest-neighbour distances (m), e.g. NearestFreeGaps.
+[[nodiscard]] SpacingStats StatsOf(const std::vector<double>& distances);
+
 /// SpacingStats of `points_W` (xy positions in W, m).
 [[nodiscard]] SpacingStats MeasureSpacing(const std::vector<Eigen::Vector2d>& points_W);
 
