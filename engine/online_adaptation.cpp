@@ -17,6 +17,7 @@
 #include "quadtune/common/text_file.hpp"
 #include "quadtune/engine/experiment.hpp"
 #include "quadtune/engine/planner_registry.hpp"
+#include "quadtune/physics/depth_sensor.hpp"
 #include "quadtune/sim/scenario.hpp"
 
 namespace quadtune::engine {
@@ -151,7 +152,31 @@ const Fields<AdaptationOptions>& AdaptationFields() {
                 if (bo.Has("seed"))
                   bo.Fail("seed", "the BO seeds derive from the experiment's seed");
               },
-              [](YAML::Emitter&, const A&) {});
+              [](YAML::Emitter&, const A&) {})
+          .Choice("mode", &A::mode,
+                  "`online`: BO over v_des (the paper's search); `context`: one trial at the "
+                  "context policy's v_des; `context_prior`: the policy's v_des first, then BO")
+          .Number("risk_weight", &A::risk_weight, Range::NonNegative(),
+                  "w_r: weight of the stopping risk J_r = max over the plan of "
+                  "max(0, |v|²/(2 a_max) − free distance ahead)² (m²) added to f_s; 0: the "
+                  "paper's f_s")
+          .Number("risk_range", &A::risk_range, Range::Positive(),
+                  "free distances of J_r are searched up to this (m): the sensor's range")
+          .Number("risk_reaction_time", &A::risk_reaction_time, Range::NonNegative(),
+                  "τ (s): J_r also asks for a clearance of τ·|v| beyond the inflation along "
+                  "the plan; 0: off")
+          .Custom(
+              {"policy", "map", "none", "[context policy](#context-policy)",
+               "v_des per measured free range (`quadtune policy` writes one from a density "
+               "study); required by the context modes"},
+              [](const YamlMap& map, A& o) {
+                if (map.Has("policy")) o.policy = ContextPolicy::FromYaml(map.Map("policy"));
+              },
+              [](YAML::Emitter& out, const A& o) {
+                if (!o.policy) return;
+                out << YAML::Key << "policy" << YAML::Value;
+                ContextPolicyFields().Write(out, *o.policy);
+              });
   return fields;
 }
 
@@ -165,6 +190,13 @@ void AdaptationOptions::Validate(const std::string& file) const {
                       "must be changing_environment for online adaptation");
   }
   bo.Validate();
+  if (mode != AdaptationMode::kOnline && !policy) {
+    throw ConfigError(file, Key("mode"),
+                      std::string("mode ") + quadtune::ToString(mode) +
+                          " needs adaptation.policy (v_des per measured free range; `quadtune "
+                          "policy` learns one from a density study)");
+  }
+  if (policy) policy->Validate(file);
 }
 
 AdaptationOptions AdaptationOptions::FromYaml(const YamlMap& map) {
@@ -259,14 +291,17 @@ void OnlineAdapter::RunTrial(double t, const planning::LocalMap& map,
   Pending& p = *pending_;
   if (t > p.last_trial_time) p.bo->AdvanceAge(t - p.last_trial_time);
   p.last_trial_time = t;
-  const optimizers::Candidate c = p.bo->Ask(1).at(0);
+  const std::optional<double> forced = p.segment.trials == 0 ? PolicyChoice(map) : std::nullopt;
+  std::optional<optimizers::Candidate> c;
+  if (!forced) c = p.bo->Ask(1).at(0);
 
   AdaptationTrial trial;
   trial.segment = p.segment.index;
   trial.trial = p.segment.trials;
   trial.time = t;
   trial.p_s_W = p.segment.p_s_W;
-  trial.v_des = c.x[0];
+  trial.v_des = forced ? *forced : c->x[0];
+  trial.from_policy = forced.has_value();
 
   planning::PlannerParams params = p.params;
   params.v_des = trial.v_des;
@@ -313,9 +348,18 @@ void OnlineAdapter::RunTrial(double t, const planning::LocalMap& map,
   trial.jerk_integral = record.jerk_integral;
   trial.min_clearance = record.min_clearance;
   trial.j_c = f.terms.count("J_c") ? f.terms.at("J_c") : 0.0;
-  trial.f_s = std::isfinite(f.value) ? f.value : options_.objective.failure_value;
+  if (trial.success) {
+    trial.j_r = StoppingRisk(outcome->result.trajectory, map, params.a_max, options_.risk_range,
+                             options_.risk_reaction_time, params.inflation);
+  }
+  trial.f_s = std::isfinite(f.value) ? f.value + options_.risk_weight * trial.j_r
+                                     : options_.objective.failure_value;
   if (!trial.success) trial.f_s = options_.objective.failure_value;
-  p.bo->Tell(c.id, trial.f_s);
+  if (forced) {
+    p.bo->Observe(Eigen::VectorXd::Constant(1, trial.v_des), trial.f_s);
+  } else {
+    p.bo->Tell(c->id, trial.f_s);
+  }
 
   ++p.segment.trials;
   if (trial.success) {
@@ -330,10 +374,21 @@ void OnlineAdapter::RunTrial(double t, const planning::LocalMap& map,
   trials_.push_back(std::move(trial));
 }
 
+std::optional<double> OnlineAdapter::PolicyChoice(const planning::LocalMap& map) {
+  Pending& p = *pending_;
+  const FreeRangeOptions measure = options_.policy ? options_.policy->measure : FreeRangeOptions{};
+  p.segment.free_range = MeasureFreeRange(map, p.segment.p_s_W, p.v_s, measure);
+  if (options_.mode == AdaptationMode::kOnline) return std::nullopt;
+  const ContextPolicy& policy = *options_.policy;
+  p.segment.policy_v_des = std::clamp(policy.VDes(policy.Clamp(p.segment.free_range)),
+                                      options_.v_min, options_.v_max);
+  return p.segment.policy_v_des;
+}
+
 std::optional<sim::AdaptedPlan> OnlineAdapter::OnTick(double t, const planning::LocalMap& map,
                                                            const Eigen::Vector3d& waypoint_W) {
   if (!pending_) return std::nullopt;
-  const int n = options_.trials_per_segment;
+  const int n = options_.mode == AdaptationMode::kContext ? 1 : options_.trials_per_segment;
   const double t0 = pending_->segment.t0;
   const double ts = pending_->segment.split_time;
   // Trial k is due at t0 + k (t_s − t0) / N; every trial still due runs at t_s.
@@ -436,6 +491,24 @@ const Fields<AdaptExperiment>& AdaptExperimentFields() {
               unwritten)
           .Number("max_time", &E::max_time, Range::Positive(), "flight time limit (s)")
           .Custom(
+              {"sensor", "map", "48 x 32 pixels, 87° x 58°, 15 Hz, 5 m",
+               "[depth sensor](#depth-sensor) keys", "the depth camera of every flight"},
+              [](const YamlMap& map, E& e) {
+                if (!map.Has("sensor")) return;
+                physics::DepthSensorFields().Read(map.Map("sensor"), e.sensor);
+                e.sensor.Validate(map.file());
+              },
+              unwritten)
+          .Flag("goal_braking", &E::goal_braking,
+                "horizon goals within stopping distance d of the mission goal get the terminal "
+                "speed min(v_des, √(2 a_max d)) (EGO-Planner's local-target rule)")
+          .Number("dense_below", &E::dense_below, Range::Positive(),
+                  "zones of a spacing below this are dense, the others sparse (m)")
+          .Number("w_e", &E::w_e, Range::NonNegative(),
+                  "corridor studies: f_l = t_f + t_f·n_c + w_e·n_e (s per emergency stop)")
+          .Number("failure_value", &E::failure_value, Range::Positive(),
+                  "corridor studies: f_l of a flight that does not finish")
+          .Custom(
               {"planner", "map", "`type: ipopt`, planner defaults",
                "`type`: a registered type flown in the closed loop: `ipopt`, `ego`, or one a "
                "program registers with a back end ([own-planner.md](own-planner.md)); the "
@@ -506,23 +579,35 @@ void AdaptExperiment::SetSeed(std::uint64_t new_seed) {
   adaptation.seed = DeriveSeed(seed, {0xada});
 }
 
+std::string FlightPolicy::Label(const AdaptationOptions& adaptation) const {
+  if (fixed_v_des) {
+    std::ostringstream label;
+    label << "fixed_" << *fixed_v_des;
+    return label.str();
+  }
+  return mode.value_or(adaptation.mode) == AdaptationMode::kContext ? "context" : "adapted";
+}
+
 AdaptFlight RunAdaptFlight(const AdaptExperiment& e, const layout::Layout& layout,
                            std::optional<double> fixed_v_des,
                            const std::function<void(const AdaptationSegment&)>& on_segment,
                            const std::atomic<bool>* cancel) {
+  return RunAdaptFlight(e, layout, FlightPolicy{fixed_v_des, std::nullopt}, on_segment, cancel);
+}
+
+AdaptFlight RunAdaptFlight(const AdaptExperiment& e, const layout::Layout& layout,
+                           const FlightPolicy& policy,
+                           const std::function<void(const AdaptationSegment&)>& on_segment,
+                           const std::atomic<bool>* cancel) {
   AdaptFlight out;
-  out.adapted = !fixed_v_des.has_value();
+  out.adapted = !policy.fixed_v_des.has_value();
   planning::PlannerParams params = e.params;
-  if (fixed_v_des) params.v_des = *fixed_v_des;
+  if (policy.fixed_v_des) params.v_des = *policy.fixed_v_des;
   params.Validate(e.file);
   out.v_des = params.v_des;
-  if (out.adapted) {
-    out.label = "adapted";
-  } else {
-    std::ostringstream label;
-    label << "fixed_" << params.v_des;
-    out.label = label.str();
-  }
+  out.label = policy.Label(e.adaptation);
+  AdaptationOptions adaptation = e.adaptation;
+  if (policy.mode) adaptation.mode = *policy.mode;
 
   const sim::Scenario scenario =
       sim::Scenario::OverLayout(layout, sim::MissionKind::kGoTo, e.drone, e.world, e.world.seed);
@@ -530,13 +615,15 @@ AdaptFlight RunAdaptFlight(const AdaptExperiment& e, const layout::Layout& layou
   sim::MakeWorld(scenario, world);
   sim::FlightOptions options;
   options.max_time = e.max_time;
+  options.sensor = e.sensor;
+  options.planner.goal_braking = e.goal_braking;
   const std::shared_ptr<const planning::TrajectoryBackend> backend =
       BuildClosedLoopBackend(e.planner_type, e.file, "planner.type");
   sim::FlightHooks hooks;
   if (cancel != nullptr) hooks.cancelled = [cancel] { return cancel->load(); };
   std::unique_ptr<OnlineAdapter> adapter;
   if (out.adapted) {
-    adapter = std::make_unique<OnlineAdapter>(*backend, options.planner, e.adaptation);
+    adapter = std::make_unique<OnlineAdapter>(*backend, options.planner, adaptation);
     if (on_segment) adapter->SetSegmentObserver(on_segment);
     hooks.adapter = adapter.get();
   }

@@ -25,6 +25,7 @@ void RegisterBench(CLI::App& app, int& exit_code);
 /// `quadtune study`: sweeps and stages of an experiment, then validation flights.
 void RegisterStudy(CLI::App& app, int& exit_code);
 void RegisterAdapt(CLI::App& app, int& exit_code);  ///< `quadtune adapt`: Sec. IV-B experiment
+void RegisterPolicy(CLI::App& app, int& exit_code);  ///< `quadtune policy`: learn a context policy
 /// `quadtune report`: a self-contained HTML page of a run, study or flight directory.
 void RegisterReport(CLI::App& app, int& exit_code);
 /// `quadtune sweep`: Sobol' indices of the objectives over the parameter box (sweep_command.cpp).

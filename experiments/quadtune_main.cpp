@@ -76,6 +76,7 @@ int main(int argc, char** argv) {
   quadtune::cli::RegisterExport(app, exit_code);
   quadtune::cli::RegisterBench(app, exit_code);
   quadtune::cli::RegisterAdapt(app, exit_code);
+  quadtune::cli::RegisterPolicy(app, exit_code);
   quadtune::cli::RegisterStudy(app, exit_code);
   quadtune::cli::RegisterReport(app, exit_code);
   quadtune::cli::RegisterSweep(app, exit_code);

@@ -208,7 +208,7 @@ TEST(AdaptCli, BadKeyStopsBeforeAnyWorkNamingFileAndKey) {
   fs::remove_all(dir);
   fs::create_directories(dir);
   const fs::path yaml = dir / "bad.yaml";
-  std::ofstream(yaml) << "layout_file: layouts/changing_density.yaml\n"
+  std::ofstream(yaml) << "layout_file: layouts/changing_density_thin.yaml\n"
                          "adaptation: {lookahed: 2.0}\n";
   const fs::path log = dir / "log.txt";
   const std::string cmd = kBinary + " adapt '" + yaml.string() + "' --out '" +

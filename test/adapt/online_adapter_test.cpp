@@ -221,7 +221,7 @@ std::string WriteTemp(const std::string& name, const std::string& text) {
 }
 
 const char* kMinimal =
-    "layout_file: layouts/changing_density.yaml\n"
+    "layout_file: layouts/changing_density_thin.yaml\n"
     "baselines: [2.0]\n";
 
 /// Loads kMinimal + `extra` from a file; expects a ConfigError naming that file and `key`, whose
@@ -260,7 +260,7 @@ TEST(AdaptExperiment, OutOfRangeValuesNameKeyAndRange) {
       parse(std::string(kMinimal) + "adaptation: {objective: {short_term: {kind: solve_time}}}\n"),
       "adaptation.objective.short_term.kind", {"x.yaml", "must be changing_environment"}));
   EXPECT_TRUE(
-      ThrowsConfigError(parse("layout_file: layouts/changing_density.yaml\nbaselines: [0]\n"),
+      ThrowsConfigError(parse("layout_file: layouts/changing_density_thin.yaml\nbaselines: [0]\n"),
                         "baselines", {"x.yaml", "(0, 15]"}));
   EXPECT_TRUE(ThrowsConfigError(parse("baselines: [2.0]\n"), "layout_file",
                                 {"x.yaml", "exactly one of layout"}));

@@ -363,7 +363,7 @@ TEST(FreeText, ASavedLayoutGivenAsLayoutOptionsIsNamedAsSuch) {
 TEST(PromptCancellation, AFlightStopsOnSigtermAndWritesNothing) {
   // 360 s of simulated flight at 0.3 m/s along the 48 m corridor: about 3 s of wall time.
   const fs::path dir = CaseDir("fly");
-  const std::string corridor = std::string(QUADTUNE_SOURCE_DIR) + "/assets/layouts/changing_density.yaml";
+  const std::string corridor = std::string(QUADTUNE_SOURCE_DIR) + "/assets/layouts/changing_density_thin.yaml";
   const BoundedResult r = ExpectPromptStop(
       {"fly", "--layout-options", corridor, "--seed", "1", "--out", (dir / "out").string(),
        "--set", "v_des=0.3", "--max-time", "3000", "--no-plot"},

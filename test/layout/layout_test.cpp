@@ -300,7 +300,7 @@ TEST(GenerateLayout, AreaCountHitsItsTargetAcrossSpacingsAndRegionSizes) {
 }
 
 TEST(GenerateLayout, AreaZonesHoldTheirOwnCount) {
-  const LayoutOptions options = Asset("changing_density.yaml");
+  const LayoutOptions options = Asset("changing_density_thin.yaml");
   ASSERT_EQ(options.density, DensityDefinition::kArea);
   const std::size_t expected[] = {3, 18, 7, 37};  // 120 m² / (4 s²) at 3.0, 1.3, 2.1, 0.9 m
   for (std::uint64_t seed = 1; seed <= 10; ++seed) {
@@ -320,7 +320,7 @@ TEST(GenerateLayout, AreaZonesHoldTheirOwnCount) {
 }
 
 TEST(GenerateLayout, ZonesReachTheirOwnSpacing) {
-  const LayoutOptions options = NearestNeighbour(Asset("changing_density.yaml"));
+  const LayoutOptions options = NearestNeighbour(Asset("changing_density_thin.yaml"));
   ASSERT_EQ(options.zones.size(), 4u);
   for (std::uint64_t seed = 1; seed <= 10; ++seed) {
     const Layout layout = GenerateLayout(options, seed);
@@ -353,7 +353,7 @@ TEST(GenerateLayout, ZonesReachTheirOwnSpacing) {
 }
 
 TEST(GenerateLayout, DenserZonesHoldMoreObstaclesPerArea) {
-  const Layout layout = GenerateLayout(Asset("changing_density.yaml"), 3);
+  const Layout layout = GenerateLayout(Asset("changing_density_thin.yaml"), 3);
   const auto& z = layout.stats.zones;  // 3.0, 1.3, 2.1, 0.9 m, equal widths
   EXPECT_LT(z[0].spacing.count, z[2].spacing.count);
   EXPECT_LT(z[2].spacing.count, z[1].spacing.count);
@@ -431,7 +431,7 @@ TEST(GenerateLayout, RingFractionSelectsTheKinds) {
 // Determinism and persistence.
 
 TEST(GenerateLayout, SameSeedGivesIdenticalLayout) {
-  const LayoutOptions options = Asset("changing_density.yaml");
+  const LayoutOptions options = Asset("changing_density_thin.yaml");
   const Layout a = GenerateLayout(options, 42);
   const Layout b = GenerateLayout(options, 42);
   EXPECT_EQ(a, b);
@@ -450,7 +450,7 @@ TEST(GenerateLayout, DifferentSeedGivesDifferentLayout) {
 
 TEST(GenerateLayout, ZonesUseIndependentStreams) {
   // Changing the last zone leaves the earlier zones' obstacles untouched.
-  LayoutOptions options = Asset("changing_density.yaml");
+  LayoutOptions options = Asset("changing_density_thin.yaml");
   const Layout a = GenerateLayout(options, 5);
   options.zones.back().spacing = 1.0;
   const Layout b = GenerateLayout(options, 5);
@@ -460,7 +460,7 @@ TEST(GenerateLayout, ZonesUseIndependentStreams) {
 }
 
 TEST(Layout, SaveLoadIsBitIdentical) {
-  const Layout a = GenerateLayout(Asset("changing_density.yaml"), 11);
+  const Layout a = GenerateLayout(Asset("changing_density_thin.yaml"), 11);
   const std::filesystem::path path =
       std::filesystem::path(::testing::TempDir()) / "quadtune_layout_roundtrip.yaml";
   a.Save(path.string());

@@ -98,7 +98,7 @@ TEST(LayoutOptions, YamlRoundTripIsExact) {
 }
 
 TEST(LayoutOptions, WrittenFieldsOfShippedAssetsReadBackEqual) {
-  for (const char* name : {"forest_thin_1p3.yaml", "changing_density.yaml", "field_40x40.yaml"}) {
+  for (const char* name : {"forest_thin_1p3.yaml", "changing_density_thin.yaml", "field_40x40.yaml"}) {
     const LayoutOptions o =
         LayoutOptions::LoadFile(std::string(QUADTUNE_SOURCE_DIR) + "/assets/layouts/" + name);
     YAML::Emitter out;
@@ -110,7 +110,7 @@ TEST(LayoutOptions, WrittenFieldsOfShippedAssetsReadBackEqual) {
 
 TEST(LayoutOptions, ShippedAssetsAreValid) {
   for (const char* name : {"forest_thin_3p0.yaml", "forest_thin_2p1.yaml", "forest_thin_1p3.yaml",
-                           "forest_thin_0p9.yaml", "changing_density.yaml", "field_40x40.yaml"}) {
+                           "forest_thin_0p9.yaml", "changing_density_thin.yaml", "field_40x40.yaml"}) {
     EXPECT_NO_THROW(
         LayoutOptions::LoadFile(std::string(QUADTUNE_SOURCE_DIR) + "/assets/layouts/" + name))
         << name;

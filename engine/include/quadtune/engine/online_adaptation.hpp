@@ -55,6 +55,7 @@
 
 #include "quadtune/common/fields.hpp"
 #include "quadtune/common/yaml.hpp"
+#include "quadtune/engine/context_policy.hpp"
 #include "quadtune/engine/objectives.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/optimizers/bayes_opt.hpp"
@@ -67,8 +68,30 @@
 
 namespace quadtune::engine {
 
+/// How a segment chooses its v_des.
+enum class AdaptationMode {
+  kOnline,        ///< BO over v_des, trials_per_segment trials (the paper's search)
+  kContext,       ///< one trial at the context policy's v_des for the free range at P_s
+  kContextPrior,  ///< the policy's v_des as the first trial, then BO (trials_per_segment in all)
+};
+constexpr auto EnumNames(AdaptationMode) {
+  return std::array{EnumName{AdaptationMode::kOnline, "online"},
+                    EnumName{AdaptationMode::kContext, "context"},
+                    EnumName{AdaptationMode::kContextPrior, "context_prior"}};
+}
+
 /// Settings of the online adaptation (YAML `adaptation:`).
 struct AdaptationOptions {
+  AdaptationMode mode = AdaptationMode::kOnline;  ///< how a segment chooses v_des
+  /// w_r >= 0: weight of the stopping risk J_r (context_policy.hpp) added to a trial's f_s
+  /// (1/m² in f_s units); 0 scores plans by the paper's terms only.
+  double risk_weight = 0.0;
+  double risk_range = 5.0;  ///< free distances searched up to this (m), > 0: the sensor's range
+  /// τ >= 0 (s): J_r also asks for a clearance of τ |v| beyond the inflation (StoppingRisk).
+  double risk_reaction_time = 0.0;
+  /// The context policy (required by the context modes); its free-range measurement also gives
+  /// every segment's recorded context.
+  std::optional<ContextPolicy> policy;
   double lookahead = 2.0;       ///< R: arc length from a trajectory's start to P_s (m), (0, 20]
   double v_min = 1.0;           ///< lower bound of v_des (m/s), > 0
   double v_max = 6.0;           ///< upper bound of v_des (m/s), in (v_min, 15]
@@ -111,6 +134,8 @@ struct AdaptationTrial {
   double jerk_integral = 0.0;  ///< ∫|jerk|² dt of the plan (m²/s⁵)
   double min_clearance = 0.0;  ///< c_obs: smallest distance-field value along the plan (m)
   double j_c = 0.0;        ///< J_c
+  double j_r = 0.0;        ///< J_r, the stopping risk (m²); counted in f_s with risk_weight
+  bool from_policy = false;  ///< its v_des came from the context policy, not from BO
   double f_s = 0.0;        ///< objective value (the failure value for a failed trial)
   double compute_units = 0.0;  ///< deterministic solve cost
   bool chosen = false;     ///< executed from P_s
@@ -125,6 +150,10 @@ struct AdaptationSegment {
   Eigen::Vector3d p_s_W = Eigen::Vector3d::Zero();  ///< P_s (m)
   double speed_s = 0.0;     ///< reference speed at P_s (m/s)
   double v_des_before = 0.0;  ///< v_des in force when the segment started (m/s)
+  /// Free range (m) measured at P_s along the segment's direction of motion at the first trial
+  /// (the policy's measurement options, else FreeRangeOptions{}); -1 before it is measured.
+  double free_range = -1.0;
+  double policy_v_des = 0.0;  ///< the policy's v_des for it (context modes), else 0
   double v_des = 0.0;       ///< v_des in force after the segment (the chosen one when adopted)
   int trials = 0;           ///< trials run
   int successes = 0;        ///< successful trials
@@ -170,6 +199,8 @@ class OnlineAdapter final : public sim::PlanAdapter {
  private:
   struct Pending;
   void RunTrial(double t, const planning::LocalMap& map, const Eigen::Vector3d& waypoint_W);
+  // The first trial's v_des in the context modes (measuring the context), else nullopt.
+  std::optional<double> PolicyChoice(const planning::LocalMap& map);
   void Close(AdaptationSegment::Outcome outcome);
 
   const planning::TrajectoryBackend& backend_;
@@ -212,6 +243,15 @@ struct AdaptExperiment {
   planning::PlannerParams params;     ///< fixed parameters; v_des is the adapted flight's start
   std::vector<double> baselines{2.0}; ///< fixed v_des values (m/s), each in (0, 15]
   AdaptationOptions adaptation;
+  /// The depth camera (`sensor:`, keys over sim::FlightOptions::DefaultSensor()).
+  physics::DepthSensorOptions sensor = sim::FlightOptions::DefaultSensor();
+  bool goal_braking = false;  ///< LocalPlannerOptions::goal_braking of every flight
+  /// Zones whose spacing lies below this are "dense", the others "sparse" (m), > 0.
+  double dense_below = 1.5;
+  /// Corridor studies (`adapt --corridors N`): f_l = t_f + t_f·n_c + w_e·n_e of each flight,
+  /// a flight that does not finish scoring failure_value.
+  double w_e = 5.0;
+  double failure_value = 1000.0;
 
   /// Reads and checks a file; errors name the file, the key and what is allowed (a
   /// `planner.type` that is not a closed-loop planner: key planner.type, listing those that are).
@@ -236,6 +276,23 @@ struct AdaptFlight {
   std::vector<AdaptationTrial> trials;      ///< adapted flight only
   std::vector<AdaptationSegment> segments;  ///< adapted flight only
 };
+
+/// What one flight of the experiment flies: v_des adapted by the experiment's adaptation (with
+/// `mode` in place of its mode when given), or a fixed v_des.
+struct FlightPolicy {
+  std::optional<double> fixed_v_des;          ///< a fixed v_des (m/s); empty: adapted
+  std::optional<AdaptationMode> mode;         ///< the adapted flight's mode; empty: the file's
+  /// "fixed_<v>"; for an adapted flight "context" when its mode is context, else "adapted".
+  [[nodiscard]] std::string Label(const AdaptationOptions& adaptation) const;
+};
+
+/// Flies start → goal of `layout` once with the back end of `experiment.planner_type` under
+/// `policy`. Deterministic for the same experiment, layout and seed. Flight failures are
+/// reported in the result's metrics, never thrown.
+[[nodiscard]] AdaptFlight RunAdaptFlight(
+    const AdaptExperiment& experiment, const layout::Layout& layout, const FlightPolicy& policy,
+    const std::function<void(const AdaptationSegment&)>& on_segment = {},
+    const std::atomic<bool>* cancel = nullptr);
 
 /// Flies start → goal of `layout` once with the back end of `experiment.planner_type`: adapted
 /// (fixed_v_des empty) or with a fixed v_des.
