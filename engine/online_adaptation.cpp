@@ -214,10 +214,10 @@ struct OnlineAdapter::Pending {
   planning::Trajectory trajectory;  // the executing trajectory P_s lies on
   Eigen::Vector3d v_s = Eigen::Vector3d::Zero();
   Eigen::Vector3d a_s = Eigen::Vector3d::Zero();
-  planning::PlannerParams params;   // in force when the segment started
+  planning::PlannerParams params;  // in force when the segment started
   std::unique_ptr<optimizers::BayesOpt> bo;
   double last_trial_time = 0.0;
-  std::size_t first_trial = 0;      // index of the segment's first trial in trials_
+  std::size_t first_trial = 0;  // index of the segment's first trial in trials_
   std::optional<planning::PlanOutcome> best;
   bool best_reaches_waypoint = false;
 };
@@ -342,7 +342,8 @@ void OnlineAdapter::RunTrial(double t, const planning::LocalMap& map,
     record.min_clearance = r.min_clearance;
     trial.compute_units = outcome->compute_units;
   }
-  const ObjectiveValue f = ShortTermObjective(record, options_.objective, TimingMode::kReproducible);
+  const ObjectiveValue f =
+      ShortTermObjective(record, options_.objective, TimingMode::kReproducible);
   trial.success = record.success;
   trial.t_exe = record.duration;
   trial.jerk_integral = record.jerk_integral;
@@ -380,13 +381,13 @@ std::optional<double> OnlineAdapter::PolicyChoice(const planning::LocalMap& map)
   p.segment.free_range = MeasureFreeRange(map, p.segment.p_s_W, p.v_s, measure);
   if (options_.mode == AdaptationMode::kOnline) return std::nullopt;
   const ContextPolicy& policy = *options_.policy;
-  p.segment.policy_v_des = std::clamp(policy.VDes(policy.Clamp(p.segment.free_range)),
-                                      options_.v_min, options_.v_max);
+  p.segment.policy_v_des =
+      std::clamp(policy.VDes(policy.Clamp(p.segment.free_range)), options_.v_min, options_.v_max);
   return p.segment.policy_v_des;
 }
 
 std::optional<sim::AdaptedPlan> OnlineAdapter::OnTick(double t, const planning::LocalMap& map,
-                                                           const Eigen::Vector3d& waypoint_W) {
+                                                      const Eigen::Vector3d& waypoint_W) {
   if (!pending_) return std::nullopt;
   const int n = options_.mode == AdaptationMode::kContext ? 1 : options_.trials_per_segment;
   const double t0 = pending_->segment.t0;
@@ -427,12 +428,37 @@ AdaptExperiment AdaptExperiment::LoadFile(const std::string& path) {
   return FromString(text, path, dir.empty() ? "." : dir);
 }
 
+// The closed loop's sensor and goal rule, the dense/sparse split and the corridor study's f_l.
+Fields<AdaptExperiment> AddFlightKeys(Fields<AdaptExperiment> f) {
+  using E = AdaptExperiment;
+  const auto unwritten = [](YAML::Emitter&, const E&) {};
+  f.Custom(
+       {"sensor", "map", "48 x 32 pixels, 87° x 58°, 15 Hz, 5 m",
+        "[depth sensor](#depth-sensor) keys", "the depth camera of every flight"},
+       [](const YamlMap& map, E& e) {
+         if (!map.Has("sensor")) return;
+         physics::DepthSensorFields().Read(map.Map("sensor"), e.sensor);
+         e.sensor.Validate(map.file());
+       },
+       unwritten)
+      .Flag("goal_braking", &E::goal_braking,
+            "horizon goals within stopping distance d of the mission goal get the terminal "
+            "speed min(v_des, √(2 a_max d)) (EGO-Planner's local-target rule)")
+      .Number("dense_below", &E::dense_below, Range::Positive(),
+              "zones of a spacing below this are dense, the others sparse (m)")
+      .Number("w_e", &E::w_e, Range::NonNegative(),
+              "corridor studies: f_l = t_f + t_f·n_c + w_e·n_e (s per emergency stop)")
+      .Number("failure_value", &E::failure_value, Range::Positive(),
+              "corridor studies: f_l of a flight that does not finish");
+  return f;
+}
+
 const Fields<AdaptExperiment>& AdaptExperimentFields() {
   using E = AdaptExperiment;
   // world and planner are written by nothing here: WorldOptions and PlannerParams have no writer.
   const auto unwritten = [](YAML::Emitter&, const E&) {};
   static const Fields<E> fields =
-      Fields<E>()
+      AddFlightKeys(Fields<E>())
           .Text("name", &E::name, {}, "name of the experiment")
           .Integer("seed", &E::seed, Range::Closed(0, 9.0e15),
                    "layout, world and BO seeds (`--seed` overrides)")
@@ -490,24 +516,6 @@ const Fields<AdaptExperiment>& AdaptExperimentFields() {
               },
               unwritten)
           .Number("max_time", &E::max_time, Range::Positive(), "flight time limit (s)")
-          .Custom(
-              {"sensor", "map", "48 x 32 pixels, 87° x 58°, 15 Hz, 5 m",
-               "[depth sensor](#depth-sensor) keys", "the depth camera of every flight"},
-              [](const YamlMap& map, E& e) {
-                if (!map.Has("sensor")) return;
-                physics::DepthSensorFields().Read(map.Map("sensor"), e.sensor);
-                e.sensor.Validate(map.file());
-              },
-              unwritten)
-          .Flag("goal_braking", &E::goal_braking,
-                "horizon goals within stopping distance d of the mission goal get the terminal "
-                "speed min(v_des, √(2 a_max d)) (EGO-Planner's local-target rule)")
-          .Number("dense_below", &E::dense_below, Range::Positive(),
-                  "zones of a spacing below this are dense, the others sparse (m)")
-          .Number("w_e", &E::w_e, Range::NonNegative(),
-                  "corridor studies: f_l = t_f + t_f·n_c + w_e·n_e (s per emergency stop)")
-          .Number("failure_value", &E::failure_value, Range::Positive(),
-                  "corridor studies: f_l of a flight that does not finish")
           .Custom(
               {"planner", "map", "`type: ipopt`, planner defaults",
                "`type`: a registered type flown in the closed loop: `ipopt`, `ego`, or one a "

@@ -43,12 +43,16 @@ int RunLayout(const LayoutArgs& a) {
   const auto zones = options.EffectiveZones();
   for (std::size_t i = 0; i < layout.stats.zones.size(); ++i) {
     const auto& z = layout.stats.zones[i];
-    spdlog::info("  zone x in [{:.1f}, {:.1f}] m: spacing {:.2f} m, {} obstacles (area target "
-                 "{:.0f}, {:.3f} per m²), mean nearest-neighbour distance {:.3f} m",
-                 z.x_min, z.x_max, z.target_spacing, z.cylinders + z.rings,
-                 options.TargetCount(zones[i]),
+    const std::string target =
+        options.density == layout::DensityDefinition::kArea
+            ? fmt::format("area target {:.0f}, ", options.TargetCount(zones[i]))
+            : std::string();
+    spdlog::info("  zone x in [{:.1f}, {:.1f}] m: spacing {:.2f} m, {} obstacles ({}{:.3f} per "
+                 "m²), mean nearest-neighbour distance {:.3f} m, free gap mean {:.3f} m (std "
+                 "{:.3f}, min {:.3f})",
+                 z.x_min, z.x_max, z.target_spacing, z.cylinders + z.rings, target,
                  static_cast<double>(z.cylinders + z.rings) / options.ZoneArea(zones[i]),
-                 z.spacing.mean);
+                 z.spacing.mean, z.gap.mean, z.gap.std, z.gap.min);
   }
   return 0;
 }

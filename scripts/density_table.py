@@ -3,7 +3,7 @@
 
 usage: density_table.py [--quadtune BIN] [--seeds N] [--jobs J] [--out DIR] [--work DIR]
 
-For each shipped forest (assets/layouts/forest_3p0, 2p1, 1p3, 0p9.yaml) and each density
+For each thin forest (assets/layouts/forest_thin_3p0, 2p1, 1p3, 0p9.yaml) and each density
 definition of the layout generator (`nearest_neighbour`: mean nearest-neighbour distance =
 spacing; `area`: round(area / (4 spacing²)) obstacles), flies a go-and-return mission at the
 default planner parameters on map seeds 1..N:
@@ -26,8 +26,8 @@ import sys
 import time
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-FORESTS = [(3.0, "forest_3p0.yaml"), (2.1, "forest_2p1.yaml"), (1.3, "forest_1p3.yaml"),
-           (0.9, "forest_0p9.yaml")]
+FORESTS = [(3.0, "forest_thin_3p0.yaml"), (2.1, "forest_thin_2p1.yaml"), (1.3, "forest_thin_1p3.yaml"),
+           (0.9, "forest_thin_0p9.yaml")]
 # Zhou, Xu, Gao (IROS 2022), table "various obstacle densities": validation flight time (s) of
 # EGO-Planner with TUNED parameters, in EGO-Planner's forest (not default parameters).
 PAPER_TIME = {3.0: 11.25, 2.1: 12.56, 1.3: 19.53, 0.9: 41.8}
@@ -133,7 +133,7 @@ def main():
         "# Obstacle density: nearest-neighbour spacing vs. obstacles per area",
         "",
         f"Go-and-return flights (24 m each way) at the default planner parameters through the "
-        f"shipped forests (assets/layouts/forest_*.yaml), map seeds 1–{args.seeds} per cell, "
+        f"thin forests (assets/layouts/forest_thin_*.yaml), map seeds 1–{args.seeds} per cell, "
         "under both density definitions of the layout generator:",
         "",
         "- `nearest_neighbour`: obstacles are added until their mean nearest-neighbour distance "

@@ -6,9 +6,10 @@ usage: speed_table.py [--quadtune BIN] [--planners P ...] [--seeds FIRST LAST] [
                       [--spacings S ...] [--jobs J] [--out DIR]
 
 Flies a go-and-return mission with every planner parameter at its default except v_des, on map
-seeds FIRST..LAST of the experiments' forests, with each planner P (default: ipopt):
+seeds FIRST..LAST of the thin forests (assets/layouts/forest_thin_S.yaml), with each planner P
+(default: ipopt):
 
-    quadtune fly --planner P --spacing S --seed N --set v_des=V --no-plot --out TMP
+    quadtune fly --planner P --layout-options forest_thin_S.yaml --seed N --set v_des=V --no-plot
 
 and writes DIR/speed.md (a Markdown table: per planner, spacing and v_des, completed flights,
 flights free of collisions, the collision and emergency-stop counts, mean flight time and
@@ -35,8 +36,9 @@ CLEARANCE = 0.05  # recommend.clearance of the paper experiments (m)
 
 def fly(quadtune, planner, spacing, speed, seed, work):
     out = pathlib.Path(work) / f"{planner}_s{spacing}_v{speed}_{seed}"
-    cmd = [str(quadtune), "fly", "--planner", planner, "--spacing", str(spacing), "--seed", str(seed), "--set",
-           f"v_des={speed}", "--no-plot", "--out", str(out)]
+    forest = ROOT / "assets" / "layouts" / ("forest_thin_" + f"{float(spacing):.1f}".replace(".", "p") + ".yaml")
+    cmd = [str(quadtune), "fly", "--planner", planner, "--layout-options", str(forest), "--seed", str(seed),
+           "--set", f"v_des={speed}", "--no-plot", "--out", str(out)]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     summary = out / "summary.json"
     if not summary.exists():
