@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -15,6 +16,7 @@
 #include <vector>
 
 #include "../cli_util.hpp"
+#include "quadtune/engine/corridor_study.hpp"
 #include "quadtune/engine/online_adaptation.hpp"
 
 namespace quadtune::engine {
@@ -31,8 +33,7 @@ TEST(AdaptFlight, SameSeedGivesTheSameChosenVdesSequence) {
   const layout::Layout layout = layout::GenerateLayout(e.layout, e.seed);
   const AdaptFlight a = RunAdaptFlight(e, layout, std::nullopt);
   const AdaptFlight b = RunAdaptFlight(e, layout, std::nullopt);
-  EXPECT_EQ(a.result.metrics.status, sim::FlightStatus::kCompleted)
-      << a.result.metrics.message;
+  EXPECT_EQ(a.result.metrics.status, sim::FlightStatus::kCompleted) << a.result.metrics.message;
   ASSERT_FALSE(a.segments.empty());
   std::vector<double> va, vb;
   for (const auto& s : a.segments) va.push_back(s.v_des);
@@ -121,7 +122,8 @@ TEST(AdaptCli, SmallExperimentWritesCsvsSummaryAndFigure) {
 
   // One directory per flight with the files `quadtune plot flight` reads.
   for (const char* dir : {"adapted", "fixed_2"}) {
-    for (const char* f : {"flight.csv", "plans.csv", "obstacles.json", "summary.json", "path.csv"}) {
+    for (const char* f :
+         {"flight.csv", "plans.csv", "obstacles.json", "summary.json", "path.csv"}) {
       EXPECT_TRUE(fs::exists(out / dir / f)) << dir << "/" << f;
     }
   }
@@ -251,13 +253,11 @@ TEST(AdaptCli, SetAddsABaselineAndThreadsKeepEveryFlight) {
   const fs::path dir = test::FreshTempDir("quadtune_adapt_threads");
   const std::string common = "--log-level warn adapt '" + kSmall + "' --seed 3 --no-plot " +
                              "--set 'baselines=[2.0, 3.0]' --out '";
-  ASSERT_EQ(test::RunQuadtune(common + (dir / "one").string() + "' --threads 1",
-                              dir / "one.log"),
+  ASSERT_EQ(test::RunQuadtune(common + (dir / "one").string() + "' --threads 1", dir / "one.log"),
             0)
       << test::ReadText(dir / "one.log");
-  ASSERT_EQ(test::RunQuadtune(common + (dir / "three").string() + "' --threads 3",
-                              dir / "three.log"),
-            0)
+  ASSERT_EQ(
+      test::RunQuadtune(common + (dir / "three").string() + "' --threads 3", dir / "three.log"), 0)
       << test::ReadText(dir / "three.log");
   for (const char* flight : {"adapted", "fixed_2", "fixed_3"}) {
     const std::string one = test::ReadText(dir / "one" / flight / "flight.csv");
@@ -270,6 +270,87 @@ TEST(AdaptCli, SetAddsABaselineAndThreadsKeepEveryFlight) {
             2);
   EXPECT_NE(test::ReadText(dir / "bad.log").find("nope"), std::string::npos)
       << test::ReadText(dir / "bad.log");
+}
+
+// `adapt --corridors N` flies every policy on N corridors (the file's policy adds `context`)
+// and writes one row per flight with the columns the corridor study promises; a second run with
+// twice the threads writes the same table.
+TEST(AdaptCli, CorridorsWriteOneRowPerFlightAndPolicy) {
+  const fs::path dir = test::FreshTempDir("quadtune_adapt_corridors");
+  const std::string policy =
+      "--set 'adaptation.policy={points: [{free_range: 1.0, v_des: 1.5}, "
+      "{free_range: 5.0, v_des: 3.0}]}'";
+  const std::string common = "--log-level warn adapt '" + kSmall + "' --seed 3 --corridors 2 " +
+                             policy + " --set 'baselines=[2.0, 3.0]' --out '";
+  ASSERT_EQ(test::RunQuadtune(common + (dir / "one").string() + "' --threads 1", dir / "1.log"), 0)
+      << test::ReadText(dir / "1.log");
+  ASSERT_EQ(test::RunQuadtune(common + (dir / "two").string() + "' --threads 2", dir / "2.log"), 0)
+      << test::ReadText(dir / "2.log");
+  const std::string csv = test::ReadText(dir / "one" / "corridors.csv");
+  EXPECT_EQ(csv.substr(0, csv.find('\n')),
+            "corridor_seed,policy,f_l,flight_time,collisions,emergency_stops,status,mean_speed,"
+            "v_des_dense,v_des_sparse,segments");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 1 + 2 * 4);  // 2 corridors × 4 policies
+  for (const char* row : {"\n3,adapted,", "\n3,context,", "\n4,fixed_2,", "\n4,fixed_3,"}) {
+    EXPECT_NE(csv.find(row), std::string::npos) << row << "\n" << csv;
+  }
+  EXPECT_EQ(csv, test::ReadText(dir / "two" / "corridors.csv"));
+  const std::string md = test::ReadText(dir / "one" / "corridors.md");
+  EXPECT_NE(md.find("best fixed (leave-one-out)"), std::string::npos) << md;
+}
+
+// The leave-one-out choice: corridor i's best fixed v_des is the one with the lowest mean f_l on
+// the other corridors, even when another one is better on corridor i itself.
+TEST(CompareCorridors, BestFixedIsChosenOnTheOtherCorridors) {
+  auto row = [](std::uint64_t seed, const char* policy, double f_l, int collisions = 0,
+                double dense = 0.0, double sparse = 0.0) {
+    CorridorFlight r;
+    r.corridor_seed = seed;
+    r.policy = policy;
+    r.f_l = f_l;
+    r.collisions = collisions;
+    r.v_des_dense = dense;
+    r.v_des_sparse = sparse;
+    return r;
+  };
+  const std::vector<CorridorFlight> rows = {
+      row(1, "adapted", 20.0, 0, 2.0, 3.0), row(1, "fixed_2", 30.0), row(1, "fixed_3", 10.0),
+      row(2, "adapted", 22.0, 1, 3.0, 2.0), row(2, "fixed_2", 30.0), row(2, "fixed_3", 25.0),
+      row(3, "adapted", 24.0, 0, 2.5, 3.5), row(3, "fixed_2", 30.0), row(3, "fixed_3", 40.0, 2)};
+  const CorridorComparison c = CompareCorridors(rows);
+  ASSERT_EQ(c.corridors.size(), 3U);
+  // Corridor 1: fixed_3 has mean 32.5 on {2, 3}, fixed_2 30 → fixed_2, although fixed_3 wins on 1.
+  EXPECT_EQ(c.corridors[0].best_fixed, "fixed_2");
+  EXPECT_DOUBLE_EQ(c.corridors[0].best_fixed_f_l, 30.0);
+  EXPECT_EQ(c.corridors[1].best_fixed, "fixed_3");  // fixed_3: 25 on {1, 3}; fixed_2: 30
+  EXPECT_DOUBLE_EQ(c.corridors[1].best_fixed_f_l, 25.0);
+  EXPECT_EQ(c.corridors[2].best_fixed, "fixed_3");  // fixed_3: 17.5 on {1, 2}
+  EXPECT_EQ(c.best_fixed_collisions, 2);
+  EXPECT_DOUBLE_EQ(c.best_fixed_mean_f_l, (30.0 + 25.0 + 40.0) / 3.0);
+  ASSERT_EQ(c.adaptive.size(), 1U);
+  EXPECT_EQ(c.adaptive[0].policy, "adapted");
+  EXPECT_DOUBLE_EQ(c.adaptive[0].mean_f_l, 22.0);
+  EXPECT_EQ(c.adaptive[0].collisions, 1);
+  EXPECT_EQ(c.adaptive[0].lower_in_dense, 2);
+}
+
+// A policy learned from two densities keeps each density's v_des at the free range measured in
+// its forest: the denser forest shows the shorter free range, and the points come sorted.
+TEST(LearnContextPolicy, MeasuresEachDensitysFreeRange) {
+  const AdaptExperiment e = AdaptExperiment::LoadFile(kSmall);
+  const std::string layouts = std::string(QUADTUNE_SOURCE_DIR) + "/assets/layouts/";
+  const std::vector<DensityPoint> densities = {
+      {"3.0", layout::LayoutOptions::LoadFile(layouts + "forest_3p0.yaml"), 4.0},
+      {"0.9", layout::LayoutOptions::LoadFile(layouts + "forest_0p9.yaml"), 2.0}};
+  const ContextPolicy policy = LearnContextPolicy(e, densities, 2, 2);
+  ASSERT_EQ(policy.points.size(), 2U);
+  EXPECT_EQ(policy.points[0].label, "0.9");
+  EXPECT_DOUBLE_EQ(policy.points[0].v_des, 2.0);
+  EXPECT_EQ(policy.points[1].label, "3.0");
+  EXPECT_DOUBLE_EQ(policy.points[1].v_des, 4.0);
+  EXPECT_LT(policy.points[0].free_range, policy.points[1].free_range);
+  EXPECT_LE(policy.points[1].free_range, policy.measure.range);
+  EXPECT_EQ(LearnContextPolicy(e, densities, 2, 1), policy);  // threads do not change it
 }
 
 }  // namespace
