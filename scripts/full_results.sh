@@ -103,6 +103,10 @@ run_adapt() {
   timed corridors "$q" adapt experiments/changing_environment.yaml --corridors 10 --threads 2 \
     --out "$raw/corridors"
   cp "$raw/corridors/"{corridors.csv,corridors.md} "$docs/adapt/"
+  "$q" adapt experiments/changing_environment.yaml --corridors 10 --threads 2 \
+    --set planner.type=ego --out "$raw/corridors_ego"
+  cp "$raw/corridors_ego/corridors.csv" "$docs/adapt/corridors_ego.csv"
+  cp "$raw/corridors_ego/corridors.md" "$docs/adapt/corridors_ego.md"
   # The context policy the experiment file holds, learned again from this run's density study.
   "$q" policy experiments/changing_environment.yaml --study "$raw/density" --maps 4 --threads 2 \
     --out "$raw/policy.yaml"
