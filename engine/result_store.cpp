@@ -11,6 +11,8 @@
 #include <stdexcept>
 #include <thread>
 
+#include <nlohmann/json.hpp>
+
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/text_file.hpp"
 #include "quadtune/engine/experiment.hpp"
@@ -70,6 +72,7 @@ class Statement {
   }
   double Double(int i) { return sqlite3_column_double(stmt_, i); }
   std::int64_t Int(int i) { return sqlite3_column_int64(stmt_, i); }
+  [[nodiscard]] sqlite3_stmt* Raw() const { return stmt_; }
 
  private:
   sqlite3_stmt* stmt_ = nullptr;
@@ -91,41 +94,46 @@ CREATE TABLE IF NOT EXISTS experiment(id INTEGER PRIMARY KEY, name TEXT, config 
 CREATE TABLE IF NOT EXISTS trial(id INTEGER PRIMARY KEY, experiment_id INTEGER, method TEXT,
   repeat INTEGER, map_seed TEXT, status TEXT, best_params TEXT, best_value REAL, finished REAL,
   UNIQUE(experiment_id, method, repeat));
-CREATE TABLE IF NOT EXISTS evaluation(id INTEGER PRIMARY KEY, trial_id INTEGER, method TEXT,
-  kind TEXT, iteration INTEGER, idx INTEGER, params TEXT, terms TEXT, value REAL, status TEXT,
-  message TEXT, wall_s REAL, started REAL, finished REAL, map_seed TEXT, flight_seed TEXT,
-  UNIQUE(trial_id, kind, iteration, idx));
+CREATE TABLE IF NOT EXISTS stored_column(tbl TEXT, position INTEGER, name TEXT, sql TEXT,
+  type TEXT, names TEXT, prefix TEXT, meaning TEXT, UNIQUE(tbl, position));
 )";
+
+const char* SqlType(ColumnType type) {
+  switch (type) {
+    case ColumnType::kInteger: return "INTEGER";
+    case ColumnType::kReal: return "REAL";
+    default: return "TEXT";
+  }
+}
+
+/// CREATE TABLE evaluation from the column list.
+std::string EvaluationTableSql() {
+  std::string sql = "CREATE TABLE IF NOT EXISTS evaluation(id INTEGER PRIMARY KEY";
+  for (const auto& c : EvaluationColumns().List()) sql += ", " + c.sql + " " + SqlType(c.type);
+  return sql + ", UNIQUE(trial_id, kind, iteration, idx));";
+}
 
 /// Seeds are stored as decimal text (SQLite integers are signed); "" reads as 0.
 std::string SeedText(std::uint64_t seed) { return seed == 0 ? std::string() : std::to_string(seed); }
-std::uint64_t SeedOf(const std::string& text) {
-  return text.empty() ? 0 : std::stoull(text);
+std::uint64_t SeedOf(const std::string& text, const std::string& column) {
+  if (text.empty()) return 0;
+  std::size_t used = 0;
+  unsigned long long seed = 0;
+  try {
+    seed = std::stoull(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || text.front() == '-') {
+    throw ColumnError(column + ": '" + text + "' is not a seed (an integer in [0, 2^64))");
+  }
+  return seed;
 }
 
-EvaluationRow ReadRow(Statement& s) {
-  EvaluationRow r;
-  r.trial_id = s.Int(0);
-  r.method = s.Text(1);
-  r.kind = s.Text(2);
-  r.iteration = static_cast<int>(s.Int(3));
-  r.index = static_cast<int>(s.Int(4));
-  r.params = s.Text(5);
-  r.terms = s.Text(6);
-  r.value = s.Double(7);
-  r.status = s.Text(8);
-  r.message = s.Text(9);
-  r.wall_s = s.Double(10);
-  r.started = s.Double(11);
-  r.finished = s.Double(12);
-  r.map_seed = SeedOf(s.Text(13));
-  r.flight_seed = SeedOf(s.Text(14));
-  return r;
+std::string ColumnTextOf(sqlite3_stmt* s, int i) {
+  const auto* t = sqlite3_column_text(s, i);
+  return t ? reinterpret_cast<const char*>(t) : "";
 }
-
-const char* kSelectEval =
-    "SELECT trial_id, method, kind, iteration, idx, params, terms, value, status, message, wall_s, "
-    "started, finished, map_seed, flight_seed FROM evaluation";
 
 std::string CsvField(const std::string& s) {
   if (s.find_first_of(",\"\n") == std::string::npos) return s;
@@ -143,7 +151,118 @@ std::string Num(double v) {
   return buf;
 }
 
+std::string SelectEvaluations() { return "SELECT " + EvaluationSqlColumns() + " FROM evaluation"; }
+
+/// Creates the evaluation table and its stored_column rows from the column list, or, for a
+/// store that has them, checks that its columns are the list's (a store of another quadtune
+/// version is refused, naming both column lists).
+void EnsureEvaluationTable(sqlite3* db, const std::string& path) {
+  std::string stored;
+  {
+    Statement s(db, "PRAGMA table_info(evaluation)");
+    while (s.Step()) {
+      if (s.Text(1) != "id") stored += (stored.empty() ? "" : ", ") + s.Text(1);
+    }
+  }
+  if (!stored.empty() && stored != EvaluationSqlColumns()) {
+    throw ConfigError(path, "--resume",
+                      "the store's evaluation columns (" + stored + ") are not this quadtune's (" +
+                          EvaluationSqlColumns() + "); run again with --overwrite to start afresh");
+  }
+  if (!stored.empty()) return;
+  if (char* err = nullptr; sqlite3_exec(db, EvaluationTableSql().c_str(), nullptr, nullptr,
+                                        &err) != SQLITE_OK) {
+    const std::string why = err != nullptr ? err : "?";
+    sqlite3_free(err);
+    throw std::runtime_error("sqlite: " + path + ": " + why);
+  }
+  Statement insert(db,
+                   "INSERT OR REPLACE INTO stored_column(tbl, position, name, sql, type, names, "
+                   "prefix, meaning) VALUES('evaluation', ?, ?, ?, ?, ?, ?, ?)");
+  int position = 0;
+  for (const auto& c : EvaluationColumns().List()) {
+    std::string names;
+    for (const auto& n : c.names) names += (names.empty() ? "" : ",") + n;
+    insert.Bind(1, ++position);
+    insert.Bind(2, c.name);
+    insert.Bind(3, c.sql);
+    insert.Bind(4, std::string(ToString(c.type)));
+    insert.Bind(5, names);
+    insert.Bind(6, c.prefix);
+    insert.Bind(7, c.meaning);
+    insert.Step();
+    sqlite3_reset(insert.Raw());
+  }
+}
+
 }  // namespace
+
+const Columns<EvaluationRow>& EvaluationColumns() {
+  using R = EvaluationRow;
+  static const Columns<R> columns =
+      Columns<R>()
+          .Integer("trial_id", &R::trial_id,
+                   "the trial's id (trial table); 0 for held-out flights of the defaults")
+          .Text("method", &R::method, "the trial's method")
+          .Enum("kind", &R::kind, "what was evaluated")
+          .Integer("iteration", &R::iteration,
+                   "round (long), PSO generation (short), held-out map (validation), race "
+                   "(race, incumbent), candidate rank (recheck)")
+          .Integer("index", &R::index, "position inside the iteration")
+          .StoredAs("idx")
+          .Object("params", &R::params, "param_", "the parameters evaluated, name → value")
+          .Object("terms", &R::terms, "term_", "every objective term, name → value")
+          .Real("value", &R::value, "the objective value told to the optimiser")
+          .Enum("status", &R::status,
+                "whether the evaluation ran: `failed` raised an error or diverged")
+          .Enum("state", &R::state,
+                "what became of it: `ok` only for a flight that reached every waypoint without "
+                "a collision, or a re-solve that found a trajectory")
+          .Text("message", &R::message, "the reason, in words (how a flight ended)")
+          .Real("wall_s", &R::wall_s, "wall-clock duration (s)")
+          .Real("started", &R::started, "unix time (s)")
+          .Real("finished", &R::finished, "unix time (s)")
+          .Seed("map_seed", &R::map_seed, "flights: the seed of the map flown")
+          .Seed("flight_seed", &R::flight_seed,
+                "flights: the seed of the flight's random streams");
+  return columns;
+}
+
+std::string EvaluationSqlColumns(const std::string& prefix) {
+  std::string out;
+  for (const auto& c : EvaluationColumns().List()) {
+    out += (out.empty() ? "" : ", ") + prefix + c.sql;
+  }
+  return out;
+}
+
+EvaluationRow ReadEvaluationRow(sqlite3_stmt* s, int first) {
+  EvaluationRow r;
+  int i = first;
+  for (const auto& c : EvaluationColumns().List()) {
+    switch (c.type) {
+      case ColumnType::kInteger: c.set(r, ColumnValue(sqlite3_column_int64(s, i))); break;
+      case ColumnType::kReal: c.set(r, ColumnValue(sqlite3_column_double(s, i))); break;
+      case ColumnType::kSeed: c.set(r, ColumnValue(SeedOf(ColumnTextOf(s, i), c.name))); break;
+      case ColumnType::kValues: QT_DEMAND(false, "a stored column holds no map"); break;
+      default: c.set(r, ColumnValue(ColumnTextOf(s, i))); break;
+    }
+    ++i;
+  }
+  return r;
+}
+
+std::string ColumnText(const ColumnValue& value, ColumnType type, bool shortest) {
+  switch (type) {
+    case ColumnType::kInteger: return std::to_string(std::get<std::int64_t>(value));
+    case ColumnType::kReal:
+      return shortest ? nlohmann::json(std::get<double>(value)).dump()
+                      : Num(std::get<double>(value));
+    case ColumnType::kSeed: return SeedText(std::get<std::uint64_t>(value));
+    case ColumnType::kValues: QT_DEMAND(false, "a stored column holds no map"); return "";
+    default: return std::get<std::string>(value);
+  }
+}
 
 void ResultStore::Exec(const std::string& sql) const {
   char* err = nullptr;
@@ -174,6 +293,7 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
       if (verdict != "ok") throw std::runtime_error("integrity check: " + verdict);
     }
     Exec(kSchema);
+    EnsureEvaluationTable(db_.get(), path);
     {
       Statement s(db_.get(), "SELECT id, config FROM experiment ORDER BY id LIMIT 1");
       if (s.Step()) {
@@ -202,9 +322,9 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
       s.Step();
       experiment_id_ = sqlite3_last_insert_rowid(db_.get());
     }
-    Statement s(db_.get(), kSelectEval);
+    Statement s(db_.get(), SelectEvaluations());
     while (s.Step()) {
-      EvaluationRow r = ReadRow(s);
+      EvaluationRow r = ReadEvaluationRow(s.Raw(), 0);
       stored_.emplace(std::make_tuple(r.trial_id, r.kind, r.iteration, r.index), std::move(r));
     }
   } catch (const ConfigError&) {
@@ -262,15 +382,15 @@ std::int64_t ResultStore::Trial(const std::string& method, int repeat, std::uint
   return sqlite3_last_insert_rowid(db_.get());
 }
 
-const EvaluationRow* ResultStore::Find(std::int64_t trial_id, const std::string& kind,
-                                       int iteration, int index) const {
+const EvaluationRow* ResultStore::Find(std::int64_t trial_id, EvalKind kind, int iteration,
+                                       int index) const {
   auto it = stored_.find(std::make_tuple(trial_id, kind, iteration, index));
   return it == stored_.end() ? nullptr : &it->second;
 }
 
 std::vector<EvaluationRow> ResultStore::StoredRows(std::int64_t trial_id) const {
   std::vector<EvaluationRow> rows;
-  for (auto it = stored_.lower_bound(std::make_tuple(trial_id, std::string(), INT_MIN, INT_MIN));
+  for (auto it = stored_.lower_bound(std::make_tuple(trial_id, EvalKind{}, INT_MIN, INT_MIN));
        it != stored_.end() && std::get<0>(it->first) == trial_id; ++it) {
     rows.push_back(it->second);
   }
@@ -279,37 +399,31 @@ std::vector<EvaluationRow> ResultStore::StoredRows(std::int64_t trial_id) const 
 
 void ResultStore::BindAndStep(const EvaluationRow& r) {
   if (insert_ == nullptr) {
-    const char* sql =
-        "INSERT OR IGNORE INTO evaluation(trial_id, method, kind, iteration, idx, params, terms, "
-        "value, status, message, wall_s, started, finished, map_seed, flight_seed) "
-        "VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)";
+    std::string marks;
+    for (std::size_t i = 0; i < EvaluationColumns().List().size(); ++i) marks += i ? ",?" : "?";
+    const std::string sql = "INSERT OR IGNORE INTO evaluation(" + EvaluationSqlColumns() +
+                            ") VALUES(" + marks + ")";
     sqlite3_stmt* prepared = nullptr;
-    const int rc = sqlite3_prepare_v2(db_.get(), sql, -1, &prepared, nullptr);
+    const int rc = sqlite3_prepare_v2(db_.get(), sql.c_str(), -1, &prepared, nullptr);
     insert_.reset(prepared);
     if (rc != SQLITE_OK) {
       throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(db_.get()) + " in " + sql);
     }
   }
-  const auto text = [this](int i, const std::string& v) {
-    sqlite3_bind_text(insert_.get(), i, v.data(), static_cast<int>(v.size()), SQLITE_STATIC);
-  };
-  sqlite3_bind_int64(insert_.get(), 1, r.trial_id);
-  text(2, r.method);
-  text(3, r.kind);
-  sqlite3_bind_int(insert_.get(), 4, r.iteration);
-  sqlite3_bind_int(insert_.get(), 5, r.index);
-  text(6, r.params);
-  text(7, r.terms);
-  sqlite3_bind_double(insert_.get(), 8, r.value);
-  text(9, r.status);
-  text(10, r.message);
-  sqlite3_bind_double(insert_.get(), 11, r.wall_s);
-  sqlite3_bind_double(insert_.get(), 12, r.started);
-  sqlite3_bind_double(insert_.get(), 13, r.finished);
-  const std::string map_seed = SeedText(r.map_seed);
-  const std::string flight_seed = SeedText(r.flight_seed);
-  text(14, map_seed);
-  text(15, flight_seed);
+  int i = 0;
+  for (const auto& c : EvaluationColumns().List()) {
+    const ColumnValue v = c.get(r);
+    ++i;
+    if (c.type == ColumnType::kInteger) {
+      sqlite3_bind_int64(insert_.get(), i, std::get<std::int64_t>(v));
+    } else if (c.type == ColumnType::kReal) {
+      sqlite3_bind_double(insert_.get(), i, std::get<double>(v));
+    } else {
+      const std::string text = ColumnText(v, c.type, /*shortest=*/false);
+      sqlite3_bind_text(insert_.get(), i, text.data(), static_cast<int>(text.size()),
+                        SQLITE_TRANSIENT);
+    }
+  }
   const int rc = sqlite3_step(insert_.get());
   sqlite3_reset(insert_.get());
   sqlite3_clear_bindings(insert_.get());
@@ -350,8 +464,8 @@ void ResultStore::FinishTrial(std::int64_t trial_id, const std::string& status,
 
 std::vector<EvaluationRow> ResultStore::Evaluations() const {
   std::vector<EvaluationRow> rows;
-  Statement s(db_.get(), std::string(kSelectEval) + " ORDER BY trial_id, kind, iteration, idx");
-  while (s.Step()) rows.push_back(ReadRow(s));
+  Statement s(db_.get(), SelectEvaluations() + " ORDER BY trial_id, kind, iteration, idx");
+  while (s.Step()) rows.push_back(ReadEvaluationRow(s.Raw(), 0));
   return rows;
 }
 
@@ -391,14 +505,15 @@ void ResultStore::ExportCsv(const std::string& directory) const {
            << CsvField(t.best_params) << ',' << Num(t.best_value) << '\n';
   }
   std::ostringstream evaluations;
-  evaluations << "trial_id,method,kind,iteration,index,params,terms,value,status,message,wall_s,"
-                 "started,finished,map_seed,flight_seed\n";
+  const auto& columns = EvaluationColumns().List();
+  for (std::size_t c = 0; c < columns.size(); ++c) evaluations << (c ? "," : "") << columns[c].name;
+  evaluations << '\n';
   for (const auto& r : Evaluations()) {
-    evaluations << r.trial_id << ',' << r.method << ',' << r.kind << ',' << r.iteration << ','
-                << r.index << ',' << CsvField(r.params) << ',' << CsvField(r.terms) << ','
-                << Num(r.value) << ',' << r.status << ',' << CsvField(r.message) << ','
-                << Num(r.wall_s) << ',' << Num(r.started) << ',' << Num(r.finished) << ','
-                << SeedText(r.map_seed) << ',' << SeedText(r.flight_seed) << '\n';
+    for (std::size_t c = 0; c < columns.size(); ++c) {
+      evaluations << (c ? "," : "")
+                  << CsvField(ColumnText(columns[c].get(r), columns[c].type, false));
+    }
+    evaluations << '\n';
   }
   fs::create_directories(directory);
   WriteFileAtomically((fs::path(directory) / "experiment.csv").string(), experiment.str());
