@@ -503,10 +503,11 @@ TEST(CliMpi, BuildWithoutMpiRefusesAMultiProcessLaunch) {
 }
 
 // Every failure kind is stored with a state that names it and its reason, and that state is
-// what the tidy export and the Python loader see: toy flights that collide (gates
+// what the tidy export, the Python loader and the report see: toy flights that collide (gates
 // slower than braking from any speed of the range allows), toy flights whose planner raises
 // (throw_speed_above below every speed of the range), real-planner flights cut by max_time.
-// The tidy columns and the Python loader's columns are the
+// Random search varies the parameters, so the report's importance has pairs to rank: it must
+// find none, as no flight succeeded. The tidy columns and the Python loader's columns are the
 // store's own column list (stored_column).
 TEST(CliStoredStates, EachFailureIsNamedInTheTidyExportPythonAndReport) {
   const fs::path dir = Fresh("stored_states");
@@ -559,17 +560,19 @@ TEST(CliStoredStates, EachFailureIsNamedInTheTidyExportPythonAndReport) {
       EXPECT_EQ(f.at("state"), p.state);
       EXPECT_EQ(f.at("message").rfind(p.message, 0), 0u) << f.at("message");
     }
-    // Python: the same states and reasons, the same leading columns.
+    // Python: the same states and reasons, the same leading columns, and the report's
+    // importance over successful flights only (here none).
     const fs::path py = dir / (p.name + ".py.log");
     const std::string script =
-        "\"import quadtune; r = quadtune.load('" + out.string() +
+        "\"import quadtune, quadtune_report; r = quadtune.load('" + out.string() +
         "'); print(','.join(r.long.columns[:" + std::to_string(std::count(listed.begin(),
         listed.end(), ',') + 1) + "])); print(sorted(set(r.long['state']))); "
         "print(all(m.startswith('" + p.message + "') for m in r.long['message'])); "
-        "print(str(r.long['state'].dtype))\"";
+        "print(str(r.long['state'].dtype)); "
+        "print(len(quadtune_report.run_data('" + out.string() + "')['importance']))\"";
     ASSERT_EQ(std::system((python_path + script + " > '" + py.string() + "' 2>&1").c_str()), 0)
         << ReadText(py);
-    EXPECT_EQ(ReadText(py), listed + "\n['" + p.state + "']\nTrue\ncategory\n");
+    EXPECT_EQ(ReadText(py), listed + "\n['" + p.state + "']\nTrue\ncategory\n0\n");
   }
 }
 
