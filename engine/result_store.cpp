@@ -203,7 +203,7 @@ const Columns<EvaluationRow>& EvaluationColumns() {
       Columns<R>()
           .Integer("trial_id", &R::trial_id,
                    "the trial's id (trial table); 0 for held-out flights of the defaults")
-          .Text("method", &R::method, "the trial's method")
+          .Enum("method", &R::method, "the trial's method")
           .Enum("kind", &R::kind, "what was evaluated")
           .Integer("iteration", &R::iteration,
                    "round (long), PSO generation (short), held-out map (validation), race "

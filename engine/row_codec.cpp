@@ -81,7 +81,9 @@ void RowBatch::Add(const EvaluationRow& r) {
       case ColumnType::kInteger:
         PutU64(bytes_, static_cast<std::uint64_t>(std::get<std::int64_t>(v)));
         break;
-      case ColumnType::kReal: PutU64(bytes_, std::bit_cast<std::uint64_t>(std::get<double>(v))); break;
+      case ColumnType::kReal:
+        PutU64(bytes_, std::bit_cast<std::uint64_t>(std::get<double>(v)));
+        break;
       case ColumnType::kSeed: PutU64(bytes_, std::get<std::uint64_t>(v)); break;
       case ColumnType::kValues: throw CodecError("row codec: a stored column holds no map");
       default: PutString(bytes_, std::get<std::string>(v)); break;

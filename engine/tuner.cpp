@@ -189,7 +189,7 @@ class EvaluationLog {
     if (c_.store == nullptr || o.replayed) return;
     EvaluationRow r;
     r.trial_id = trial_id_;
-    r.method = ToString(method_);
+    r.method = method_;
     r.kind = kind;
     r.iteration = iteration;
     r.index = index;

@@ -153,7 +153,9 @@ std::vector<ValidationSummary> RunValidation(const Experiment& e,
     const ObjectiveValue value = LongTermObjective(rec, e.objective);
     EvaluationRow& r = rows[slot];
     r.trial_id = subject.trial_id;
-    r.method = subject.method;
+    const std::optional<Method> method = FromString<Method>(subject.method);
+    QT_DEMAND(method.has_value(), "validation of an unknown method '" + subject.method + "'");
+    r.method = *method;
     r.kind = EvalKind::kValidation;
     r.iteration = static_cast<int>(slot % static_cast<std::size_t>(n));
     r.index = 0;

@@ -166,7 +166,8 @@ int FlyStored(const std::string& store, std::int64_t id, const std::string& out)
   const engine::EvaluationRow& row = f.row;
   const layout::Layout layout = layout::GenerateLayout(o.layout, row.map_seed);
   planning::PlannerParams params = o.base;
-  const nlohmann::json stored_params = StoredObject(store, std::to_string(id), "params", row.params);
+  const nlohmann::json stored_params =
+      StoredObject(store, std::to_string(id), "params", row.params);
   for (auto it = stored_params.begin(); it != stored_params.end(); ++it) {
     params.Set(it.key(), it.value().get<double>());
   }
@@ -180,7 +181,7 @@ int FlyStored(const std::string& store, std::int64_t id, const std::string& out)
   flight.log_rate_hz = sim::FlightOptions{}.log_rate_hz;
   const planning::TrajectoryOptimizer optimizer(o.flight.planner.optimizer);
   spdlog::info("flying evaluation {} of {} again ({}, map seed {}, flight seed {})", id, store,
-               row.method, row.map_seed, row.flight_seed);
+               ToString(row.method), row.map_seed, row.flight_seed);
   const sim::FlightResult result = sim::Fly(*world, mission, params, flight, optimizer);
 
   std::filesystem::create_directories(out);
@@ -191,7 +192,7 @@ int FlyStored(const std::string& store, std::int64_t id, const std::string& out)
   const nlohmann::json terms = nlohmann::json::parse(row.terms);
   summary["stored"] = {{"store", store},
                        {"evaluation", id},
-                       {"method", row.method},
+                       {"method", ToString(row.method)},
                        {"kind", ToString(row.kind)},
                        {"iteration", row.iteration},
                        {"index", row.index},

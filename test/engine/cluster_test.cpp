@@ -38,7 +38,7 @@ std::vector<EvaluationRow> AwkwardRows() {
   for (const double v : values) {
     EvaluationRow r;
     r.trial_id = (std::int64_t{1} << 40) + i;
-    r.method = i % 2 == 0 ? "bo_pso" : "";
+    r.method = i % 2 == 0 ? Method::kBoPso : Method::kDefault;
     r.kind = i % 3 == 0 ? EvalKind::kLong : EvalKind::kShort;
     r.iteration = -i;
     r.index = 1000 * i;

@@ -72,9 +72,9 @@ TEST(RealPlannerFailureRows, DivergedFlightIsAFailedRowAndTheRunGoesOn) {
   const std::vector<EvaluationRow> flights = RowsOfKind(run, EvalKind::kLong);
   ASSERT_EQ(flights.size(), 4u);  // 2 methods x 2 flights
   for (const auto& r : flights) {
-    EXPECT_EQ(r.status, EvalStatus::kFailed) << r.method;
-    EXPECT_EQ(r.state, EvalState::kDiverged) << r.method;
-    EXPECT_EQ(r.message, "diverged: the simulation diverged") << r.method;
+    EXPECT_EQ(r.status, EvalStatus::kFailed) << ToString(r.method);
+    EXPECT_EQ(r.state, EvalState::kDiverged) << ToString(r.method);
+    EXPECT_EQ(r.message, "diverged: the simulation diverged") << ToString(r.method);
     EXPECT_EQ(r.value, kFailureValue);
     EXPECT_EQ(nlohmann::json::parse(r.terms)["completed"], 0.0);
   }
@@ -155,7 +155,8 @@ TEST(RealPlannerFailureRows, RejectedSolvesAreCountedInTheRowsAndTheRunGoesOn) {
     const nlohmann::json terms = nlohmann::json::parse(r.terms);
     EXPECT_EQ(terms["success"], 0.0) << r.params;
     EXPECT_EQ(terms["n_s"], 3.0) << r.params;
-    EXPECT_EQ(r.status, EvalStatus::kOk);  // the failure is the planner's answer, not an engine error
+    // The failure is the planner's answer, not an engine error.
+    EXPECT_EQ(r.status, EvalStatus::kOk);
     EXPECT_EQ(r.state, EvalState::kSolverFailure);
     EXPECT_TRUE(std::isfinite(r.value));
   }

@@ -64,8 +64,9 @@ TEST(IpoptEngine, EveryMethodRunsEndToEndAndAgreesAt1And2And8Threads) {
     ResultStore store(o.store_path);
     for (const auto& r : store.Evaluations()) {
       if (r.kind == EvalKind::kValidation) continue;  // the held-out flights: counted by their own tests
-      (r.kind == EvalKind::kLong ? longs : shorts)[r.method] += 1;
-      EXPECT_EQ(r.status, EvalStatus::kOk) << r.method << " " << ToString(r.kind) << " " << r.message;
+      (r.kind == EvalKind::kLong ? longs : shorts)[ToString(r.method)] += 1;
+      EXPECT_EQ(r.status, EvalStatus::kOk)
+          << ToString(r.method) << " " << ToString(r.kind) << " " << r.message;
     }
     for (const char* m : {"default", "random", "pso", "bo", "bo_pso"}) EXPECT_EQ(longs[m], 3) << m;
     EXPECT_EQ(shorts["bo_pso"], 4 + 8);  // 4 per flight: first flight, then a round of 2

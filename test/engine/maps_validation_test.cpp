@@ -28,7 +28,9 @@ std::map<std::pair<std::string, int>, std::vector<EvaluationRow>> LongRows(
   for (const auto& t : store.Trials()) repeat_of[t.id] = t.repeat;
   std::map<std::pair<std::string, int>, std::vector<EvaluationRow>> rows;
   for (const auto& r : store.Evaluations()) {
-    if (r.kind == EvalKind::kLong) rows[{r.method, repeat_of.at(r.trial_id)}].push_back(r);
+    if (r.kind == EvalKind::kLong) {
+      rows[{ToString(r.method), repeat_of.at(r.trial_id)}].push_back(r);
+    }
   }
   return rows;
 }
@@ -211,7 +213,7 @@ TEST(Recommendation, BoRecommendsAnObservedPointAndDefaultTheDefaults) {
   ResultStore store(o.store_path);
   std::map<std::string, std::vector<std::string>> observed;  // method → params JSON of flights
   for (const auto& r : store.Evaluations()) {
-    if (r.kind == EvalKind::kLong) observed[r.method].push_back(r.params);
+    if (r.kind == EvalKind::kLong) observed[ToString(r.method)].push_back(r.params);
   }
   for (const auto& t : s.trials) {
     nlohmann::json j = nlohmann::json::object();

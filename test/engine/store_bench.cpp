@@ -30,7 +30,7 @@ const char* kYaml =
 EvaluationRow SampleRow(std::int64_t trial, int iteration, int index) {
   EvaluationRow r;
   r.trial_id = trial;
-  r.method = "bo_pso";
+  r.method = Method::kBoPso;
   r.kind = EvalKind::kShort;
   r.iteration = iteration;
   r.index = index;

@@ -171,7 +171,9 @@ TEST(StoredSchema, TrialSummaryJsonCarriesEveryField) {
     switch (c.type) {
       case ColumnType::kInteger: c.set(s, std::int64_t{++n}); break;
       case ColumnType::kReal: c.set(s, 0.1 * ++n); break;
-      case ColumnType::kValues: c.set(s, std::map<std::string, double>{{"v_des", 0.1 * ++n}}); break;
+      case ColumnType::kValues:
+        c.set(s, std::map<std::string, double>{{"v_des", 0.1 * ++n}});
+        break;
       default: c.set(s, std::string("m") + std::to_string(++n)); break;
     }
   }

@@ -25,7 +25,7 @@ std::map<std::string, std::pair<int, int>> CountByMethod(const std::string& stor
   std::map<std::string, std::pair<int, int>> counts;  // method → (long, short)
   ResultStore store(store_path);
   for (const auto& r : store.Evaluations()) {
-    auto& c = counts[r.method];
+    auto& c = counts[ToString(r.method)];
     (r.kind == EvalKind::kLong ? c.first : c.second) += 1;
   }
   return counts;
@@ -83,7 +83,7 @@ TEST(Tuner, EachMethodGivesCompleteResultSet) {
     EXPECT_GT(t.best_value, 0.0) << t.method;
   }
   for (const auto& r : store.Evaluations()) {
-    EXPECT_EQ(r.status, EvalStatus::kOk) << r.method << " " << r.message;
+    EXPECT_EQ(r.status, EvalStatus::kOk) << ToString(r.method) << " " << r.message;
     EXPECT_NE(r.params.find('{'), std::string::npos);
     EXPECT_GT(r.finished, 0.0);
     const char* key = r.kind == EvalKind::kLong ? "\"t_f\"" : "\"J_t\"";

@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "quadtune/common/columns.hpp"
+#include "quadtune/engine/method.hpp"
 #include "quadtune/engine/planner.hpp"
 
 struct sqlite3;
@@ -63,7 +64,7 @@ constexpr auto EnumNames(EvalKind) {
 /// One stored evaluation; EvaluationColumns() lists its columns.
 struct EvaluationRow {
   std::int64_t trial_id = 0;
-  std::string method;
+  Method method = Method::kDefault;
   EvalKind kind = EvalKind::kLong;
   int iteration = 0;           ///< round (long), PSO generation (short), held-out map (validation)
   int index = 0;               ///< position inside the iteration
