@@ -470,8 +470,10 @@ class Root {
     int index = 0;
     for (int repeat = 0; repeat < e_.repeats; ++repeat) {
       for (Method method : e_.methods) {
-        tasks_.push_back(Task{index++, method, repeat,
-                              locked_->Trial(ToString(method), repeat, e_.MapSeed(repeat))});
+        // The trial's map seed as a single process stores it (EvaluationLog in tuner.cpp).
+        const std::uint64_t map_seed = e_.FlightMapSeed(repeat, 0);
+        tasks_.push_back(
+            Task{index++, method, repeat, locked_->Trial(ToString(method), repeat, map_seed)});
       }
     }
     results_.resize(tasks_.size());
