@@ -255,7 +255,7 @@ class LockedStore final : public EvaluationStore {
     std::lock_guard lock(mutex_);
     if (store_ != nullptr) store_->InsertBatch(rows);
   }
-  void FinishTrial(std::int64_t trial_id, const std::string& status, const std::string& best_params,
+  void FinishTrial(std::int64_t trial_id, TrialStatus status, const std::string& best_params,
                    double best_value) override {
     std::lock_guard lock(mutex_);
     if (store_ != nullptr) store_->FinishTrial(trial_id, status, best_params, best_value);
@@ -316,13 +316,13 @@ class RemoteStore final : public EvaluationStore {
       Progress();
     }
   }
-  void FinishTrial(std::int64_t trial_id, const std::string& status, const std::string& best_params,
+  void FinishTrial(std::int64_t trial_id, TrialStatus status, const std::string& best_params,
                    double best_value) override {
     Flush();
     Send(0, kTagToRoot,
          Json{{"type", "finish"},
               {"trial_id", trial_id},
-              {"status", status},
+              {"status", ToString(status)},
               {"best_params", best_params},
               {"best_value", Bits(best_value)}},
          cancel_);
@@ -582,9 +582,11 @@ class Root {
     RankState& rank = ranks_[static_cast<std::size_t>(source)];
     const std::string type = body.at("type").get<std::string>();
     if (type == "finish") {
-      locked_->FinishTrial(
-          body.at("trial_id").get<std::int64_t>(), body.at("status").get<std::string>(),
-          body.at("best_params").get<std::string>(), FromBits(body.at("best_value")));
+      const auto status = FromString<TrialStatus>(body.at("status").get<std::string>());
+      QT_DEMAND(status.has_value(), "a rank finished a trial with an unknown status");
+      locked_->FinishTrial(body.at("trial_id").get<std::int64_t>(), *status,
+                           body.at("best_params").get<std::string>(),
+                           FromBits(body.at("best_value")));
     } else if (type == "next") {
       Next(source, rank, body);
     } else if (type == "error") {

@@ -3,6 +3,7 @@
 #include <sqlite3.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <climits>
 #include <filesystem>
@@ -91,9 +92,6 @@ std::string Machine() {
 const char* kSchema = R"(
 CREATE TABLE IF NOT EXISTS experiment(id INTEGER PRIMARY KEY, name TEXT, config TEXT, seed INTEGER,
   version TEXT, machine TEXT, threads INTEGER, mode TEXT, started REAL);
-CREATE TABLE IF NOT EXISTS trial(id INTEGER PRIMARY KEY, experiment_id INTEGER, method TEXT,
-  repeat INTEGER, map_seed TEXT, status TEXT, best_params TEXT, best_value REAL, finished REAL,
-  UNIQUE(experiment_id, method, repeat));
 CREATE TABLE IF NOT EXISTS stored_column(tbl TEXT, position INTEGER, name TEXT, sql TEXT,
   type TEXT, names TEXT, prefix TEXT, meaning TEXT, UNIQUE(tbl, position));
 )";
@@ -104,13 +102,6 @@ const char* SqlType(ColumnType type) {
     case ColumnType::kReal: return "REAL";
     default: return "TEXT";
   }
-}
-
-/// CREATE TABLE evaluation from the column list.
-std::string EvaluationTableSql() {
-  std::string sql = "CREATE TABLE IF NOT EXISTS evaluation(id INTEGER PRIMARY KEY";
-  for (const auto& c : EvaluationColumns().List()) sql += ", " + c.sql + " " + SqlType(c.type);
-  return sql + ", UNIQUE(trial_id, kind, iteration, idx));";
 }
 
 /// Seeds are stored as decimal text (SQLite integers are signed); "" reads as 0.
@@ -151,45 +142,100 @@ std::string Num(double v) {
   return buf;
 }
 
+/// The SQL names of `list` (those named in `only`, when given), comma-separated, each after
+/// `prefix`.
+template <class T>
+std::string SqlNames(const Columns<T>& list, const std::string& prefix = "",
+                     const std::vector<std::string>& only = {}) {
+  std::string out;
+  for (const auto& c : list.List()) {
+    if (!only.empty() && std::find(only.begin(), only.end(), c.name) == only.end()) continue;
+    out += (out.empty() ? "" : ", ") + prefix + c.sql;
+  }
+  return out;
+}
+
+/// Binds `row`'s columns of `list` (those named in `only`, when given) to `s`'s parameters
+/// from `first` on, in list order; returns the next parameter's index.
+template <class T>
+int BindColumns(sqlite3_stmt* s, int first, const T& row, const Columns<T>& list,
+                const std::vector<std::string>& only = {}) {
+  int i = first;
+  for (const auto& c : list.List()) {
+    if (!only.empty() && std::find(only.begin(), only.end(), c.name) == only.end()) continue;
+    const ColumnValue v = c.get(row);
+    if (c.type == ColumnType::kInteger) {
+      sqlite3_bind_int64(s, i, std::get<std::int64_t>(v));
+    } else if (c.type == ColumnType::kReal) {
+      sqlite3_bind_double(s, i, std::get<double>(v));
+    } else {
+      const std::string text = ColumnText(v, c.type, /*shortest=*/false);
+      sqlite3_bind_text(s, i, text.data(), static_cast<int>(text.size()), SQLITE_TRANSIENT);
+    }
+    ++i;
+  }
+  return i;
+}
+
+/// The record whose `list` columns stand in `s`'s result columns `first`, `first`+1, ...
+/// Throws ColumnError naming the column for a value it cannot hold.
+template <class T>
+T ReadColumns(sqlite3_stmt* s, int first, const Columns<T>& list) {
+  T r{};
+  int i = first;
+  for (const auto& c : list.List()) {
+    switch (c.type) {
+      case ColumnType::kInteger: c.set(r, ColumnValue(sqlite3_column_int64(s, i))); break;
+      case ColumnType::kReal: c.set(r, ColumnValue(sqlite3_column_double(s, i))); break;
+      case ColumnType::kSeed: c.set(r, ColumnValue(SeedOf(ColumnTextOf(s, i), c.name))); break;
+      case ColumnType::kValues: QT_DEMAND(false, "a stored column holds no map"); break;
+      default: c.set(r, ColumnValue(ColumnTextOf(s, i))); break;
+    }
+    ++i;
+  }
+  return r;
+}
+
 std::string SelectEvaluations() { return "SELECT " + EvaluationSqlColumns() + " FROM evaluation"; }
 
-/// Creates the evaluation table and its stored_column rows from the column list, or, for a
-/// store that has them, checks that its columns are the list's (a store of another quadtune
-/// version is refused, naming both column lists).
-void EnsureEvaluationTable(sqlite3* db, const std::string& path) {
+/// Creates table `table` (id INTEGER PRIMARY KEY, the columns of `list`, `constraint`) and its
+/// stored_column rows, or, for a store that has the table, checks that its columns are the
+/// list's (a store of another quadtune version is refused, naming both column lists).
+template <class T>
+void EnsureTable(sqlite3* db, const std::string& path, const std::string& table,
+                 const Columns<T>& list, const std::string& constraint) {
   std::string stored;
   {
-    Statement s(db, "PRAGMA table_info(evaluation)");
+    Statement s(db, "PRAGMA table_info(" + table + ")");
     while (s.Step()) {
       if (s.Text(1) != "id") stored += (stored.empty() ? "" : ", ") + s.Text(1);
     }
   }
-  if (!stored.empty() && stored != EvaluationSqlColumns()) {
+  if (!stored.empty() && stored != SqlNames(list)) {
     throw ConfigError(path, "--resume",
-                      "the store's evaluation columns (" + stored + ") are not this quadtune's (" +
-                          EvaluationSqlColumns() + "); run again with --overwrite to start afresh");
+                      "the store's " + table + " columns (" + stored + ") are not this " +
+                          "quadtune's (" + SqlNames(list) +
+                          "); run again with --overwrite to start afresh");
   }
   if (!stored.empty()) return;
-  if (char* err = nullptr; sqlite3_exec(db, EvaluationTableSql().c_str(), nullptr, nullptr,
-                                        &err) != SQLITE_OK) {
-    const std::string why = err != nullptr ? err : "?";
-    sqlite3_free(err);
-    throw std::runtime_error("sqlite: " + path + ": " + why);
-  }
+  std::string sql = "CREATE TABLE " + table + "(id INTEGER PRIMARY KEY";
+  for (const auto& c : list.List()) sql += ", " + c.sql + " " + SqlType(c.type);
+  Statement(db, sql + ", " + constraint + ")").Step();
   Statement insert(db,
                    "INSERT OR REPLACE INTO stored_column(tbl, position, name, sql, type, names, "
-                   "prefix, meaning) VALUES('evaluation', ?, ?, ?, ?, ?, ?, ?)");
+                   "prefix, meaning) VALUES(?, ?, ?, ?, ?, ?, ?, ?)");
   int position = 0;
-  for (const auto& c : EvaluationColumns().List()) {
+  for (const auto& c : list.List()) {
     std::string names;
     for (const auto& n : c.names) names += (names.empty() ? "" : ",") + n;
-    insert.Bind(1, ++position);
-    insert.Bind(2, c.name);
-    insert.Bind(3, c.sql);
-    insert.Bind(4, std::string(ToString(c.type)));
-    insert.Bind(5, names);
-    insert.Bind(6, c.prefix);
-    insert.Bind(7, c.meaning);
+    insert.Bind(1, table);
+    insert.Bind(2, ++position);
+    insert.Bind(3, c.name);
+    insert.Bind(4, c.sql);
+    insert.Bind(5, std::string(ToString(c.type)));
+    insert.Bind(6, names);
+    insert.Bind(7, c.prefix);
+    insert.Bind(8, c.meaning);
     insert.Step();
     sqlite3_reset(insert.Raw());
   }
@@ -229,27 +275,27 @@ const Columns<EvaluationRow>& EvaluationColumns() {
 }
 
 std::string EvaluationSqlColumns(const std::string& prefix) {
-  std::string out;
-  for (const auto& c : EvaluationColumns().List()) {
-    out += (out.empty() ? "" : ", ") + prefix + c.sql;
-  }
-  return out;
+  return SqlNames(EvaluationColumns(), prefix);
+}
+
+const Columns<TrialRow>& TrialColumns() {
+  using T = TrialRow;
+  static const Columns<T> columns =
+      Columns<T>()
+          .Integer("experiment_id", &T::experiment_id, "the experiment's id")
+          .Enum("method", &T::method, "the trial's method")
+          .Integer("repeat", &T::repeat, "the repeat")
+          .Seed("map_seed", &T::map_seed, "the seed of the trial's first map")
+          .Enum("status", &T::status, "where the trial stands")
+          .Object("best_params", &T::best_params, "best_",
+                  "the best flight's parameters, name → value (NULL while running)")
+          .Real("best_value", &T::best_value, "the best flight's f_l (NULL while running)")
+          .Real("finished", &T::finished, "unix time (s) it finished (NULL while running)");
+  return columns;
 }
 
 EvaluationRow ReadEvaluationRow(sqlite3_stmt* s, int first) {
-  EvaluationRow r;
-  int i = first;
-  for (const auto& c : EvaluationColumns().List()) {
-    switch (c.type) {
-      case ColumnType::kInteger: c.set(r, ColumnValue(sqlite3_column_int64(s, i))); break;
-      case ColumnType::kReal: c.set(r, ColumnValue(sqlite3_column_double(s, i))); break;
-      case ColumnType::kSeed: c.set(r, ColumnValue(SeedOf(ColumnTextOf(s, i), c.name))); break;
-      case ColumnType::kValues: QT_DEMAND(false, "a stored column holds no map"); break;
-      default: c.set(r, ColumnValue(ColumnTextOf(s, i))); break;
-    }
-    ++i;
-  }
-  return r;
+  return ReadColumns(s, first, EvaluationColumns());
 }
 
 std::string ColumnText(const ColumnValue& value, ColumnType type, bool shortest) {
@@ -293,7 +339,9 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
       if (verdict != "ok") throw std::runtime_error("integrity check: " + verdict);
     }
     Exec(kSchema);
-    EnsureEvaluationTable(db_.get(), path);
+    EnsureTable(db_.get(), path, "trial", TrialColumns(), "UNIQUE(experiment_id, method, repeat)");
+    EnsureTable(db_.get(), path, "evaluation", EvaluationColumns(),
+                "UNIQUE(trial_id, kind, iteration, idx)");
     {
       Statement s(db_.get(), "SELECT id, config FROM experiment ORDER BY id LIMIT 1");
       if (s.Step()) {
@@ -363,21 +411,25 @@ std::unique_ptr<sqlite3, ResultStore::CloseConnection> ResultStore::Open(const s
 }
 
 std::int64_t ResultStore::Trial(const std::string& method, int repeat, std::uint64_t map_seed) {
+  TrialRow t;
+  t.experiment_id = experiment_id_;
+  const std::optional<Method> m = FromString<Method>(method);
+  QT_DEMAND(m.has_value(), "a trial of an unknown method '" + method + "'");
+  t.method = *m;
+  t.repeat = repeat;
+  t.map_seed = map_seed;
+  const std::vector<std::string> key = {"experiment_id", "method", "repeat"};
   {
     Statement s(db_.get(), "SELECT id FROM trial WHERE experiment_id=? AND method=? AND repeat=?");
-    s.Bind(1, experiment_id_);
-    s.Bind(2, method);
-    s.Bind(3, repeat);
+    BindColumns(s.Raw(), 1, t, TrialColumns(), key);
     if (s.Step()) return s.Int(0);
   }
-  Statement s(
-      db_.get(),
-      "INSERT INTO trial(experiment_id, method, repeat, map_seed, status) VALUES(?,?,?,?,?)");
-  s.Bind(1, experiment_id_);
-  s.Bind(2, method);
-  s.Bind(3, repeat);
-  s.Bind(4, std::to_string(map_seed));
-  s.Bind(5, std::string("running"));
+  // The best point and the finish time stay NULL until FinishTrial.
+  const std::vector<std::string> created = {"experiment_id", "method", "repeat", "map_seed",
+                                            "status"};
+  Statement s(db_.get(), "INSERT INTO trial(" + SqlNames(TrialColumns(), "", created) +
+                             ") VALUES(?,?,?,?,?)");
+  BindColumns(s.Raw(), 1, t, TrialColumns(), created);
   s.Step();
   return sqlite3_last_insert_rowid(db_.get());
 }
@@ -410,20 +462,7 @@ void ResultStore::BindAndStep(const EvaluationRow& r) {
       throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(db_.get()) + " in " + sql);
     }
   }
-  int i = 0;
-  for (const auto& c : EvaluationColumns().List()) {
-    const ColumnValue v = c.get(r);
-    ++i;
-    if (c.type == ColumnType::kInteger) {
-      sqlite3_bind_int64(insert_.get(), i, std::get<std::int64_t>(v));
-    } else if (c.type == ColumnType::kReal) {
-      sqlite3_bind_double(insert_.get(), i, std::get<double>(v));
-    } else {
-      const std::string text = ColumnText(v, c.type, /*shortest=*/false);
-      sqlite3_bind_text(insert_.get(), i, text.data(), static_cast<int>(text.size()),
-                        SQLITE_TRANSIENT);
-    }
-  }
+  BindColumns(insert_.get(), 1, r, EvaluationColumns());
   const int rc = sqlite3_step(insert_.get());
   sqlite3_reset(insert_.get());
   sqlite3_clear_bindings(insert_.get());
@@ -450,15 +489,23 @@ void ResultStore::InsertBatch(std::span<const EvaluationRow> rows) {
   }
 }
 
-void ResultStore::FinishTrial(std::int64_t trial_id, const std::string& status,
+void ResultStore::FinishTrial(std::int64_t trial_id, TrialStatus status,
                               const std::string& best_params, double best_value) {
-  Statement s(db_.get(),
-              "UPDATE trial SET status=?, best_params=?, best_value=?, finished=? WHERE id=?");
-  s.Bind(1, status);
-  s.Bind(2, best_params);
-  s.Bind(3, best_value);
-  s.Bind(4, Now());
-  s.Bind(5, trial_id);
+  TrialRow t;
+  t.status = status;
+  t.best_params = best_params;
+  t.best_value = best_value;
+  t.finished = Now();
+  const std::vector<std::string> set = {"status", "best_params", "best_value", "finished"};
+  std::string assignments;
+  for (const auto& c : TrialColumns().List()) {
+    if (std::find(set.begin(), set.end(), c.name) != set.end()) {
+      assignments += (assignments.empty() ? "" : ", ") + c.sql + "=?";
+    }
+  }
+  Statement s(db_.get(), "UPDATE trial SET " + assignments + " WHERE id=?");
+  const int next = BindColumns(s.Raw(), 1, t, TrialColumns(), set);
+  s.Bind(next, trial_id);
   s.Step();
 }
 
@@ -471,17 +518,11 @@ std::vector<EvaluationRow> ResultStore::Evaluations() const {
 
 std::vector<TrialRow> ResultStore::Trials() const {
   std::vector<TrialRow> rows;
-  Statement s(db_.get(),
-              "SELECT id, method, repeat, status, best_params, best_value FROM trial ORDER BY id");
+  Statement s(db_.get(), "SELECT id, " + SqlNames(TrialColumns()) + " FROM trial ORDER BY id");
   while (s.Step()) {
-    TrialRow t;
+    TrialRow t = ReadColumns(s.Raw(), 1, TrialColumns());
     t.id = s.Int(0);
-    t.method = s.Text(1);
-    t.repeat = static_cast<int>(s.Int(2));
-    t.status = s.Text(3);
-    t.best_params = s.Text(4);
-    t.best_value = s.Double(5);
-    rows.push_back(t);
+    rows.push_back(std::move(t));
   }
   return rows;
 }
@@ -499,10 +540,15 @@ void ResultStore::ExportCsv(const std::string& directory) const {
                << s.Text(6) << ',' << Num(s.Double(7)) << '\n';
   }
   std::ostringstream trials;
-  trials << "id,method,repeat,status,best_params,best_value\n";
+  trials << "id";
+  for (const auto& c : TrialColumns().List()) trials << ',' << c.name;
+  trials << '\n';
   for (const auto& t : Trials()) {
-    trials << t.id << ',' << t.method << ',' << t.repeat << ',' << t.status << ','
-           << CsvField(t.best_params) << ',' << Num(t.best_value) << '\n';
+    trials << t.id;
+    for (const auto& c : TrialColumns().List()) {
+      trials << ',' << CsvField(ColumnText(c.get(t), c.type, false));
+    }
+    trials << '\n';
   }
   std::ostringstream evaluations;
   const auto& columns = EvaluationColumns().List();

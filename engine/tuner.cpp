@@ -210,7 +210,8 @@ class EvaluationLog {
   /// Marks the trial finished (done, or cancelled) with its best point.
   void Finish(bool done, const ParamValues& best, double best_value) const {
     if (c_.store == nullptr) return;
-    c_.store->FinishTrial(trial_id_, done ? "done" : "cancelled", ToJson(best), best_value);
+    c_.store->FinishTrial(trial_id_, done ? TrialStatus::kDone : TrialStatus::kCancelled,
+                          ToJson(best), best_value);
   }
 
  private:

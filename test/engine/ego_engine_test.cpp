@@ -79,7 +79,7 @@ TEST(EgoEngine, TinyRunCompletesAndStoresEvaluations) {
   EXPECT_EQ(longs, 3);
   EXPECT_GT(shorts, 0);
   ASSERT_EQ(store.Trials().size(), 1u);
-  EXPECT_EQ(store.Trials().front().status, "done");
+  EXPECT_EQ(store.Trials().front().status, TrialStatus::kDone);
 }
 
 }  // namespace

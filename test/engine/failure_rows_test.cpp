@@ -55,7 +55,7 @@ std::vector<EvaluationRow> RowsOfKind(const StoredRun& run, EvalKind kind) {
 void ExpectRunCompleted(const StoredRun& run, std::size_t trials) {
   EXPECT_EQ(run.summary.status, RunStatus::kCompleted) << run.summary.message;
   ASSERT_EQ(run.trials.size(), trials);
-  for (const auto& t : run.trials) EXPECT_EQ(t.status, "done") << t.method;
+  for (const auto& t : run.trials) EXPECT_EQ(t.status, TrialStatus::kDone) << ToString(t.method);
 }
 
 // tiny.yaml's failure_value.

@@ -71,7 +71,7 @@ TEST(IpoptEngine, EveryMethodRunsEndToEndAndAgreesAt1And2And8Threads) {
     for (const char* m : {"default", "random", "pso", "bo", "bo_pso"}) EXPECT_EQ(longs[m], 3) << m;
     EXPECT_EQ(shorts["bo_pso"], 4 + 8);  // 4 per flight: first flight, then a round of 2
     EXPECT_EQ(store.Trials().size(), 5u);
-    for (const auto& t : store.Trials()) EXPECT_EQ(t.status, "done");
+    for (const auto& t : store.Trials()) EXPECT_EQ(t.status, TrialStatus::kDone);
     runs.push_back(test::Deterministic(o.store_path));
   }
   EXPECT_EQ(runs[0], runs[1]);

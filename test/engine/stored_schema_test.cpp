@@ -1,8 +1,8 @@
 // The stored schema (EvaluationColumns, TrialSummaryColumns): every reader and writer of stored
 // rows follows the one column list. For each column, a row that differs from the default row in
 // that column only goes through the SQL store, the row codec and the JSON of the distributed
-// path and comes back differing in that column only; the evaluation table, its stored_column
-// list and the CSV export's header are the list. (The tidy export and the Python loader are
+// path and comes back differing in that column only; the evaluation and trial tables, their
+// stored_column lists and the CSV export's headers are the lists. (The tidy export and the Python loader are
 // checked against the store's list by CliStoredStates in cli_paths_tests.)
 #include <gtest/gtest.h>
 
@@ -120,6 +120,49 @@ TEST(StoredSchema, TablesAndExportsAreTheList) {
   }
   ResultStore(dir + "/r.sqlite").ExportCsv(dir + "/csv");
   std::ifstream csv(dir + "/csv/evaluations.csv");
+  std::string first;
+  std::getline(csv, first);
+  EXPECT_EQ(first, header);
+}
+
+TEST(StoredSchema, TheTrialTableIsItsList) {
+  const std::string dir = test::TempDir("stored_schema_trial");
+  const Experiment e = Experiment::FromString(test::ToyYaml());
+  {
+    ResultStore store(dir + "/r.sqlite", e, 1, false);
+    const std::int64_t id = store.Trial("bo", 3, 99);
+    store.FinishTrial(id, TrialStatus::kDone, "{\"speed\":2.5}", 4.5);
+    (void)store.Trial("pso", 1, 7);
+  }
+  const auto& list = TrialColumns().List();
+  const std::string db = dir + "/r.sqlite";
+  const auto table = quadtune::test::Query(db, "PRAGMA table_info(trial)");
+  const auto listed = quadtune::test::Query(
+      db, "SELECT name, sql, type FROM stored_column WHERE tbl = 'trial' ORDER BY position");
+  ASSERT_EQ(table.size(), list.size() + 1);
+  ASSERT_EQ(listed.size(), list.size());
+  std::string header = "id";
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    EXPECT_EQ(table[i + 1][1], list[i].sql);
+    EXPECT_EQ(listed[i][0], list[i].name);
+    EXPECT_EQ(listed[i][2], ToString(list[i].type));
+    header += "," + list[i].name;
+  }
+  const std::vector<TrialRow> trials = ResultStore(db).Trials();
+  ASSERT_EQ(trials.size(), 2u);
+  EXPECT_EQ(trials[0].method, Method::kBo);
+  EXPECT_EQ(trials[0].repeat, 3);
+  EXPECT_EQ(trials[0].map_seed, 99u);
+  EXPECT_EQ(trials[0].status, TrialStatus::kDone);
+  EXPECT_EQ(trials[0].best_params, "{\"speed\":2.5}");
+  EXPECT_EQ(trials[0].best_value, 4.5);
+  EXPECT_GT(trials[0].finished, 0.0);
+  EXPECT_EQ(trials[1].status, TrialStatus::kRunning);
+  // A running trial has no best point yet: NULL, not a value that looks like one.
+  EXPECT_EQ(quadtune::test::Query(db, "SELECT count(*) FROM trial WHERE best_value IS NULL")[0][0],
+            "1");
+  ResultStore(db).ExportCsv(dir + "/csv");
+  std::ifstream csv(dir + "/csv/trials.csv");
   std::string first;
   std::getline(csv, first);
   EXPECT_EQ(first, header);

@@ -79,8 +79,8 @@ TEST(Tuner, EachMethodGivesCompleteResultSet) {
   EXPECT_EQ(counts.at("bo").second, 0);
   ResultStore store(o.store_path);
   for (const auto& t : store.Trials()) {
-    EXPECT_EQ(t.status, "done") << t.method;
-    EXPECT_GT(t.best_value, 0.0) << t.method;
+    EXPECT_EQ(t.status, TrialStatus::kDone) << ToString(t.method);
+    EXPECT_GT(t.best_value, 0.0) << ToString(t.method);
   }
   for (const auto& r : store.Evaluations()) {
     EXPECT_EQ(r.status, EvalStatus::kOk) << ToString(r.method) << " " << r.message;
@@ -265,7 +265,7 @@ TEST(Tuner, TrialWhoseEveryFlightFailedReportsTheFailureValue) {
     EXPECT_DOUBLE_EQ(t.best_value, e.objective.failure_value) << t.method;
   }
   for (const auto& t : ResultStore(run.o.store_path).Trials()) {
-    EXPECT_DOUBLE_EQ(t.best_value, e.objective.failure_value) << t.method;
+    EXPECT_DOUBLE_EQ(t.best_value, e.objective.failure_value) << ToString(t.method);
   }
 }
 

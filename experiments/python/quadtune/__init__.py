@@ -86,14 +86,14 @@ def connect(path):
     return con
 
 
-def columns(path):
-    """The evaluation table's columns as the store lists them (Column: name, sql, type, names,
-    prefix), in order."""
+def columns(path, table="evaluation"):
+    """The columns of `table` (evaluation or trial) as the store lists them (Column: name, sql,
+    type, names, prefix), in order."""
     with connect(path) as db:
         return [Column(name, sql, kind, names.split(",") if names else [], prefix or "")
                 for name, sql, kind, names, prefix in db.execute(
                     "SELECT name, sql, type, names, prefix FROM stored_column"
-                    " WHERE tbl = 'evaluation' ORDER BY position")]
+                    " WHERE tbl = ? ORDER BY position", (table,))]
 
 
 def fixed_columns(path):
@@ -101,7 +101,7 @@ def fixed_columns(path):
     return KEYS + [c.name for c in columns(path) if c.type != "object"]
 
 
-def _seed(value, file, row_id, column):
+def _seed(value, file, where, column):
     """A stored seed as an int in [0, 2^64), None when absent; DamagedStore otherwise."""
     if value is None or value == "" or value == 0:
         return None
@@ -110,18 +110,19 @@ def _seed(value, file, row_id, column):
     except (TypeError, ValueError):
         seed = -1
     if not 0 <= seed < 2 ** 64 or (isinstance(value, float) and value != seed):
-        raise DamagedStore("{}: damaged results store: evaluation {}: {} is {!r}, not a seed (an "
-                           "integer in [0, 2^64))".format(file, row_id, column, value))
+        raise DamagedStore("{}: damaged results store: {}: {} is {!r}, not a seed (an "
+                           "integer in [0, 2^64))".format(file, where, column, value))
     return seed
 
 
-def _value(column, value, file, row_id):
-    """One stored value checked against its column; DamagedStore naming the column otherwise."""
+def _value(column, value, file, where):
+    """One stored value of row `where` ("evaluation 5") checked against its column;
+    DamagedStore naming the row and the column otherwise."""
     if column.type == "seed":
-        return _seed(value, file, row_id, column.name)
+        return _seed(value, file, where, column.name)
     if column.type == "enum" and value not in column.names:
-        raise DamagedStore("{}: damaged results store: evaluation {}: {} is {!r}, not one of {}"
-                           .format(file, row_id, column.name, value, ", ".join(column.names)))
+        raise DamagedStore("{}: damaged results store: {}: {} is {!r}, not one of {}"
+                           .format(file, where, column.name, value, ", ".join(column.names)))
     return value
 
 
@@ -143,9 +144,10 @@ def rows(path):
                 if column.type == "object":
                     objects.append((column, json_field(value, file, r[0], column.name)))
                 else:
-                    row[column.name] = _value(column, value, file, r[0])
+                    row[column.name] = _value(column, value, file, "evaluation {}".format(r[0]))
             if row.get("map_seed") is None and row.get("kind") != "short":
-                row["map_seed"] = _seed(r[2], file, r[0], "the trial's map_seed")
+                row["map_seed"] = _seed(r[2], file, "evaluation {}".format(r[0]),
+                                        "the trial's map_seed")
             for column, source in objects:
                 for name, value in source.items():
                     row[column.prefix + name if name in fixed else name] = value
@@ -168,12 +170,20 @@ def parameter_names(path):
 
 
 def trials(path):
-    """The trial table as dicts (id, method, repeat, map_seed, status, best_params, best_value)."""
+    """The trial table as dicts: id, then the columns the store lists for it (experiment_id,
+    method, repeat, map_seed, status, best_params, best_value, finished)."""
+    listed = columns(path, "trial")
+    file = store_path(path)
     with connect(path) as db:
-        cur = db.execute("SELECT id, method, repeat, map_seed, status, best_params, best_value"
-                         " FROM trial ORDER BY id")
-        names = [c[0] for c in cur.description]
-        return [dict(zip(names, r)) for r in cur]
+        out = []
+        for r in db.execute("SELECT id, " + ", ".join(c.sql for c in listed)
+                            + " FROM trial ORDER BY id"):
+            row = {"id": r[0]}
+            for column, value in zip(listed, r[1:]):
+                row[column.name] = _value(column, value, file, "trial {}".format(r[0])) \
+                    if value is not None else None
+            out.append(row)
+        return out
 
 
 def experiment(path):

@@ -6,11 +6,13 @@
 ///
 /// Tables (docs/data.md lists every column with its meaning):
 ///   experiment(id, name, config TEXT, seed, version, machine, threads, mode, started)
-///   trial(id, experiment_id, method, repeat, map_seed, status, best_params, best_value, finished)
+///   trial(id, then the columns of TrialColumns(): experiment_id, method, repeat, map_seed,
+///     status, best_params, best_value, finished) — UNIQUE(experiment_id, method, repeat)
 ///   evaluation(id, then the columns of EvaluationColumns() in list order)
 ///     — UNIQUE(trial_id, kind, iteration, idx)
-///   stored_column(tbl, position, name, sql, type, names, prefix, meaning): the column list of the
-///     evaluation table as written, which readers outside C++ (the Python loader) follow
+///   stored_column(tbl, position, name, sql, type, names, prefix, meaning): the column lists of
+///     the trial and evaluation tables as written, which readers outside C++ (the Python
+///     loader) follow
 ///
 /// Resume: Open(resume = true) checks that the stored configuration text equals the experiment's
 /// and loads the stored evaluations; the tuner replays them (same order, same values) instead of
@@ -94,15 +96,29 @@ const Columns<EvaluationRow>& EvaluationColumns();
 /// when `shortest`, else as %.17g; seeds as decimal text, "" for 0.
 [[nodiscard]] std::string ColumnText(const ColumnValue& value, ColumnType type, bool shortest);
 
-/// A trial as stored.
+/// Where a trial stands.
+enum class TrialStatus { kRunning, kDone, kCancelled };
+constexpr auto EnumNames(TrialStatus) {
+  return std::array{EnumName{TrialStatus::kRunning, "running"},
+                    EnumName{TrialStatus::kDone, "done"},
+                    EnumName{TrialStatus::kCancelled, "cancelled"}};
+}
+
+/// A trial as stored; TrialColumns() lists its columns (all but the id).
 struct TrialRow {
   std::int64_t id = 0;
-  std::string method;
+  std::int64_t experiment_id = 0;
+  Method method = Method::kDefault;
   int repeat = 0;
-  std::string status;  ///< "running" | "done" | "cancelled"
-  std::string best_params;
+  std::uint64_t map_seed = 0;
+  TrialStatus status = TrialStatus::kRunning;
+  std::string best_params;  ///< JSON object name → value; empty while running
   double best_value = 0.0;
+  double finished = 0.0;    ///< unix time (s); 0 while running
 };
+
+/// The one list of the trial table's columns, as EvaluationColumns() for evaluations.
+const Columns<TrialRow>& TrialColumns();
 
 /// The store interface the tuner writes through. Implementations say their thread safety.
 class EvaluationStore {
@@ -116,7 +132,7 @@ class EvaluationStore {
   /// Stores one evaluation. Ignores a key already stored.
   virtual void Insert(const EvaluationRow& row) = 0;
   /// Marks a trial finished with its best point.
-  virtual void FinishTrial(std::int64_t trial_id, const std::string& status,
+  virtual void FinishTrial(std::int64_t trial_id, TrialStatus status,
                            const std::string& best_params, double best_value) = 0;
 };
 
@@ -146,7 +162,7 @@ class ResultStore : public EvaluationStore {
   /// throws none is. Keys already stored (also twice inside `rows`) keep their first row.
   void InsertBatch(std::span<const EvaluationRow> rows);
   /// Marks a trial finished with its best point.
-  void FinishTrial(std::int64_t trial_id, const std::string& status, const std::string& best_params,
+  void FinishTrial(std::int64_t trial_id, TrialStatus status, const std::string& best_params,
                    double best_value) override;
   /// The rows of one trial loaded for resume (what Find() can return for it), in key order.
   [[nodiscard]] std::vector<EvaluationRow> StoredRows(std::int64_t trial_id) const;
