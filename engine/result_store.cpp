@@ -90,8 +90,6 @@ std::string Machine() {
 }
 
 const char* kSchema = R"(
-CREATE TABLE IF NOT EXISTS experiment(id INTEGER PRIMARY KEY, name TEXT, config TEXT, seed INTEGER,
-  version TEXT, machine TEXT, threads INTEGER, mode TEXT, started REAL);
 CREATE TABLE IF NOT EXISTS stored_column(tbl TEXT, position INTEGER, name TEXT, sql TEXT,
   type TEXT, names TEXT, prefix TEXT, meaning TEXT, UNIQUE(tbl, position));
 )";
@@ -198,9 +196,9 @@ T ReadColumns(sqlite3_stmt* s, int first, const Columns<T>& list) {
 
 std::string SelectEvaluations() { return "SELECT " + EvaluationSqlColumns() + " FROM evaluation"; }
 
-/// Creates table `table` (id INTEGER PRIMARY KEY, the columns of `list`, `constraint`) and its
-/// stored_column rows, or, for a store that has the table, checks that its columns are the
-/// list's (a store of another quadtune version is refused, naming both column lists).
+/// Creates table `table` (id INTEGER PRIMARY KEY, the columns of `list`, `constraint` if any)
+/// and its stored_column rows, or, for a store that has the table, checks that its columns are
+/// the list's (a store of another quadtune version is refused, naming both column lists).
 template <class T>
 void EnsureTable(sqlite3* db, const std::string& path, const std::string& table,
                  const Columns<T>& list, const std::string& constraint) {
@@ -220,7 +218,7 @@ void EnsureTable(sqlite3* db, const std::string& path, const std::string& table,
   if (!stored.empty()) return;
   std::string sql = "CREATE TABLE " + table + "(id INTEGER PRIMARY KEY";
   for (const auto& c : list.List()) sql += ", " + c.sql + " " + SqlType(c.type);
-  Statement(db, sql + ", " + constraint + ")").Step();
+  Statement(db, sql + (constraint.empty() ? "" : ", " + constraint) + ")").Step();
   Statement insert(db,
                    "INSERT OR REPLACE INTO stored_column(tbl, position, name, sql, type, names, "
                    "prefix, meaning) VALUES(?, ?, ?, ?, ?, ?, ?, ?)");
@@ -276,6 +274,21 @@ const Columns<EvaluationRow>& EvaluationColumns() {
 
 std::string EvaluationSqlColumns(const std::string& prefix) {
   return SqlNames(EvaluationColumns(), prefix);
+}
+
+const Columns<ExperimentRow>& ExperimentColumns() {
+  using E = ExperimentRow;
+  static const Columns<E> columns =
+      Columns<E>()
+          .Text("name", &E::name, "the experiment's name")
+          .Text("config", &E::config, "the experiment's configuration text")
+          .Integer("seed", &E::seed, "the experiment's seed (its 64 bits as a signed integer)")
+          .Text("version", &E::version, "quadtune's version")
+          .Text("machine", &E::machine, "host name and cores")
+          .Integer("threads", &E::threads, "threads per process")
+          .Enum("mode", &E::mode, "timing mode")
+          .Real("started", &E::started, "unix time (s)");
+  return columns;
 }
 
 const Columns<TrialRow>& TrialColumns() {
@@ -339,6 +352,7 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
       if (verdict != "ok") throw std::runtime_error("integrity check: " + verdict);
     }
     Exec(kSchema);
+    EnsureTable(db_.get(), path, "experiment", ExperimentColumns(), "");
     EnsureTable(db_.get(), path, "trial", TrialColumns(), "UNIQUE(experiment_id, method, repeat)");
     EnsureTable(db_.get(), path, "evaluation", EvaluationColumns(),
                 "UNIQUE(trial_id, kind, iteration, idx)");
@@ -355,18 +369,20 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
       }
     }
     if (experiment_id_ == 0) {
-      Statement s(
-          db_.get(),
-          "INSERT INTO experiment(name, config, seed, version, machine, threads, mode, started) "
-          "VALUES(?,?,?,?,?,?,?,?)");
-      s.Bind(1, experiment.name);
-      s.Bind(2, experiment.text);
-      s.Bind(3, static_cast<std::int64_t>(experiment.seed));
-      s.Bind(4, std::string(QUADTUNE_VERSION));
-      s.Bind(5, Machine());
-      s.Bind(6, threads);
-      s.Bind(7, std::string(experiment.mode == TimingMode::kRealtime ? "realtime" : "reproducible"));
-      s.Bind(8, Now());
+      ExperimentRow row;
+      row.name = experiment.name;
+      row.config = experiment.text;
+      row.seed = static_cast<std::int64_t>(experiment.seed);
+      row.version = QUADTUNE_VERSION;
+      row.machine = Machine();
+      row.threads = threads;
+      row.mode = experiment.mode;
+      row.started = Now();
+      std::string marks;
+      for (std::size_t i = 0; i < ExperimentColumns().List().size(); ++i) marks += i ? ",?" : "?";
+      Statement s(db_.get(), "INSERT INTO experiment(" + SqlNames(ExperimentColumns()) +
+                                 ") VALUES(" + marks + ")");
+      BindColumns(s.Raw(), 1, row, ExperimentColumns());
       s.Step();
       experiment_id_ = sqlite3_last_insert_rowid(db_.get());
     }
@@ -516,6 +532,15 @@ std::vector<EvaluationRow> ResultStore::Evaluations() const {
   return rows;
 }
 
+ExperimentRow ResultStore::ExperimentInfo() const {
+  Statement s(db_.get(), "SELECT id, " + SqlNames(ExperimentColumns()) +
+                             " FROM experiment ORDER BY id LIMIT 1");
+  if (!s.Step()) return {};
+  ExperimentRow row = ReadColumns(s.Raw(), 1, ExperimentColumns());
+  row.id = s.Int(0);
+  return row;
+}
+
 std::vector<TrialRow> ResultStore::Trials() const {
   std::vector<TrialRow> rows;
   Statement s(db_.get(), "SELECT id, " + SqlNames(TrialColumns()) + " FROM trial ORDER BY id");
@@ -531,13 +556,19 @@ void ResultStore::ExportCsv(const std::string& directory) const {
   namespace fs = std::filesystem;
   // Every row is read before a file is written: a store that cannot be read leaves none.
   std::ostringstream experiment;
-  experiment << "id,name,seed,version,machine,threads,mode,started\n";
-  Statement s(db_.get(),
-              "SELECT id, name, seed, version, machine, threads, mode, started FROM experiment");
-  while (s.Step()) {
-    experiment << s.Int(0) << ',' << CsvField(s.Text(1)) << ',' << s.Int(2) << ','
-               << CsvField(s.Text(3)) << ',' << CsvField(s.Text(4)) << ',' << s.Int(5) << ','
-               << s.Text(6) << ',' << Num(s.Double(7)) << '\n';
+  experiment << "id";
+  for (const auto& c : ExperimentColumns().List()) {
+    if (c.name != "config") experiment << ',' << c.name;  // the text stays in the store
+  }
+  experiment << '\n';
+  if (const ExperimentRow row = ExperimentInfo(); row.id != 0) {
+    experiment << row.id;
+    for (const auto& c : ExperimentColumns().List()) {
+      if (c.name != "config") {
+        experiment << ',' << CsvField(ColumnText(c.get(row), c.type, false));
+      }
+    }
+    experiment << '\n';
   }
   std::ostringstream trials;
   trials << "id";

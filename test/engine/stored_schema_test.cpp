@@ -168,6 +168,32 @@ TEST(StoredSchema, TheTrialTableIsItsList) {
   EXPECT_EQ(first, header);
 }
 
+TEST(StoredSchema, TheExperimentTableIsItsList) {
+  const std::string dir = test::TempDir("stored_schema_experiment");
+  const Experiment e = Experiment::FromString(test::ToyYaml());
+  { ResultStore store(dir + "/r.sqlite", e, 3, false); }
+  const std::string db = dir + "/r.sqlite";
+  const auto& list = ExperimentColumns().List();
+  const auto table = quadtune::test::Query(db, "PRAGMA table_info(experiment)");
+  const auto listed = quadtune::test::Query(
+      db, "SELECT name, sql, type FROM stored_column WHERE tbl = 'experiment' ORDER BY position");
+  ASSERT_EQ(table.size(), list.size() + 1);
+  ASSERT_EQ(listed.size(), list.size());
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    EXPECT_EQ(table[i + 1][1], list[i].sql);
+    EXPECT_EQ(listed[i][0], list[i].name);
+    EXPECT_EQ(listed[i][2], ToString(list[i].type));
+  }
+  const ExperimentRow row = ResultStore(db).ExperimentInfo();
+  EXPECT_EQ(row.id, 1);
+  EXPECT_EQ(row.name, e.name);
+  EXPECT_EQ(row.config, e.text);
+  EXPECT_EQ(static_cast<std::uint64_t>(row.seed), e.seed);
+  EXPECT_EQ(row.threads, 3);
+  EXPECT_EQ(row.mode, e.mode);
+  EXPECT_GT(row.started, 0.0);
+}
+
 TEST(StoredSchema, ResumingAStoreWithOtherColumnsNamesBoth) {
   const std::string dir = test::TempDir("stored_schema_other");
   const Experiment e = Experiment::FromString(test::ToyYaml());

@@ -87,8 +87,8 @@ def connect(path):
 
 
 def columns(path, table="evaluation"):
-    """The columns of `table` (evaluation or trial) as the store lists them (Column: name, sql,
-    type, names, prefix), in order."""
+    """The columns of `table` (evaluation, trial or experiment) as the store lists them
+    (Column: name, sql, type, names, prefix), in order."""
     with connect(path) as db:
         return [Column(name, sql, kind, names.split(",") if names else [], prefix or "")
                 for name, sql, kind, names, prefix in db.execute(
@@ -187,13 +187,13 @@ def trials(path):
 
 
 def experiment(path):
-    """The experiment row as a dict (name, config text, seed, version, machine, threads, mode)."""
+    """The experiment row as a dict: id, then the columns the store lists for it (name, config
+    text, seed, version, machine, threads, mode, started)."""
+    listed = columns(path, "experiment")
     with connect(path) as db:
-        cur = db.execute("SELECT id, name, config, seed, version, machine, threads, mode, started"
-                         " FROM experiment ORDER BY id LIMIT 1")
-        names = [c[0] for c in cur.description]
-        row = cur.fetchone()
-        return dict(zip(names, row)) if row else {}
+        row = db.execute("SELECT id, " + ", ".join(c.sql for c in listed)
+                         + " FROM experiment ORDER BY id LIMIT 1").fetchone()
+        return dict(zip(["id"] + [c.name for c in listed], row)) if row else {}
 
 
 def load(path):

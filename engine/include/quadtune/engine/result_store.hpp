@@ -5,14 +5,15 @@
 /// evaluations per transaction (InsertBatch).
 ///
 /// Tables (docs/data.md lists every column with its meaning):
-///   experiment(id, name, config TEXT, seed, version, machine, threads, mode, started)
+///   experiment(id, then the columns of ExperimentColumns(): name, config, seed, version,
+///     machine, threads, mode, started)
 ///   trial(id, then the columns of TrialColumns(): experiment_id, method, repeat, map_seed,
 ///     status, best_params, best_value, finished) — UNIQUE(experiment_id, method, repeat)
 ///   evaluation(id, then the columns of EvaluationColumns() in list order)
 ///     — UNIQUE(trial_id, kind, iteration, idx)
 ///   stored_column(tbl, position, name, sql, type, names, prefix, meaning): the column lists of
-///     the trial and evaluation tables as written, which readers outside C++ (the Python
-///     loader) follow
+///     the experiment, trial and evaluation tables as written, which readers outside C++ (the
+///     Python loader) follow
 ///
 /// Resume: Open(resume = true) checks that the stored configuration text equals the experiment's
 /// and loads the stored evaluations; the tuner replays them (same order, same values) instead of
@@ -36,6 +37,7 @@
 
 #include "quadtune/common/columns.hpp"
 #include "quadtune/engine/method.hpp"
+#include "quadtune/engine/objectives.hpp"
 #include "quadtune/engine/planner.hpp"
 
 struct sqlite3;
@@ -95,6 +97,22 @@ const Columns<EvaluationRow>& EvaluationColumns();
 /// A column's value as the CSV and tidy exports write it: reals in their shortest exact form
 /// when `shortest`, else as %.17g; seeds as decimal text, "" for 0.
 [[nodiscard]] std::string ColumnText(const ColumnValue& value, ColumnType type, bool shortest);
+
+/// The run as stored (one row per store).
+struct ExperimentRow {
+  std::int64_t id = 0;
+  std::string name;
+  std::string config;       ///< the experiment's configuration text (compared on resume)
+  std::int64_t seed = 0;    ///< the experiment's 64-bit seed, its bits as a signed integer
+  std::string version;      ///< quadtune's version
+  std::string machine;      ///< host name and cores
+  int threads = 0;
+  TimingMode mode = TimingMode::kReproducible;
+  double started = 0.0;     ///< unix time (s)
+};
+
+/// The one list of the experiment table's columns, as EvaluationColumns() for evaluations.
+const Columns<ExperimentRow>& ExperimentColumns();
 
 /// Where a trial stands.
 enum class TrialStatus { kRunning, kDone, kCancelled };
@@ -170,6 +188,8 @@ class ResultStore : public EvaluationStore {
   /// Every evaluation, ordered by trial, kind, iteration, index.
   [[nodiscard]] std::vector<EvaluationRow> Evaluations() const;
   [[nodiscard]] std::vector<TrialRow> Trials() const;
+  /// The experiment row (an empty one when the store holds none).
+  [[nodiscard]] ExperimentRow ExperimentInfo() const;
   /// Writes experiment.csv, trials.csv and evaluations.csv into `directory` (created), each
   /// atomically and only once every row was read (a damaged store leaves no file).
   void ExportCsv(const std::string& directory) const;
