@@ -151,13 +151,6 @@ class Columns {
   }
 
   [[nodiscard]] const std::vector<Column>& List() const { return columns_; }
-  /// The column named `name`; nullptr when none is.
-  [[nodiscard]] const Column* Find(const std::string& name) const {
-    for (const Column& c : columns_) {
-      if (c.name == name) return &c;
-    }
-    return nullptr;
-  }
 
  private:
   Columns& Textual(std::string name, ColumnType type, std::string T::*member,
