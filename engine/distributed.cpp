@@ -40,6 +40,7 @@
 #include <utility>
 #include <vector>
 
+#include "quadtune/engine/column_json.hpp"
 #include "quadtune/engine/result_store.hpp"
 #include "quadtune/engine/row_codec.hpp"
 #endif
@@ -224,97 +225,10 @@ std::optional<Message> TryReceive(int source, int tag) {
 std::uint64_t Bits(double v) { return std::bit_cast<std::uint64_t>(v); }
 double FromBits(const Json& j) { return std::bit_cast<double>(j.get<std::uint64_t>()); }
 
-Json ToJson(const EvaluationRow& r) {
-  return Json{{"trial_id", r.trial_id},
-              {"method", r.method},
-              {"kind", r.kind},
-              {"iteration", r.iteration},
-              {"index", r.index},
-              {"params", r.params},
-              {"terms", r.terms},
-              {"value", Bits(r.value)},
-              {"status", r.status},
-              {"message", r.message},
-              {"wall_s", Bits(r.wall_s)},
-              {"started", Bits(r.started)},
-              {"finished", Bits(r.finished)},
-              {"map_seed", r.map_seed},
-              {"flight_seed", r.flight_seed}};
-}
-
-EvaluationRow RowFromJson(const Json& j) {
-  EvaluationRow r;
-  r.trial_id = j.at("trial_id").get<std::int64_t>();
-  r.method = j.at("method").get<std::string>();
-  r.kind = j.at("kind").get<std::string>();
-  r.iteration = j.at("iteration").get<int>();
-  r.index = j.at("index").get<int>();
-  r.params = j.at("params").get<std::string>();
-  r.terms = j.at("terms").get<std::string>();
-  r.value = FromBits(j.at("value"));
-  r.status = j.at("status").get<std::string>();
-  r.message = j.at("message").get<std::string>();
-  r.wall_s = FromBits(j.at("wall_s"));
-  r.started = FromBits(j.at("started"));
-  r.finished = FromBits(j.at("finished"));
-  r.map_seed = j.at("map_seed").get<std::uint64_t>();
-  r.flight_seed = j.at("flight_seed").get<std::uint64_t>();
-  return r;
-}
-
-Json ParamsJson(const ParamValues& values) {
-  Json out = Json::array();
-  for (const auto& [name, value] : values) out.push_back(Json::array({name, Bits(value)}));
-  return out;
-}
-
-ParamValues ParamsFromJson(const Json& j) {
-  ParamValues out;
-  for (const auto& pair : j) out[pair.at(0).get<std::string>()] = FromBits(pair.at(1));
-  return out;
-}
-
-Json ToJson(const TrialSummary& s) {
-  return Json{{"method", s.method},
-              {"repeat", s.repeat},
-              {"trial_id", s.trial_id},
-              {"best", ParamsJson(s.best)},
-              {"best_value", Bits(s.best_value)},
-              {"recommended", ParamsJson(s.recommended)},
-              {"recommended_value", Bits(s.recommended_value)},
-              {"flights", s.flights},
-              {"short_evals", s.short_evals},
-              {"failed", s.failed},
-              {"replayed", s.replayed},
-              {"context_changes", s.context_changes},
-              {"recommended_rank", s.recommended_rank},
-              {"recheck_flights", s.recheck_flights},
-              {"races", s.races},
-              {"race_flights", s.race_flights},
-              {"incumbent_changes", s.incumbent_changes}};
-}
-
-TrialSummary SummaryFromJson(const Json& j) {
-  TrialSummary s;
-  s.method = j.at("method").get<std::string>();
-  s.repeat = j.at("repeat").get<int>();
-  s.trial_id = j.at("trial_id").get<std::int64_t>();
-  s.best = ParamsFromJson(j.at("best"));
-  s.best_value = FromBits(j.at("best_value"));
-  s.recommended = ParamsFromJson(j.at("recommended"));
-  s.recommended_value = FromBits(j.at("recommended_value"));
-  s.flights = j.at("flights").get<int>();
-  s.short_evals = j.at("short_evals").get<int>();
-  s.failed = j.at("failed").get<int>();
-  s.replayed = j.at("replayed").get<int>();
-  s.context_changes = j.at("context_changes").get<int>();
-  s.recommended_rank = j.at("recommended_rank").get<int>();
-  s.recheck_flights = j.at("recheck_flights").get<int>();
-  s.races = j.at("races").get<int>();
-  s.race_flights = j.at("race_flights").get<int>();
-  s.incumbent_changes = j.at("incumbent_changes").get<int>();
-  return s;
-}
+Json ToJson(const EvaluationRow& r) { return ToJson(r, EvaluationColumns(), JsonReals::kBits); }
+EvaluationRow RowFromJson(const Json& j) { return FromJson(j, EvaluationColumns()); }
+Json ToJson(const TrialSummary& s) { return ToJson(s, TrialSummaryColumns(), JsonReals::kBits); }
+TrialSummary SummaryFromJson(const Json& j) { return FromJson(j, TrialSummaryColumns()); }
 
 // ---- stores -------------------------------------------------------------------------------
 
@@ -328,7 +242,7 @@ class LockedStore final : public EvaluationStore {
     std::lock_guard lock(mutex_);
     return store_ != nullptr ? store_->Trial(method, repeat, map_seed) : 0;
   }
-  [[nodiscard]] const EvaluationRow* Find(std::int64_t trial_id, const std::string& kind,
+  [[nodiscard]] const EvaluationRow* Find(std::int64_t trial_id, EvalKind kind,
                                           int iteration, int index) const override {
     return store_ != nullptr ? store_->Find(trial_id, kind, iteration, index) : nullptr;
   }
@@ -341,7 +255,7 @@ class LockedStore final : public EvaluationStore {
     std::lock_guard lock(mutex_);
     if (store_ != nullptr) store_->InsertBatch(rows);
   }
-  void FinishTrial(std::int64_t trial_id, const std::string& status, const std::string& best_params,
+  void FinishTrial(std::int64_t trial_id, TrialStatus status, const std::string& best_params,
                    double best_value) override {
     std::lock_guard lock(mutex_);
     if (store_ != nullptr) store_->FinishTrial(trial_id, status, best_params, best_value);
@@ -386,7 +300,7 @@ class RemoteStore final : public EvaluationStore {
               "trial " + method + " r" + std::to_string(repeat) + " was not assigned");
     return trial_id_;
   }
-  [[nodiscard]] const EvaluationRow* Find(std::int64_t trial_id, const std::string& kind,
+  [[nodiscard]] const EvaluationRow* Find(std::int64_t trial_id, EvalKind kind,
                                           int iteration, int index) const override {
     if (trial_id != trial_id_) return nullptr;
     const auto it = rows_.find(std::make_tuple(kind, iteration, index));
@@ -402,13 +316,13 @@ class RemoteStore final : public EvaluationStore {
       Progress();
     }
   }
-  void FinishTrial(std::int64_t trial_id, const std::string& status, const std::string& best_params,
+  void FinishTrial(std::int64_t trial_id, TrialStatus status, const std::string& best_params,
                    double best_value) override {
     Flush();
     Send(0, kTagToRoot,
          Json{{"type", "finish"},
               {"trial_id", trial_id},
-              {"status", status},
+              {"status", ToString(status)},
               {"best_params", best_params},
               {"best_value", Bits(best_value)}},
          cancel_);
@@ -517,7 +431,7 @@ class RemoteStore final : public EvaluationStore {
   std::int64_t trial_id_ = -1;
   std::string method_;
   int repeat_ = -1;
-  std::map<std::tuple<std::string, int, int>, EvaluationRow> rows_;
+  std::map<std::tuple<EvalKind, int, int>, EvaluationRow> rows_;
 };
 
 // ---- rank 0 -------------------------------------------------------------------------------
@@ -556,8 +470,10 @@ class Root {
     int index = 0;
     for (int repeat = 0; repeat < e_.repeats; ++repeat) {
       for (Method method : e_.methods) {
-        tasks_.push_back(Task{index++, method, repeat,
-                              locked_->Trial(ToString(method), repeat, e_.MapSeed(repeat))});
+        // The trial's map seed as a single process stores it (EvaluationLog in tuner.cpp).
+        const std::uint64_t map_seed = e_.FlightMapSeed(repeat, 0);
+        tasks_.push_back(
+            Task{index++, method, repeat, locked_->Trial(ToString(method), repeat, map_seed)});
       }
     }
     results_.resize(tasks_.size());
@@ -666,9 +582,11 @@ class Root {
     RankState& rank = ranks_[static_cast<std::size_t>(source)];
     const std::string type = body.at("type").get<std::string>();
     if (type == "finish") {
-      locked_->FinishTrial(
-          body.at("trial_id").get<std::int64_t>(), body.at("status").get<std::string>(),
-          body.at("best_params").get<std::string>(), FromBits(body.at("best_value")));
+      const auto status = FromString<TrialStatus>(body.at("status").get<std::string>());
+      QT_DEMAND(status.has_value(), "a rank finished a trial with an unknown status");
+      locked_->FinishTrial(body.at("trial_id").get<std::int64_t>(), *status,
+                           body.at("best_params").get<std::string>(),
+                           FromBits(body.at("best_value")));
     } else if (type == "next") {
       Next(source, rank, body);
     } else if (type == "error") {

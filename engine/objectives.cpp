@@ -113,4 +113,22 @@ ObjectiveValue ShortTermObjective(const ResolveRecord& s, const ObjectiveOptions
   return v;
 }
 
+EvalState StateOf(const FlightRecord& f) {
+  if (f.status == EvalStatus::kCancelled) return EvalState::kCancelled;
+  if (f.status == EvalStatus::kFailed) {
+    return f.ending == EvalState::kDiverged ? EvalState::kDiverged : EvalState::kError;
+  }
+  if (!f.completed) {
+    if (f.plans > 0 && f.fallback_plans == f.plans) return EvalState::kSolverFailure;
+    return f.ending == EvalState::kOk ? EvalState::kIncomplete : f.ending;
+  }
+  return f.collisions > 0 ? EvalState::kCollision : EvalState::kOk;
+}
+
+EvalState StateOf(const ResolveRecord& s) {
+  if (s.status == EvalStatus::kCancelled) return EvalState::kCancelled;
+  if (s.status == EvalStatus::kFailed) return EvalState::kError;
+  return s.success ? EvalState::kOk : EvalState::kSolverFailure;
+}
+
 }  // namespace quadtune::engine

@@ -244,6 +244,19 @@ Opaque PrepareLayoutMap(const IpoptPlannerOptions& o, std::uint64_t map_seed) {
   return Opaque::Make(std::move(map));
 }
 
+/// A flight's end as the stored state names it (kOk for a completed flight).
+EvalState FlightEnding(sim::FlightStatus status) {
+  switch (status) {
+    case sim::FlightStatus::kCompleted: return EvalState::kOk;
+    case sim::FlightStatus::kTimeout: return EvalState::kTimeout;
+    case sim::FlightStatus::kStalled: return EvalState::kStalled;
+    case sim::FlightStatus::kDiverged: return EvalState::kDiverged;
+    case sim::FlightStatus::kError: return EvalState::kError;
+    case sim::FlightStatus::kCancelled: return EvalState::kCancelled;
+  }
+  return EvalState::kError;
+}
+
 // One closed-loop flight of a planner built on sim::Fly with `backend`.
 FlightRecord FlyWithBackend(const IpoptPlannerOptions& o,
                             const planning::TrajectoryBackend& backend,
@@ -293,6 +306,7 @@ FlightRecord FlyWithBackend(const IpoptPlannerOptions& o,
           : (m.status == sim::FlightStatus::kCancelled ? EvalStatus::kCancelled : EvalStatus::kOk);
   r.message = std::string(sim::ToString(m.status)) + (m.message.empty() ? "" : ": " + m.message);
   r.completed = m.status == sim::FlightStatus::kCompleted;
+  r.ending = FlightEnding(m.status);
   r.flight_time = m.flight_time;
   r.collisions = m.collisions;
   r.emergency_stops = m.emergency_stops;

@@ -3,6 +3,7 @@
 #include <sqlite3.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <climits>
 #include <filesystem>
@@ -10,6 +11,8 @@
 #include <sstream>
 #include <stdexcept>
 #include <thread>
+
+#include <nlohmann/json.hpp>
 
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/text_file.hpp"
@@ -70,6 +73,7 @@ class Statement {
   }
   double Double(int i) { return sqlite3_column_double(stmt_, i); }
   std::int64_t Int(int i) { return sqlite3_column_int64(stmt_, i); }
+  [[nodiscard]] sqlite3_stmt* Raw() const { return stmt_; }
 
  private:
   sqlite3_stmt* stmt_ = nullptr;
@@ -86,46 +90,39 @@ std::string Machine() {
 }
 
 const char* kSchema = R"(
-CREATE TABLE IF NOT EXISTS experiment(id INTEGER PRIMARY KEY, name TEXT, config TEXT, seed INTEGER,
-  version TEXT, machine TEXT, threads INTEGER, mode TEXT, started REAL);
-CREATE TABLE IF NOT EXISTS trial(id INTEGER PRIMARY KEY, experiment_id INTEGER, method TEXT,
-  repeat INTEGER, map_seed TEXT, status TEXT, best_params TEXT, best_value REAL, finished REAL,
-  UNIQUE(experiment_id, method, repeat));
-CREATE TABLE IF NOT EXISTS evaluation(id INTEGER PRIMARY KEY, trial_id INTEGER, method TEXT,
-  kind TEXT, iteration INTEGER, idx INTEGER, params TEXT, terms TEXT, value REAL, status TEXT,
-  message TEXT, wall_s REAL, started REAL, finished REAL, map_seed TEXT, flight_seed TEXT,
-  UNIQUE(trial_id, kind, iteration, idx));
+CREATE TABLE IF NOT EXISTS stored_column(tbl TEXT, position INTEGER, name TEXT, sql TEXT,
+  type TEXT, names TEXT, prefix TEXT, meaning TEXT, UNIQUE(tbl, position));
 )";
+
+const char* SqlType(ColumnType type) {
+  switch (type) {
+    case ColumnType::kInteger: return "INTEGER";
+    case ColumnType::kReal: return "REAL";
+    default: return "TEXT";
+  }
+}
 
 /// Seeds are stored as decimal text (SQLite integers are signed); "" reads as 0.
 std::string SeedText(std::uint64_t seed) { return seed == 0 ? std::string() : std::to_string(seed); }
-std::uint64_t SeedOf(const std::string& text) {
-  return text.empty() ? 0 : std::stoull(text);
+std::uint64_t SeedOf(const std::string& text, const std::string& column) {
+  if (text.empty()) return 0;
+  std::size_t used = 0;
+  unsigned long long seed = 0;
+  try {
+    seed = std::stoull(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || text.front() == '-') {
+    throw ColumnError(column + ": '" + text + "' is not a seed (an integer in [0, 2^64))");
+  }
+  return seed;
 }
 
-EvaluationRow ReadRow(Statement& s) {
-  EvaluationRow r;
-  r.trial_id = s.Int(0);
-  r.method = s.Text(1);
-  r.kind = s.Text(2);
-  r.iteration = static_cast<int>(s.Int(3));
-  r.index = static_cast<int>(s.Int(4));
-  r.params = s.Text(5);
-  r.terms = s.Text(6);
-  r.value = s.Double(7);
-  r.status = s.Text(8);
-  r.message = s.Text(9);
-  r.wall_s = s.Double(10);
-  r.started = s.Double(11);
-  r.finished = s.Double(12);
-  r.map_seed = SeedOf(s.Text(13));
-  r.flight_seed = SeedOf(s.Text(14));
-  return r;
+std::string ColumnTextOf(sqlite3_stmt* s, int i) {
+  const auto* t = sqlite3_column_text(s, i);
+  return t ? reinterpret_cast<const char*>(t) : "";
 }
-
-const char* kSelectEval =
-    "SELECT trial_id, method, kind, iteration, idx, params, terms, value, status, message, wall_s, "
-    "started, finished, map_seed, flight_seed FROM evaluation";
 
 std::string CsvField(const std::string& s) {
   if (s.find_first_of(",\"\n") == std::string::npos) return s;
@@ -143,7 +140,188 @@ std::string Num(double v) {
   return buf;
 }
 
+/// The SQL names of `list` (those named in `only`, when given), comma-separated, each after
+/// `prefix`.
+template <class T>
+std::string SqlNames(const Columns<T>& list, const std::string& prefix = "",
+                     const std::vector<std::string>& only = {}) {
+  std::string out;
+  for (const auto& c : list.List()) {
+    if (!only.empty() && std::find(only.begin(), only.end(), c.name) == only.end()) continue;
+    out += (out.empty() ? "" : ", ") + prefix + c.sql;
+  }
+  return out;
+}
+
+/// Binds `row`'s columns of `list` (those named in `only`, when given) to `s`'s parameters
+/// from `first` on, in list order; returns the next parameter's index.
+template <class T>
+int BindColumns(sqlite3_stmt* s, int first, const T& row, const Columns<T>& list,
+                const std::vector<std::string>& only = {}) {
+  int i = first;
+  for (const auto& c : list.List()) {
+    if (!only.empty() && std::find(only.begin(), only.end(), c.name) == only.end()) continue;
+    const ColumnValue v = c.get(row);
+    if (c.type == ColumnType::kInteger) {
+      sqlite3_bind_int64(s, i, std::get<std::int64_t>(v));
+    } else if (c.type == ColumnType::kReal) {
+      sqlite3_bind_double(s, i, std::get<double>(v));
+    } else {
+      const std::string text = ColumnText(v, c.type, /*shortest=*/false);
+      sqlite3_bind_text(s, i, text.data(), static_cast<int>(text.size()), SQLITE_TRANSIENT);
+    }
+    ++i;
+  }
+  return i;
+}
+
+/// The record whose `list` columns stand in `s`'s result columns `first`, `first`+1, ...
+/// Throws ColumnError naming the column for a value it cannot hold.
+template <class T>
+T ReadColumns(sqlite3_stmt* s, int first, const Columns<T>& list) {
+  T r{};
+  int i = first;
+  for (const auto& c : list.List()) {
+    switch (c.type) {
+      case ColumnType::kInteger: c.set(r, ColumnValue(sqlite3_column_int64(s, i))); break;
+      case ColumnType::kReal: c.set(r, ColumnValue(sqlite3_column_double(s, i))); break;
+      case ColumnType::kSeed: c.set(r, ColumnValue(SeedOf(ColumnTextOf(s, i), c.name))); break;
+      case ColumnType::kValues: QT_DEMAND(false, "a stored column holds no map"); break;
+      default: c.set(r, ColumnValue(ColumnTextOf(s, i))); break;
+    }
+    ++i;
+  }
+  return r;
+}
+
+std::string SelectEvaluations() { return "SELECT " + EvaluationSqlColumns() + " FROM evaluation"; }
+
+/// Creates table `table` (id INTEGER PRIMARY KEY, the columns of `list`, `constraint` if any)
+/// and its stored_column rows, or, for a store that has the table, checks that its columns are
+/// the list's (a store of another quadtune version is refused, naming both column lists).
+template <class T>
+void EnsureTable(sqlite3* db, const std::string& path, const std::string& table,
+                 const Columns<T>& list, const std::string& constraint) {
+  std::string stored;
+  {
+    Statement s(db, "PRAGMA table_info(" + table + ")");
+    while (s.Step()) {
+      if (s.Text(1) != "id") stored += (stored.empty() ? "" : ", ") + s.Text(1);
+    }
+  }
+  if (!stored.empty() && stored != SqlNames(list)) {
+    throw ConfigError(path, "--resume",
+                      "the store's " + table + " columns (" + stored + ") are not this " +
+                          "quadtune's (" + SqlNames(list) +
+                          "); run again with --overwrite to start afresh");
+  }
+  if (!stored.empty()) return;
+  std::string sql = "CREATE TABLE " + table + "(id INTEGER PRIMARY KEY";
+  for (const auto& c : list.List()) sql += ", " + c.sql + " " + SqlType(c.type);
+  Statement(db, sql + (constraint.empty() ? "" : ", " + constraint) + ")").Step();
+  Statement insert(db,
+                   "INSERT OR REPLACE INTO stored_column(tbl, position, name, sql, type, names, "
+                   "prefix, meaning) VALUES(?, ?, ?, ?, ?, ?, ?, ?)");
+  int position = 0;
+  for (const auto& c : list.List()) {
+    std::string names;
+    for (const auto& n : c.names) names += (names.empty() ? "" : ",") + n;
+    insert.Bind(1, table);
+    insert.Bind(2, ++position);
+    insert.Bind(3, c.name);
+    insert.Bind(4, c.sql);
+    insert.Bind(5, std::string(ToString(c.type)));
+    insert.Bind(6, names);
+    insert.Bind(7, c.prefix);
+    insert.Bind(8, c.meaning);
+    insert.Step();
+    sqlite3_reset(insert.Raw());
+  }
+}
+
 }  // namespace
+
+const Columns<EvaluationRow>& EvaluationColumns() {
+  using R = EvaluationRow;
+  static const Columns<R> columns =
+      Columns<R>()
+          .Integer("trial_id", &R::trial_id,
+                   "the trial's id (trial table); 0 for held-out flights of the defaults")
+          .Enum("method", &R::method, "the trial's method")
+          .Enum("kind", &R::kind, "what was evaluated")
+          .Integer("iteration", &R::iteration,
+                   "round (long), PSO generation (short), held-out map (validation), race "
+                   "(race, incumbent), candidate rank (recheck)")
+          .Integer("index", &R::index, "position inside the iteration")
+          .StoredAs("idx")
+          .Object("params", &R::params, "param_", "the parameters evaluated, name → value")
+          .Object("terms", &R::terms, "term_", "every objective term, name → value")
+          .Real("value", &R::value, "the objective value told to the optimiser")
+          .Enum("status", &R::status,
+                "whether the evaluation ran: `failed` raised an error or diverged")
+          .Enum("state", &R::state,
+                "what became of it: `ok` only for a flight that reached every waypoint without "
+                "a collision, or a re-solve that found a trajectory")
+          .Text("message", &R::message, "the reason, in words (how a flight ended)")
+          .Real("wall_s", &R::wall_s, "wall-clock duration (s)")
+          .Real("started", &R::started, "unix time (s)")
+          .Real("finished", &R::finished, "unix time (s)")
+          .Seed("map_seed", &R::map_seed, "flights: the seed of the map flown")
+          .Seed("flight_seed", &R::flight_seed,
+                "flights: the seed of the flight's random streams");
+  return columns;
+}
+
+std::string EvaluationSqlColumns(const std::string& prefix) {
+  return SqlNames(EvaluationColumns(), prefix);
+}
+
+const Columns<ExperimentRow>& ExperimentColumns() {
+  using E = ExperimentRow;
+  static const Columns<E> columns =
+      Columns<E>()
+          .Text("name", &E::name, "the experiment's name")
+          .Text("config", &E::config, "the experiment's configuration text")
+          .Integer("seed", &E::seed, "the experiment's seed (its 64 bits as a signed integer)")
+          .Text("version", &E::version, "quadtune's version")
+          .Text("machine", &E::machine, "host name and cores")
+          .Integer("threads", &E::threads, "threads per process")
+          .Enum("mode", &E::mode, "timing mode")
+          .Real("started", &E::started, "unix time (s)");
+  return columns;
+}
+
+const Columns<TrialRow>& TrialColumns() {
+  using T = TrialRow;
+  static const Columns<T> columns =
+      Columns<T>()
+          .Integer("experiment_id", &T::experiment_id, "the experiment's id")
+          .Enum("method", &T::method, "the trial's method")
+          .Integer("repeat", &T::repeat, "the repeat")
+          .Seed("map_seed", &T::map_seed, "the seed of the trial's first map")
+          .Enum("status", &T::status, "where the trial stands")
+          .Object("best_params", &T::best_params, "best_",
+                  "the best flight's parameters, name → value (NULL while running)")
+          .Real("best_value", &T::best_value, "the best flight's f_l (NULL while running)")
+          .Real("finished", &T::finished, "unix time (s) it finished (NULL while running)");
+  return columns;
+}
+
+EvaluationRow ReadEvaluationRow(sqlite3_stmt* s, int first) {
+  return ReadColumns(s, first, EvaluationColumns());
+}
+
+std::string ColumnText(const ColumnValue& value, ColumnType type, bool shortest) {
+  switch (type) {
+    case ColumnType::kInteger: return std::to_string(std::get<std::int64_t>(value));
+    case ColumnType::kReal:
+      return shortest ? nlohmann::json(std::get<double>(value)).dump()
+                      : Num(std::get<double>(value));
+    case ColumnType::kSeed: return SeedText(std::get<std::uint64_t>(value));
+    case ColumnType::kValues: QT_DEMAND(false, "a stored column holds no map"); return "";
+    default: return std::get<std::string>(value);
+  }
+}
 
 void ResultStore::Exec(const std::string& sql) const {
   char* err = nullptr;
@@ -174,6 +352,10 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
       if (verdict != "ok") throw std::runtime_error("integrity check: " + verdict);
     }
     Exec(kSchema);
+    EnsureTable(db_.get(), path, "experiment", ExperimentColumns(), "");
+    EnsureTable(db_.get(), path, "trial", TrialColumns(), "UNIQUE(experiment_id, method, repeat)");
+    EnsureTable(db_.get(), path, "evaluation", EvaluationColumns(),
+                "UNIQUE(trial_id, kind, iteration, idx)");
     {
       Statement s(db_.get(), "SELECT id, config FROM experiment ORDER BY id LIMIT 1");
       if (s.Step()) {
@@ -187,24 +369,26 @@ ResultStore::ResultStore(const std::string& path, const Experiment& experiment, 
       }
     }
     if (experiment_id_ == 0) {
-      Statement s(
-          db_.get(),
-          "INSERT INTO experiment(name, config, seed, version, machine, threads, mode, started) "
-          "VALUES(?,?,?,?,?,?,?,?)");
-      s.Bind(1, experiment.name);
-      s.Bind(2, experiment.text);
-      s.Bind(3, static_cast<std::int64_t>(experiment.seed));
-      s.Bind(4, std::string(QUADTUNE_VERSION));
-      s.Bind(5, Machine());
-      s.Bind(6, threads);
-      s.Bind(7, std::string(experiment.mode == TimingMode::kRealtime ? "realtime" : "reproducible"));
-      s.Bind(8, Now());
+      ExperimentRow row;
+      row.name = experiment.name;
+      row.config = experiment.text;
+      row.seed = static_cast<std::int64_t>(experiment.seed);
+      row.version = QUADTUNE_VERSION;
+      row.machine = Machine();
+      row.threads = threads;
+      row.mode = experiment.mode;
+      row.started = Now();
+      std::string marks;
+      for (std::size_t i = 0; i < ExperimentColumns().List().size(); ++i) marks += i ? ",?" : "?";
+      Statement s(db_.get(), "INSERT INTO experiment(" + SqlNames(ExperimentColumns()) +
+                                 ") VALUES(" + marks + ")");
+      BindColumns(s.Raw(), 1, row, ExperimentColumns());
       s.Step();
       experiment_id_ = sqlite3_last_insert_rowid(db_.get());
     }
-    Statement s(db_.get(), kSelectEval);
+    Statement s(db_.get(), SelectEvaluations());
     while (s.Step()) {
-      EvaluationRow r = ReadRow(s);
+      EvaluationRow r = ReadEvaluationRow(s.Raw(), 0);
       stored_.emplace(std::make_tuple(r.trial_id, r.kind, r.iteration, r.index), std::move(r));
     }
   } catch (const ConfigError&) {
@@ -243,34 +427,38 @@ std::unique_ptr<sqlite3, ResultStore::CloseConnection> ResultStore::Open(const s
 }
 
 std::int64_t ResultStore::Trial(const std::string& method, int repeat, std::uint64_t map_seed) {
+  TrialRow t;
+  t.experiment_id = experiment_id_;
+  const std::optional<Method> m = FromString<Method>(method);
+  QT_DEMAND(m.has_value(), "a trial of an unknown method '" + method + "'");
+  t.method = *m;
+  t.repeat = repeat;
+  t.map_seed = map_seed;
+  const std::vector<std::string> key = {"experiment_id", "method", "repeat"};
   {
     Statement s(db_.get(), "SELECT id FROM trial WHERE experiment_id=? AND method=? AND repeat=?");
-    s.Bind(1, experiment_id_);
-    s.Bind(2, method);
-    s.Bind(3, repeat);
+    BindColumns(s.Raw(), 1, t, TrialColumns(), key);
     if (s.Step()) return s.Int(0);
   }
-  Statement s(
-      db_.get(),
-      "INSERT INTO trial(experiment_id, method, repeat, map_seed, status) VALUES(?,?,?,?,?)");
-  s.Bind(1, experiment_id_);
-  s.Bind(2, method);
-  s.Bind(3, repeat);
-  s.Bind(4, std::to_string(map_seed));
-  s.Bind(5, std::string("running"));
+  // The best point and the finish time stay NULL until FinishTrial.
+  const std::vector<std::string> created = {"experiment_id", "method", "repeat", "map_seed",
+                                            "status"};
+  Statement s(db_.get(), "INSERT INTO trial(" + SqlNames(TrialColumns(), "", created) +
+                             ") VALUES(?,?,?,?,?)");
+  BindColumns(s.Raw(), 1, t, TrialColumns(), created);
   s.Step();
   return sqlite3_last_insert_rowid(db_.get());
 }
 
-const EvaluationRow* ResultStore::Find(std::int64_t trial_id, const std::string& kind,
-                                       int iteration, int index) const {
+const EvaluationRow* ResultStore::Find(std::int64_t trial_id, EvalKind kind, int iteration,
+                                       int index) const {
   auto it = stored_.find(std::make_tuple(trial_id, kind, iteration, index));
   return it == stored_.end() ? nullptr : &it->second;
 }
 
 std::vector<EvaluationRow> ResultStore::StoredRows(std::int64_t trial_id) const {
   std::vector<EvaluationRow> rows;
-  for (auto it = stored_.lower_bound(std::make_tuple(trial_id, std::string(), INT_MIN, INT_MIN));
+  for (auto it = stored_.lower_bound(std::make_tuple(trial_id, EvalKind{}, INT_MIN, INT_MIN));
        it != stored_.end() && std::get<0>(it->first) == trial_id; ++it) {
     rows.push_back(it->second);
   }
@@ -279,37 +467,18 @@ std::vector<EvaluationRow> ResultStore::StoredRows(std::int64_t trial_id) const 
 
 void ResultStore::BindAndStep(const EvaluationRow& r) {
   if (insert_ == nullptr) {
-    const char* sql =
-        "INSERT OR IGNORE INTO evaluation(trial_id, method, kind, iteration, idx, params, terms, "
-        "value, status, message, wall_s, started, finished, map_seed, flight_seed) "
-        "VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)";
+    std::string marks;
+    for (std::size_t i = 0; i < EvaluationColumns().List().size(); ++i) marks += i ? ",?" : "?";
+    const std::string sql = "INSERT OR IGNORE INTO evaluation(" + EvaluationSqlColumns() +
+                            ") VALUES(" + marks + ")";
     sqlite3_stmt* prepared = nullptr;
-    const int rc = sqlite3_prepare_v2(db_.get(), sql, -1, &prepared, nullptr);
+    const int rc = sqlite3_prepare_v2(db_.get(), sql.c_str(), -1, &prepared, nullptr);
     insert_.reset(prepared);
     if (rc != SQLITE_OK) {
       throw std::runtime_error(std::string("sqlite: ") + sqlite3_errmsg(db_.get()) + " in " + sql);
     }
   }
-  const auto text = [this](int i, const std::string& v) {
-    sqlite3_bind_text(insert_.get(), i, v.data(), static_cast<int>(v.size()), SQLITE_STATIC);
-  };
-  sqlite3_bind_int64(insert_.get(), 1, r.trial_id);
-  text(2, r.method);
-  text(3, r.kind);
-  sqlite3_bind_int(insert_.get(), 4, r.iteration);
-  sqlite3_bind_int(insert_.get(), 5, r.index);
-  text(6, r.params);
-  text(7, r.terms);
-  sqlite3_bind_double(insert_.get(), 8, r.value);
-  text(9, r.status);
-  text(10, r.message);
-  sqlite3_bind_double(insert_.get(), 11, r.wall_s);
-  sqlite3_bind_double(insert_.get(), 12, r.started);
-  sqlite3_bind_double(insert_.get(), 13, r.finished);
-  const std::string map_seed = SeedText(r.map_seed);
-  const std::string flight_seed = SeedText(r.flight_seed);
-  text(14, map_seed);
-  text(15, flight_seed);
+  BindColumns(insert_.get(), 1, r, EvaluationColumns());
   const int rc = sqlite3_step(insert_.get());
   sqlite3_reset(insert_.get());
   sqlite3_clear_bindings(insert_.get());
@@ -336,38 +505,49 @@ void ResultStore::InsertBatch(std::span<const EvaluationRow> rows) {
   }
 }
 
-void ResultStore::FinishTrial(std::int64_t trial_id, const std::string& status,
+void ResultStore::FinishTrial(std::int64_t trial_id, TrialStatus status,
                               const std::string& best_params, double best_value) {
-  Statement s(db_.get(),
-              "UPDATE trial SET status=?, best_params=?, best_value=?, finished=? WHERE id=?");
-  s.Bind(1, status);
-  s.Bind(2, best_params);
-  s.Bind(3, best_value);
-  s.Bind(4, Now());
-  s.Bind(5, trial_id);
+  TrialRow t;
+  t.status = status;
+  t.best_params = best_params;
+  t.best_value = best_value;
+  t.finished = Now();
+  const std::vector<std::string> set = {"status", "best_params", "best_value", "finished"};
+  std::string assignments;
+  for (const auto& c : TrialColumns().List()) {
+    if (std::find(set.begin(), set.end(), c.name) != set.end()) {
+      assignments += (assignments.empty() ? "" : ", ") + c.sql + "=?";
+    }
+  }
+  Statement s(db_.get(), "UPDATE trial SET " + assignments + " WHERE id=?");
+  const int next = BindColumns(s.Raw(), 1, t, TrialColumns(), set);
+  s.Bind(next, trial_id);
   s.Step();
 }
 
 std::vector<EvaluationRow> ResultStore::Evaluations() const {
   std::vector<EvaluationRow> rows;
-  Statement s(db_.get(), std::string(kSelectEval) + " ORDER BY trial_id, kind, iteration, idx");
-  while (s.Step()) rows.push_back(ReadRow(s));
+  Statement s(db_.get(), SelectEvaluations() + " ORDER BY trial_id, kind, iteration, idx");
+  while (s.Step()) rows.push_back(ReadEvaluationRow(s.Raw(), 0));
   return rows;
+}
+
+ExperimentRow ResultStore::ExperimentInfo() const {
+  Statement s(db_.get(), "SELECT id, " + SqlNames(ExperimentColumns()) +
+                             " FROM experiment ORDER BY id LIMIT 1");
+  if (!s.Step()) return {};
+  ExperimentRow row = ReadColumns(s.Raw(), 1, ExperimentColumns());
+  row.id = s.Int(0);
+  return row;
 }
 
 std::vector<TrialRow> ResultStore::Trials() const {
   std::vector<TrialRow> rows;
-  Statement s(db_.get(),
-              "SELECT id, method, repeat, status, best_params, best_value FROM trial ORDER BY id");
+  Statement s(db_.get(), "SELECT id, " + SqlNames(TrialColumns()) + " FROM trial ORDER BY id");
   while (s.Step()) {
-    TrialRow t;
+    TrialRow t = ReadColumns(s.Raw(), 1, TrialColumns());
     t.id = s.Int(0);
-    t.method = s.Text(1);
-    t.repeat = static_cast<int>(s.Int(2));
-    t.status = s.Text(3);
-    t.best_params = s.Text(4);
-    t.best_value = s.Double(5);
-    rows.push_back(t);
+    rows.push_back(std::move(t));
   }
   return rows;
 }
@@ -376,29 +556,41 @@ void ResultStore::ExportCsv(const std::string& directory) const {
   namespace fs = std::filesystem;
   // Every row is read before a file is written: a store that cannot be read leaves none.
   std::ostringstream experiment;
-  experiment << "id,name,seed,version,machine,threads,mode,started\n";
-  Statement s(db_.get(),
-              "SELECT id, name, seed, version, machine, threads, mode, started FROM experiment");
-  while (s.Step()) {
-    experiment << s.Int(0) << ',' << CsvField(s.Text(1)) << ',' << s.Int(2) << ','
-               << CsvField(s.Text(3)) << ',' << CsvField(s.Text(4)) << ',' << s.Int(5) << ','
-               << s.Text(6) << ',' << Num(s.Double(7)) << '\n';
+  experiment << "id";
+  for (const auto& c : ExperimentColumns().List()) {
+    if (c.name != "config") experiment << ',' << c.name;  // the text stays in the store
+  }
+  experiment << '\n';
+  if (const ExperimentRow row = ExperimentInfo(); row.id != 0) {
+    experiment << row.id;
+    for (const auto& c : ExperimentColumns().List()) {
+      if (c.name != "config") {
+        experiment << ',' << CsvField(ColumnText(c.get(row), c.type, false));
+      }
+    }
+    experiment << '\n';
   }
   std::ostringstream trials;
-  trials << "id,method,repeat,status,best_params,best_value\n";
+  trials << "id";
+  for (const auto& c : TrialColumns().List()) trials << ',' << c.name;
+  trials << '\n';
   for (const auto& t : Trials()) {
-    trials << t.id << ',' << t.method << ',' << t.repeat << ',' << t.status << ','
-           << CsvField(t.best_params) << ',' << Num(t.best_value) << '\n';
+    trials << t.id;
+    for (const auto& c : TrialColumns().List()) {
+      trials << ',' << CsvField(ColumnText(c.get(t), c.type, false));
+    }
+    trials << '\n';
   }
   std::ostringstream evaluations;
-  evaluations << "trial_id,method,kind,iteration,index,params,terms,value,status,message,wall_s,"
-                 "started,finished,map_seed,flight_seed\n";
+  const auto& columns = EvaluationColumns().List();
+  for (std::size_t c = 0; c < columns.size(); ++c) evaluations << (c ? "," : "") << columns[c].name;
+  evaluations << '\n';
   for (const auto& r : Evaluations()) {
-    evaluations << r.trial_id << ',' << r.method << ',' << r.kind << ',' << r.iteration << ','
-                << r.index << ',' << CsvField(r.params) << ',' << CsvField(r.terms) << ','
-                << Num(r.value) << ',' << r.status << ',' << CsvField(r.message) << ','
-                << Num(r.wall_s) << ',' << Num(r.started) << ',' << Num(r.finished) << ','
-                << SeedText(r.map_seed) << ',' << SeedText(r.flight_seed) << '\n';
+    for (std::size_t c = 0; c < columns.size(); ++c) {
+      evaluations << (c ? "," : "")
+                  << CsvField(ColumnText(columns[c].get(r), columns[c].type, false));
+    }
+    evaluations << '\n';
   }
   fs::create_directories(directory);
   WriteFileAtomically((fs::path(directory) / "experiment.csv").string(), experiment.str());

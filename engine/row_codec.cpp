@@ -32,7 +32,6 @@ class Reader {
   std::uint64_t U64() { return Little(8); }
   std::uint32_t U32() { return static_cast<std::uint32_t>(Little(4)); }
   std::int64_t I64() { return static_cast<std::int64_t>(U64()); }
-  int I32() { return static_cast<int>(static_cast<std::int32_t>(U32())); }
   double F64() { return std::bit_cast<double>(U64()); }
   std::string String() {
     const std::uint32_t n = U32();
@@ -76,21 +75,20 @@ RowBatch::RowBatch(std::uint64_t sequence) : sequence_(sequence) {
 }
 
 void RowBatch::Add(const EvaluationRow& r) {
-  PutU64(bytes_, static_cast<std::uint64_t>(r.trial_id));
-  PutU32(bytes_, static_cast<std::uint32_t>(r.iteration));
-  PutU32(bytes_, static_cast<std::uint32_t>(r.index));
-  PutU64(bytes_, std::bit_cast<std::uint64_t>(r.value));
-  PutU64(bytes_, std::bit_cast<std::uint64_t>(r.wall_s));
-  PutU64(bytes_, std::bit_cast<std::uint64_t>(r.started));
-  PutU64(bytes_, std::bit_cast<std::uint64_t>(r.finished));
-  PutU64(bytes_, r.map_seed);
-  PutU64(bytes_, r.flight_seed);
-  PutString(bytes_, r.method);
-  PutString(bytes_, r.kind);
-  PutString(bytes_, r.params);
-  PutString(bytes_, r.terms);
-  PutString(bytes_, r.status);
-  PutString(bytes_, r.message);
+  for (const auto& c : EvaluationColumns().List()) {
+    const ColumnValue v = c.get(r);
+    switch (c.type) {
+      case ColumnType::kInteger:
+        PutU64(bytes_, static_cast<std::uint64_t>(std::get<std::int64_t>(v)));
+        break;
+      case ColumnType::kReal:
+        PutU64(bytes_, std::bit_cast<std::uint64_t>(std::get<double>(v)));
+        break;
+      case ColumnType::kSeed: PutU64(bytes_, std::get<std::uint64_t>(v)); break;
+      case ColumnType::kValues: throw CodecError("row codec: a stored column holds no map");
+      default: PutString(bytes_, std::get<std::string>(v)); break;
+    }
+  }
   ++rows_;
 }
 
@@ -110,21 +108,19 @@ std::uint64_t DecodeBatch(std::string_view bytes, std::vector<EvaluationRow>& ro
   rows.reserve(rows.size() + count);
   for (std::uint32_t i = 0; i < count; ++i) {
     EvaluationRow& r = rows.emplace_back();
-    r.trial_id = in.I64();
-    r.iteration = in.I32();
-    r.index = in.I32();
-    r.value = in.F64();
-    r.wall_s = in.F64();
-    r.started = in.F64();
-    r.finished = in.F64();
-    r.map_seed = in.U64();
-    r.flight_seed = in.U64();
-    r.method = in.String();
-    r.kind = in.String();
-    r.params = in.String();
-    r.terms = in.String();
-    r.status = in.String();
-    r.message = in.String();
+    for (const auto& c : EvaluationColumns().List()) {
+      try {
+        switch (c.type) {
+          case ColumnType::kInteger: c.set(r, ColumnValue(in.I64())); break;
+          case ColumnType::kReal: c.set(r, ColumnValue(in.F64())); break;
+          case ColumnType::kSeed: c.set(r, ColumnValue(in.U64())); break;
+          case ColumnType::kValues: throw CodecError("row codec: a stored column holds no map");
+          default: c.set(r, ColumnValue(in.String())); break;
+        }
+      } catch (const ColumnError& e) {
+        throw CodecError(std::string("row codec: ") + e.what());
+      }
+    }
   }
   if (!in.Done()) throw CodecError("row codec: bytes after the last row");
   return sequence;

@@ -43,6 +43,7 @@ struct Outcome {
   ParamValues params;
   ObjectiveValue objective;
   EvalStatus status = EvalStatus::kOk;
+  EvalState state = EvalState::kOk;
   std::string message;
   double wall_s = 0.0;
   double started = 0.0;
@@ -117,6 +118,7 @@ void FlyInto(Context& c, std::uint64_t map_seed, const ParamValues& params, std:
   if (threw) out.queries.clear();
   out.objective = LongTermObjective(rec, c.e.objective);
   out.status = rec.status;
+  out.state = StateOf(rec);
   out.message = rec.message;
   out.query_count = static_cast<int>(out.queries.size());
   out.wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
@@ -174,7 +176,7 @@ class EvaluationLog {
   /// The stored evaluation (kind, iteration, index) replayed for the parameters `asked`, if one
   /// is stored. In reproducible mode the stored parameters must be the ones asked now (else
   /// ConfigError: the stored run is not a prefix of this one).
-  [[nodiscard]] std::optional<Outcome> Replayed(const char* kind, int iteration, int index,
+  [[nodiscard]] std::optional<Outcome> Replayed(EvalKind kind, int iteration, int index,
                                                 const ParamValues& asked) const {
     const EvaluationRow* row =
         c_.store != nullptr ? c_.store->Find(trial_id_, kind, iteration, index) : nullptr;
@@ -183,18 +185,19 @@ class EvaluationLog {
   }
 
   /// Stores a new evaluation (a replayed one is stored already).
-  void Store(const char* kind, int iteration, int index, const Outcome& o) const {
+  void Store(EvalKind kind, int iteration, int index, const Outcome& o) const {
     if (c_.store == nullptr || o.replayed) return;
     EvaluationRow r;
     r.trial_id = trial_id_;
-    r.method = ToString(method_);
+    r.method = method_;
     r.kind = kind;
     r.iteration = iteration;
     r.index = index;
     r.params = ToJson(o.params);
     r.terms = ToJson(o.objective.terms);
     r.value = o.objective.value;
-    r.status = ToString(o.status);
+    r.status = o.status;
+    r.state = o.state;
     r.message = o.message;
     r.wall_s = o.wall_s;
     r.started = o.started;
@@ -207,14 +210,15 @@ class EvaluationLog {
   /// Marks the trial finished (done, or cancelled) with its best point.
   void Finish(bool done, const ParamValues& best, double best_value) const {
     if (c_.store == nullptr) return;
-    c_.store->FinishTrial(trial_id_, done ? "done" : "cancelled", ToJson(best), best_value);
+    c_.store->FinishTrial(trial_id_, done ? TrialStatus::kDone : TrialStatus::kCancelled,
+                          ToJson(best), best_value);
   }
 
  private:
   Outcome Replay(const EvaluationRow& row, const ParamValues& asked) const {
     if (c_.e.mode == TimingMode::kReproducible && row.params != ToJson(asked)) {
       throw ConfigError(c_.options.store_path, "--resume",
-                        "stored evaluation (" + row.kind + ", iteration " +
+                        "stored evaluation (" + std::string(ToString(row.kind)) + ", iteration " +
                             std::to_string(row.iteration) + ", index " + std::to_string(row.index) +
                             ") has parameters " + row.params + " but the run asks " +
                             ToJson(asked) + "; the stored run is not a prefix of this one");
@@ -226,9 +230,8 @@ class EvaluationLog {
     for (auto it = terms.begin(); it != terms.end(); ++it) {
       o.objective.terms[it.key()] = it.value().get<double>();
     }
-    o.status = row.status == "ok"
-                   ? EvalStatus::kOk
-                   : (row.status == "failed" ? EvalStatus::kFailed : EvalStatus::kCancelled);
+    o.status = row.status;
+    o.state = row.state;
     o.message = row.message;
     o.wall_s = row.wall_s;
     o.started = row.started;
@@ -387,18 +390,20 @@ class QueryBuffer {
 };
 
 /// One θ_s candidate of a PSO generation: its outcome and, per re-solved query, the objective,
-/// the error (empty when none) and the wall time.
+/// the state, the error (empty when none) and the wall time.
 struct ShortEvaluation {
   Outcome outcome;
   struct Resolve {
     ObjectiveValue value;
+    EvalState state = EvalState::kOk;
     std::string error;
     double wall_s = 0.0;
   };
   std::vector<Resolve> resolves;
 
   /// The mean over the re-solved queries, term by term, into the outcome (a replayed outcome,
-  /// or one without re-solves, is kept).
+  /// or one without re-solves, is kept); its state: error when a re-solve raised one, else the
+  /// first re-solve's that is not ok.
   void Average() {
     Outcome& o = outcome;
     if (o.replayed || resolves.empty()) return;
@@ -407,6 +412,7 @@ struct ShortEvaluation {
       o.objective.value += r.value.value / n;
       for (const auto& [k, v] : r.value.terms) o.objective.terms[k] += v / n;
       o.wall_s += r.wall_s;
+      if (r.state == EvalState::kError || o.state == EvalState::kOk) o.state = r.state;
       if (!r.error.empty()) {
         o.status = EvalStatus::kFailed;
         if (o.message.empty()) o.message = r.error;
@@ -500,7 +506,7 @@ class Trial {
     for (std::size_t i = 0; i < batch.size(); ++i) {
       const int index = static_cast<int>(i);
       const std::uint64_t map_seed = e_.FlightMapSeed(repeat_, TuningFlights() + index);
-      if (auto replayed = log_.Replayed("long", iteration, index, batch[i])) {
+      if (auto replayed = log_.Replayed(EvalKind::kLong, iteration, index, batch[i])) {
         if (e_.mode == TimingMode::kReproducible && replayed->map_seed != map_seed) {
           throw ConfigError(c_.options.store_path, "--resume",
                             "stored flight (iteration " + std::to_string(iteration) + ", index " +
@@ -559,7 +565,7 @@ class Trial {
       if (c_.CancelRequested()) return false;
       for (std::size_t i = 0; i < out.size(); ++i) {
         NumberFlight(out[i]);
-        log_.Store("long", iteration, static_cast<int>(i), out[i]);
+        log_.Store(EvalKind::kLong, iteration, static_cast<int>(i), out[i]);
         if (opt != nullptr) opt->Tell(cands[i].id, out[i].objective.value);
         Observe(out[i]);
       }
@@ -589,7 +595,7 @@ class Trial {
       if (!ScoreGeneration(gen, cands, entries, materialised, evals)) return;
       for (std::size_t i = 0; i < cands.size(); ++i) {
         const Outcome& o = evals[i].outcome;
-        log_.Store("short", gen, static_cast<int>(i), o);
+        log_.Store(EvalKind::kShort, gen, static_cast<int>(i), o);
         bo_pso_.pso->Tell(cands[i].id, o.objective.value);
         ++summary_.short_evals;
         if (o.status != EvalStatus::kOk) ++summary_.failed;
@@ -616,7 +622,7 @@ class Trial {
     for (std::size_t i = 0; i < cands.size(); ++i) {
       const ParamValues theta_s = bo_pso_.short_space.ToNamed(cands[i].x);
       Outcome& out = evals[i].outcome;
-      if (auto replayed = log_.Replayed("short", gen, static_cast<int>(i), theta_s)) {
+      if (auto replayed = log_.Replayed(EvalKind::kShort, gen, static_cast<int>(i), theta_s)) {
         out = std::move(*replayed);
         continue;
       }
@@ -662,6 +668,7 @@ class Trial {
           resolve->error = std::string("exception: ") + ex.what();
         }
         resolve->value = ShortTermObjective(rec, e_.objective, e_.mode);
+        resolve->state = StateOf(rec);
         resolve->wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
         c_.resolves.fetch_add(1);
       });
@@ -696,7 +703,7 @@ class Trial {
     for (std::size_t i = 0; i < out.size(); ++i) {
       if (!out[i].replayed) out[i].objective.terms["n_d"] = summary_.context_changes;
       NumberFlight(out[i]);
-      log_.Store("long", iteration, static_cast<int>(i), out[i]);
+      log_.Store(EvalKind::kLong, iteration, static_cast<int>(i), out[i]);
       if (cands != nullptr) bo_pso_.bo->Tell((*cands)[i].id, out[i].objective.value);
       Observe(out[i]);
     }
@@ -907,7 +914,7 @@ class Trial {
       const RaceFlight f = flights[i];
       const ParamValues params = f.challenger ? challenger : incumbent_;
       Outcome* slot = &out[i];
-      if (auto replayed = log_.Replayed("race", race, first + static_cast<int>(i), params)) {
+      if (auto replayed = log_.Replayed(EvalKind::kRace, race, first + static_cast<int>(i), params)) {
         *slot = std::move(*replayed);
         continue;
       }
@@ -926,7 +933,7 @@ class Trial {
         o.objective.terms["challenger"] = flights[i].challenger ? 1.0 : 0.0;
         o.objective.terms["flight_no"] = summary_.flights + 1;
       }
-      log_.Store("race", race, first + static_cast<int>(i), o);
+      log_.Store(EvalKind::kRace, race, first + static_cast<int>(i), o);
       ++summary_.flights;
       ++summary_.race_flights;
       if (o.status != EvalStatus::kOk) ++summary_.failed;
@@ -982,7 +989,7 @@ class Trial {
 
   /// Kind "incumbent", iteration = race: the incumbent after the race and its mean f_l.
   void StoreRaceOutcome(int race, const optimizers::RaceDecision& d) {
-    if (log_.Replayed("incumbent", race, 0, incumbent_)) return;
+    if (log_.Replayed(EvalKind::kIncumbent, race, 0, incumbent_)) return;
     Outcome o;
     o.params = incumbent_;
     o.objective.value = incumbent_samples_.empty() ? e_.objective.failure_value
@@ -994,7 +1001,7 @@ class Trial {
                          {"incumbent_maps", static_cast<double>(incumbent_samples_.size())},
                          {"flight_no", summary_.flights}};
     o.started = o.finished = Now();
-    log_.Store("incumbent", race, 0, o);
+    log_.Store(EvalKind::kIncumbent, race, 0, o);
   }
 
   /// The defaults this trial falls back to (bo_pso: with the experiment's `start:`).
@@ -1046,7 +1053,7 @@ class Trial {
         for (int i = 0; i < k; ++i) {
           const int index = j + i;
           Outcome* slot = &out[static_cast<std::size_t>(i)];
-          if (auto replayed = log_.Replayed("recheck", r, index, cands[rank])) {
+          if (auto replayed = log_.Replayed(EvalKind::kRecheck, r, index, cands[rank])) {
             *slot = std::move(*replayed);
             continue;
           }
@@ -1061,7 +1068,7 @@ class Trial {
         if (c_.CancelRequested()) return false;
         for (int i = 0; i < k; ++i) {
           const Outcome& o = out[static_cast<std::size_t>(i)];
-          log_.Store("recheck", r, j + i, o);
+          log_.Store(EvalKind::kRecheck, r, j + i, o);
           ++summary_.recheck_flights;
           if (o.replayed) ++summary_.replayed;
           pass = pass && Passes(o);
@@ -1164,6 +1171,31 @@ long TrialRunner::Resolves() const { return impl_->c.resolves.load(); }
 int TrialRunner::Worlds() const { return impl_->pool.Size(); }
 double TrialRunner::ElapsedSeconds() const {
   return std::chrono::duration<double>(Clock::now() - impl_->c.start).count();
+}
+
+const Columns<TrialSummary>& TrialSummaryColumns() {
+  using T = TrialSummary;
+  static const Columns<T> columns =
+      Columns<T>()
+          .Text("method", &T::method, "the trial's method")
+          .Integer("repeat", &T::repeat, "the repeat")
+          .Integer("trial_id", &T::trial_id, "the store's id of the trial (0 without a store)")
+          .Values("best", &T::best, "parameters of the best flight")
+          .Real("best_value", &T::best_value, "the best flight's f_l")
+          .Values("recommended", &T::recommended, "the point the method recommends")
+          .Real("recommended_value", &T::recommended_value, "its estimated f_l")
+          .Integer("recommended_rank", &T::recommended_rank,
+                   "rank of the candidate whose re-flights passed; -1 when none")
+          .Integer("recheck_flights", &T::recheck_flights, "re-flights flown to pick it")
+          .Integer("flights", &T::flights, "every flight of the trial")
+          .Integer("short_evals", &T::short_evals, "θ_s candidates scored")
+          .Integer("failed", &T::failed, "failed evaluations")
+          .Integer("replayed", &T::replayed, "evaluations taken from the store on resume")
+          .Integer("races", &T::races, "races run")
+          .Integer("race_flights", &T::race_flights, "flights flown in races")
+          .Integer("incumbent_changes", &T::incumbent_changes, "races the challenger won")
+          .Integer("context_changes", &T::context_changes, "bo_pso: changes of the flying θ_s");
+  return columns;
 }
 
 RunSummary RunExperiment(const Experiment& experiment, const RunOptions& options) {

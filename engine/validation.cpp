@@ -116,7 +116,7 @@ std::vector<ValidationSummary> RunValidation(const Experiment& e,
     for (int v = 0; v < n; ++v) {
       const std::size_t slot = s * static_cast<std::size_t>(n) + static_cast<std::size_t>(v);
       const EvaluationRow* stored =
-          store != nullptr ? store->Find(subjects[s].trial_id, "validation", v, 0) : nullptr;
+          store != nullptr ? store->Find(subjects[s].trial_id, EvalKind::kValidation, v, 0) : nullptr;
       if (stored != nullptr) {
         rows[slot] = *stored;
         continue;
@@ -153,14 +153,17 @@ std::vector<ValidationSummary> RunValidation(const Experiment& e,
     const ObjectiveValue value = LongTermObjective(rec, e.objective);
     EvaluationRow& r = rows[slot];
     r.trial_id = subject.trial_id;
-    r.method = subject.method;
-    r.kind = "validation";
+    const std::optional<Method> method = FromString<Method>(subject.method);
+    QT_DEMAND(method.has_value(), "validation of an unknown method '" + subject.method + "'");
+    r.method = *method;
+    r.kind = EvalKind::kValidation;
     r.iteration = static_cast<int>(slot % static_cast<std::size_t>(n));
     r.index = 0;
     r.params = ToJson(jobs[j].params);
     r.terms = ToJson(value.terms);
     r.value = value.value;
-    r.status = ToString(rec.status);
+    r.status = rec.status;
+    r.state = StateOf(rec);
     r.message = rec.message;
     r.wall_s = rec.wall_time;
     r.finished = Now();
@@ -180,7 +183,7 @@ std::vector<ValidationSummary> RunValidation(const Experiment& e,
     for (int m = 0; m < n; ++m) {
       const EvaluationRow& r =
           rows[from * static_cast<std::size_t>(n) + static_cast<std::size_t>(m)];
-      if (r.status == ToString(EvalStatus::kCancelled)) continue;
+      if (r.status == EvalStatus::kCancelled) continue;
       const auto terms = nlohmann::json::parse(r.terms.empty() ? std::string("{}") : r.terms);
       const bool completed = terms.value("completed", 0.0) > 0.5;
       ++v.flights;

@@ -32,6 +32,7 @@
 #include "quadtune/common/error.hpp"
 #include "quadtune/engine/distributed.hpp"
 #include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/column_json.hpp"
 #include "quadtune/engine/result_store.hpp"
 #include "quadtune/engine/scheduler.hpp"
 #include "quadtune/engine/tuner.hpp"
@@ -126,24 +127,9 @@ int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& sto
                  "re-solves), {} failed, {} replayed",
                  t.method, t.repeat, t.best_value, t.flights, t.short_evals,
                  static_cast<long>(t.short_evals) * queries_per_eval, t.failed, t.replayed);
-    nlohmann::json tj;
-    tj["method"] = t.method;
-    tj["repeat"] = t.repeat;
-    tj["best_value"] = t.best_value;
-    tj["best"] = t.best;
-    tj["flights"] = t.flights;
-    tj["short_evals"] = t.short_evals;  // θ_s candidates
+    nlohmann::json tj =
+        engine::ToJson(t, engine::TrialSummaryColumns(), engine::JsonReals::kNumbers);
     tj["resolves"] = static_cast<long>(t.short_evals) * queries_per_eval;
-    tj["failed"] = t.failed;
-    tj["replayed"] = t.replayed;
-    tj["recommended"] = t.recommended;
-    tj["recommended_value"] = t.recommended_value;
-    tj["recommended_rank"] = t.recommended_rank;
-    tj["recheck_flights"] = t.recheck_flights;
-    tj["context_changes"] = t.context_changes;
-    tj["races"] = t.races;
-    tj["race_flights"] = t.race_flights;
-    tj["incumbent_changes"] = t.incumbent_changes;
     j["trials"].push_back(tj);
   }
   for (const auto& v : s.validation) {

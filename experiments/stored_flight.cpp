@@ -63,13 +63,6 @@ std::string Text(sqlite3_stmt* s, int col) {
   const auto* t = sqlite3_column_text(s, col);
   return t ? reinterpret_cast<const char*>(t) : "";
 }
-/// A column as text; REAL columns in their shortest exact decimal form.
-std::string Exact(sqlite3_stmt* s, int col) {
-  if (sqlite3_column_type(s, col) == SQLITE_FLOAT) {
-    return nlohmann::json(sqlite3_column_double(s, col)).dump();
-  }
-  return Text(s, col);
-}
 std::uint64_t Seed(const std::string& text) { return text.empty() ? 0 : std::stoull(text); }
 
 /// CSV cell: quoted when it holds a separator, quote or line break.
@@ -101,40 +94,41 @@ nlohmann::json StoredObject(const std::string& store, const std::string& id, con
   return j;
 }
 
+/// The evaluation row in `s`'s result columns from `first` on; a value its column cannot hold
+/// is a ConfigError naming the store, the evaluation and the column.
+engine::EvaluationRow RowOf(sqlite3_stmt* s, int first, const std::string& store,
+                            const std::string& id) {
+  try {
+    return engine::ReadEvaluationRow(s, first);
+  } catch (const ColumnError& e) {
+    throw ConfigError(store, "evaluation " + id, std::string("damaged results store: ") + e.what());
+  }
+}
+
 }  // namespace
 
 StoredFlight LoadStoredFlight(const std::string& store, std::int64_t id) {
   const ReadOnlyStore db(store);
   StoredFlight f;
   bool found = false;
-  db.Query(
-      "SELECT e.id, e.method, e.kind, e.iteration, e.idx, e.params, e.terms, e.value, e.status, "
-      "e.map_seed, e.flight_seed, t.map_seed, (SELECT config FROM experiment ORDER BY id "
-      "LIMIT 1) FROM evaluation e LEFT JOIN trial t ON t.id = e.trial_id WHERE e.id = " +
-          std::to_string(id),
-      [&](sqlite3_stmt* s) {
-        found = true;
-        f.id = sqlite3_column_int64(s, 0);
-        f.method = Text(s, 1);
-        f.kind = Text(s, 2);
-        f.iteration = sqlite3_column_int(s, 3);
-        f.index = sqlite3_column_int(s, 4);
-        f.params = Text(s, 5);
-        f.terms = Text(s, 6);
-        f.value = sqlite3_column_double(s, 7);
-        f.status = Text(s, 8);
-        const std::string row_map = Text(s, 9);
-        f.map_seed = Seed(row_map.empty() ? Text(s, 11) : row_map);
-        f.flight_seed = Seed(Text(s, 10));
-        f.config = Text(s, 12);
-      });
+  db.Query("SELECT e.id, t.map_seed, (SELECT config FROM experiment ORDER BY id LIMIT 1), " +
+               engine::EvaluationSqlColumns("e.") +
+               " FROM evaluation e LEFT JOIN trial t ON t.id = e.trial_id WHERE e.id = " +
+               std::to_string(id),
+           [&](sqlite3_stmt* s) {
+             found = true;
+             f.id = sqlite3_column_int64(s, 0);
+             f.row = RowOf(s, 3, store, std::to_string(f.id));
+             if (f.row.map_seed == 0) f.row.map_seed = Seed(Text(s, 1));
+             f.config = Text(s, 2);
+           });
   if (!found) {
     throw ConfigError(store, "--evaluation",
                       "no evaluation with id " + std::to_string(id) +
                           " (ids are the evaluation table's id column; see `quadtune export "
                           "--tidy`)");
   }
-  if (f.kind == "short") {
+  if (f.row.kind == engine::EvalKind::kShort) {
     throw ConfigError(store, "--evaluation",
                       "evaluation " + std::to_string(id) +
                           " is a short-term re-solve, not a flight; give a long-term row");
@@ -169,15 +163,17 @@ int FlyStored(const std::string& store, std::int64_t id, const std::string& out)
   }
   const engine::IpoptPlannerOptions& o = planner->options();
   // The map and world exactly as IpoptPlanner::PrepareMap and ::Fly build them.
-  const layout::Layout layout = layout::GenerateLayout(o.layout, f.map_seed);
+  const engine::EvaluationRow& row = f.row;
+  const layout::Layout layout = layout::GenerateLayout(o.layout, row.map_seed);
   planning::PlannerParams params = o.base;
-  const nlohmann::json stored_params = StoredObject(store, std::to_string(id), "params", f.params);
+  const nlohmann::json stored_params =
+      StoredObject(store, std::to_string(id), "params", row.params);
   for (auto it = stored_params.begin(); it != stored_params.end(); ++it) {
     params.Set(it.key(), it.value().get<double>());
   }
   params.Validate(store + " evaluation " + std::to_string(id));
   const sim::Scenario scenario =
-      sim::Scenario::OverLayout(layout, o.mission, o.drone, o.world, f.flight_seed);
+      sim::Scenario::OverLayout(layout, o.mission, o.drone, o.world, row.flight_seed);
   std::shared_ptr<physics::World> world;
   sim::MakeWorld(scenario, world);
   const sim::Mission& mission = scenario.mission;
@@ -185,7 +181,7 @@ int FlyStored(const std::string& store, std::int64_t id, const std::string& out)
   flight.log_rate_hz = sim::FlightOptions{}.log_rate_hz;
   const planning::TrajectoryOptimizer optimizer(o.flight.planner.optimizer);
   spdlog::info("flying evaluation {} of {} again ({}, map seed {}, flight seed {})", id, store,
-               f.method, f.map_seed, f.flight_seed);
+               ToString(row.method), row.map_seed, row.flight_seed);
   const sim::FlightResult result = sim::Fly(*world, mission, params, flight, optimizer);
 
   std::filesystem::create_directories(out);
@@ -193,18 +189,19 @@ int FlyStored(const std::string& store, std::int64_t id, const std::string& out)
   layout.Save((std::filesystem::path(out) / "layout.yaml").string());
   const auto path = std::filesystem::path(out) / "summary.json";
   nlohmann::json summary = nlohmann::json::parse(std::ifstream(path));
-  const nlohmann::json terms = nlohmann::json::parse(f.terms);
+  const nlohmann::json terms = nlohmann::json::parse(row.terms);
   summary["stored"] = {{"store", store},
                        {"evaluation", id},
-                       {"method", f.method},
-                       {"kind", f.kind},
-                       {"iteration", f.iteration},
-                       {"index", f.index},
-                       {"value", f.value},
+                       {"method", ToString(row.method)},
+                       {"kind", ToString(row.kind)},
+                       {"iteration", row.iteration},
+                       {"index", row.index},
+                       {"value", row.value},
+                       {"state", ToString(row.state)},
                        {"terms", terms},
                        {"params", stored_params},
-                       {"map_seed", std::to_string(f.map_seed)},
-                       {"flight_seed", std::to_string(f.flight_seed)}};
+                       {"map_seed", std::to_string(row.map_seed)},
+                       {"flight_seed", std::to_string(row.flight_seed)}};
   summary["obstacles"] = layout.obstacles.size();
   summary["drone"] = o.drone.name;
   std::ofstream(path) << summary.dump(1) << '\n';
@@ -222,67 +219,81 @@ int FlyStored(const std::string& store, std::int64_t id, const std::string& out)
 
 void WriteTidyCsv(const std::string& store, const std::string& directory) {
   const ReadOnlyStore db(store);
+  const auto& columns = engine::EvaluationColumns().List();
   struct Row {
-    std::vector<std::string> fixed;
-    nlohmann::json params, terms;
+    std::vector<std::string> fixed;               // id, repeat, then the list's plain columns
+    std::vector<nlohmann::json> objects;          // the list's JSON objects, in list order
   };
+  std::vector<std::string> fixed = {"id", "repeat"};
+  std::vector<const Columns<engine::EvaluationRow>::Column*> objects;
+  for (const auto& c : columns) {
+    if (c.type == ColumnType::kObject) {
+      objects.push_back(&c);
+    } else {
+      fixed.push_back(c.name);
+    }
+  }
   std::map<std::string, std::vector<Row>> by_kind;
-  std::map<std::string, std::vector<std::string>> param_names, term_names;  // per kind, in order
+  // Per kind, per object column: the keys met, in order.
+  std::map<std::string, std::vector<std::vector<std::string>>> names;
   db.Query(
-      "SELECT e.id, e.trial_id, e.method, t.repeat, e.kind, e.iteration, e.idx, e.status, "
-      "e.value, e.wall_s, e.map_seed, e.flight_seed, e.params, e.terms, t.map_seed "
-      "FROM evaluation e LEFT JOIN trial t ON t.id = e.trial_id "
-      "ORDER BY e.kind, e.trial_id, e.iteration, e.idx",
+      "SELECT e.id, t.repeat, t.map_seed, " + engine::EvaluationSqlColumns("e.") +
+          " FROM evaluation e LEFT JOIN trial t ON t.id = e.trial_id"
+          " ORDER BY e.kind, e.trial_id, e.iteration, e.idx",
       [&](sqlite3_stmt* s) {
         Row r;
-        for (int c = 0; c < 12; ++c) r.fixed.push_back(Exact(s, c));
-        if (r.fixed[10].empty() && r.fixed[4] != "short") r.fixed[10] = Text(s, 14);
-        r.params = StoredObject(store, r.fixed[0], "params", Text(s, 12));
-        r.terms = StoredObject(store, r.fixed[0], "terms", Text(s, 13));
-        const std::string kind = r.fixed[4];
-        auto note = [](std::vector<std::string>& names, const nlohmann::json& obj) {
-          for (auto it = obj.begin(); it != obj.end(); ++it) {
-            if (std::find(names.begin(), names.end(), it.key()) == names.end()) {
-              names.push_back(it.key());
+        const std::string id = Text(s, 0);
+        engine::EvaluationRow row = RowOf(s, 3, store, id);
+        if (row.map_seed == 0 && row.kind != engine::EvalKind::kShort) {
+          row.map_seed = Seed(Text(s, 2));
+        }
+        r.fixed = {id, Text(s, 1)};
+        const std::string kind = ToString(row.kind);
+        auto& kind_names = names[kind];
+        kind_names.resize(objects.size());
+        for (const auto& c : columns) {
+          const ColumnValue v = c.get(row);
+          if (c.type != ColumnType::kObject) {
+            r.fixed.push_back(engine::ColumnText(v, c.type, /*shortest=*/true));
+            continue;
+          }
+          const std::size_t k = r.objects.size();
+          r.objects.push_back(StoredObject(store, id, c.name.c_str(), std::get<std::string>(v)));
+          for (auto it = r.objects[k].begin(); it != r.objects[k].end(); ++it) {
+            auto& seen = kind_names[k];
+            if (std::find(seen.begin(), seen.end(), it.key()) == seen.end()) {
+              seen.push_back(it.key());
             }
           }
-        };
-        note(param_names[kind], r.params);
-        note(term_names[kind], r.terms);
+        }
         by_kind[kind].push_back(std::move(r));
       });
-  const std::vector<std::string> fixed = {"id",    "trial_id",  "method",   "repeat",
-                                          "kind",  "iteration", "index",    "status",
-                                          "value", "wall_s",    "map_seed", "flight_seed"};
   std::filesystem::create_directories(directory);
   const std::map<std::string, std::string> files = {
       {"long", "long_term.csv"},   {"short", "short_term.csv"}, {"validation", "validation.csv"},
       {"recheck", "recheck.csv"}, {"race", "race.csv"},         {"incumbent", "incumbent.csv"}};
   for (const auto& [kind, file] : files) {
     if (kind != "long" && kind != "short" && !by_kind.count(kind)) continue;
+    auto& kind_names = names[kind];
+    kind_names.resize(objects.size());
     std::ofstream csv(std::filesystem::path(directory) / file);
     std::set<std::string> used(fixed.begin(), fixed.end());
     std::string header;
-    for (const auto& c : fixed) {
-      if (!header.empty()) header += ',';
-      header += c;
+    for (const auto& c : fixed) header += (header.empty() ? "" : ",") + c;
+    for (std::size_t k = 0; k < objects.size(); ++k) {
+      for (const auto& n : kind_names[k]) {
+        const std::string col = used.count(n) ? objects[k]->prefix + n : n;
+        used.insert(col);
+        header += "," + Cell(col);
+      }
     }
-    auto column = [&](const std::string& name, const std::string& prefix) {
-      const std::string col = used.count(name) ? prefix + name : name;
-      used.insert(col);
-      header += ',';
-      header += Cell(col);
-    };
-    for (const auto& n : param_names[kind]) column(n, "param_");
-    for (const auto& n : term_names[kind]) column(n, "term_");
     csv << header << '\n';
     for (const auto& r : by_kind[kind]) {
       for (std::size_t c = 0; c < r.fixed.size(); ++c) csv << (c ? "," : "") << Cell(r.fixed[c]);
-      for (const auto& n : param_names[kind]) {
-        csv << ',' << (r.params.contains(n) ? Cell(Number(r.params[n])) : std::string());
-      }
-      for (const auto& n : term_names[kind]) {
-        csv << ',' << (r.terms.contains(n) ? Cell(Number(r.terms[n])) : std::string());
+      for (std::size_t k = 0; k < objects.size(); ++k) {
+        for (const auto& n : kind_names[k]) {
+          csv << ',' << (r.objects[k].contains(n) ? Cell(Number(r.objects[k][n])) : std::string());
+        }
       }
       csv << '\n';
     }

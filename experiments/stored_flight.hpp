@@ -13,22 +13,15 @@
 #include <string>
 #include <vector>
 
+#include "quadtune/engine/result_store.hpp"
+
 namespace quadtune::cli {
 
 /// One stored evaluation with what is needed to fly it again.
 struct StoredFlight {
-  std::int64_t id = 0;  ///< evaluation.id
-  std::string method;
-  std::string kind;  ///< "long" | "validation" (flights); "short" rows are refused
-  int iteration = 0;
-  int index = 0;
-  std::string params;  ///< JSON object name → value
-  std::string terms;   ///< JSON object of the objective terms recorded
-  double value = 0.0;  ///< f_l told to the optimiser
-  std::string status;
-  std::uint64_t map_seed = 0;     ///< the row's map seed; the trial's when the row has none
-  std::uint64_t flight_seed = 0;  ///< the flight's world seed
-  std::string config;             ///< the experiment's configuration text
+  std::int64_t id = 0;       ///< evaluation.id
+  engine::EvaluationRow row;  ///< its map_seed: the row's, the trial's when the row has none
+  std::string config;        ///< the experiment's configuration text
 };
 
 /// The flight stored as evaluation `id` in `store`. Throws ConfigError when the file is not a
@@ -47,11 +40,12 @@ std::vector<std::int64_t> BestFlightIds(const std::string& store, int limit);
 /// Throws ConfigError for stores whose planner is not the Ipopt planner.
 int FlyStored(const std::string& store, std::int64_t id, const std::string& out);
 
-/// Writes `directory`/long_term.csv, short_term.csv (and validation.csv when the store holds
-/// held-out flights): one row per evaluation with columns id, trial_id, method, repeat, kind,
-/// iteration, index, status, value, wall_s, map_seed, flight_seed, then one column per
-/// parameter and one per objective term (a name clashing with a fixed column gets the prefix
-/// "param_" or "term_"). Cells absent from a row are empty.
+/// Writes `directory`/long_term.csv, short_term.csv (and validation.csv, recheck.csv,
+/// race.csv, incumbent.csv when the store holds such rows): one row per evaluation with the
+/// columns id, repeat, then every column of engine::EvaluationColumns() in list order but the
+/// JSON objects (params, terms), which follow as one column per parameter and one per
+/// objective term (a name clashing with a fixed column gets the prefix "param_" or "term_").
+/// Cells absent from a row are empty.
 void WriteTidyCsv(const std::string& store, const std::string& directory);
 
 }  // namespace quadtune::cli

@@ -145,10 +145,12 @@ def run_data(directory):
         for r in by_kind["long"]:
             flights.append({"series": f"{label} · {r['method']}" if several else r["method"],
                             "id": r["id"], "value": r["value"], "status": r["status"],
+                            "state": r["state"], "message": r["message"],
                             "params": {p: r[p] for p in names.get("long", []) if p in r}})
-        # Importance proxy: |Spearman ρ| of each parameter with the objective, per kind.
+        # Importance proxy: |Spearman ρ| of each parameter with the objective, per kind, over
+        # the successful evaluations only (state ok).
         for kind, objective in (("long", "f_l (flights)"), ("short", "f_s (re-solves)")):
-            ok = [r for r in by_kind[kind] if r["status"] == "ok"]
+            ok = [r for r in by_kind[kind] if r["state"] == "ok"]
             for p in names.get(kind, []):
                 pairs = [(r[p], r["value"]) for r in ok if isinstance(r.get(p), (int, float))]
                 rho = spearman([a for a, _ in pairs], [b for _, b in pairs])

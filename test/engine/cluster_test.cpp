@@ -38,14 +38,15 @@ std::vector<EvaluationRow> AwkwardRows() {
   for (const double v : values) {
     EvaluationRow r;
     r.trial_id = (std::int64_t{1} << 40) + i;
-    r.method = i % 2 == 0 ? "bo_pso" : "";
-    r.kind = i % 3 == 0 ? "long" : "short";
+    r.method = i % 2 == 0 ? Method::kBoPso : Method::kDefault;
+    r.kind = i % 3 == 0 ? EvalKind::kLong : EvalKind::kShort;
     r.iteration = -i;
     r.index = 1000 * i;
     r.params = "{\"gain\":0.30000000000000004,\"x\":\"ü\\u0000\"}";
     r.terms = std::string("{\"a\":1}\0tail", 12);  // an embedded NUL byte
     r.value = v;
-    r.status = "ok";
+    r.status = i % 2 == 0 ? EvalStatus::kOk : EvalStatus::kFailed;
+    r.state = i % 2 == 0 ? EvalState::kCollision : EvalState::kDiverged;
     r.message = std::string(70000, static_cast<char>('a' + i));  // longer than 16 bits of length
     r.wall_s = v * 0.5;
     r.started = 1.7e9 + i / 3.0;
@@ -58,22 +59,19 @@ std::vector<EvaluationRow> AwkwardRows() {
   return rows;
 }
 
+/// Every column of the list equal, reals bit for bit.
 void ExpectSameBits(const EvaluationRow& a, const EvaluationRow& b) {
-  EXPECT_EQ(a.trial_id, b.trial_id);
-  EXPECT_EQ(a.method, b.method);
-  EXPECT_EQ(a.kind, b.kind);
-  EXPECT_EQ(a.iteration, b.iteration);
-  EXPECT_EQ(a.index, b.index);
-  EXPECT_EQ(a.params, b.params);
-  EXPECT_EQ(a.terms, b.terms);
-  EXPECT_EQ(a.status, b.status);
-  EXPECT_EQ(a.message, b.message);
-  EXPECT_EQ(std::bit_cast<std::uint64_t>(a.value), std::bit_cast<std::uint64_t>(b.value));
-  EXPECT_EQ(std::bit_cast<std::uint64_t>(a.wall_s), std::bit_cast<std::uint64_t>(b.wall_s));
-  EXPECT_EQ(std::bit_cast<std::uint64_t>(a.started), std::bit_cast<std::uint64_t>(b.started));
-  EXPECT_EQ(std::bit_cast<std::uint64_t>(a.finished), std::bit_cast<std::uint64_t>(b.finished));
-  EXPECT_EQ(a.map_seed, b.map_seed);
-  EXPECT_EQ(a.flight_seed, b.flight_seed);
+  for (const auto& c : EvaluationColumns().List()) {
+    const ColumnValue x = c.get(a);
+    const ColumnValue y = c.get(b);
+    if (c.type == ColumnType::kReal) {
+      EXPECT_EQ(std::bit_cast<std::uint64_t>(std::get<double>(x)),
+                std::bit_cast<std::uint64_t>(std::get<double>(y)))
+          << c.name;
+    } else {
+      EXPECT_TRUE(x == y) << c.name;
+    }
+  }
 }
 
 TEST(RowCodec, BatchRoundTripsEveryFieldBitForBit) {

@@ -73,13 +73,13 @@ TEST(EgoEngine, TinyRunCompletesAndStoresEvaluations) {
   ResultStore store(o.store_path);
   int longs = 0, shorts = 0;
   for (const auto& r : store.Evaluations()) {
-    (r.kind == "long" ? longs : shorts) += 1;
-    EXPECT_EQ(r.status, "ok") << r.kind << " " << r.message;
+    (r.kind == EvalKind::kLong ? longs : shorts) += 1;
+    EXPECT_EQ(r.status, EvalStatus::kOk) << ToString(r.kind) << " " << r.message;
   }
   EXPECT_EQ(longs, 3);
   EXPECT_GT(shorts, 0);
   ASSERT_EQ(store.Trials().size(), 1u);
-  EXPECT_EQ(store.Trials().front().status, "done");
+  EXPECT_EQ(store.Trials().front().status, TrialStatus::kDone);
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 // completes its budget: a world whose wind blows the drone past World::HasDiverged's bounds, a
 // goal below the ground that no flight can reach (stall), a flight time limit too short for the
 // mission (timeout), and an acceleration limit no trajectory can keep (every solve rejected).
+// Each row's state (EvalState) names the failure; its message gives the reason in words.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -42,7 +43,7 @@ StoredRun RunStored(const Experiment& e, const std::string& name) {
   return run;
 }
 
-std::vector<EvaluationRow> RowsOfKind(const StoredRun& run, const std::string& kind) {
+std::vector<EvaluationRow> RowsOfKind(const StoredRun& run, EvalKind kind) {
   std::vector<EvaluationRow> out;
   for (const auto& r : run.rows) {
     if (r.kind == kind) out.push_back(r);
@@ -54,7 +55,7 @@ std::vector<EvaluationRow> RowsOfKind(const StoredRun& run, const std::string& k
 void ExpectRunCompleted(const StoredRun& run, std::size_t trials) {
   EXPECT_EQ(run.summary.status, RunStatus::kCompleted) << run.summary.message;
   ASSERT_EQ(run.trials.size(), trials);
-  for (const auto& t : run.trials) EXPECT_EQ(t.status, "done") << t.method;
+  for (const auto& t : run.trials) EXPECT_EQ(t.status, TrialStatus::kDone) << ToString(t.method);
 }
 
 // tiny.yaml's failure_value.
@@ -68,11 +69,12 @@ TEST(RealPlannerFailureRows, DivergedFlightIsAFailedRowAndTheRunGoesOn) {
                                             "methods=[default, random]", "budget.flights=2"}),
                                   "failure_diverged");
   ExpectRunCompleted(run, 2);
-  const std::vector<EvaluationRow> flights = RowsOfKind(run, "long");
+  const std::vector<EvaluationRow> flights = RowsOfKind(run, EvalKind::kLong);
   ASSERT_EQ(flights.size(), 4u);  // 2 methods x 2 flights
   for (const auto& r : flights) {
-    EXPECT_EQ(r.status, "failed") << r.method;
-    EXPECT_EQ(r.message, "diverged: the simulation diverged") << r.method;
+    EXPECT_EQ(r.status, EvalStatus::kFailed) << ToString(r.method);
+    EXPECT_EQ(r.state, EvalState::kDiverged) << ToString(r.method);
+    EXPECT_EQ(r.message, "diverged: the simulation diverged") << ToString(r.method);
     EXPECT_EQ(r.value, kFailureValue);
     EXPECT_EQ(nlohmann::json::parse(r.terms)["completed"], 0.0);
   }
@@ -88,10 +90,11 @@ TEST(RealPlannerFailureRows, StalledFlightIsStoredWithItsReasonAndTheRunGoesOn) 
                           "methods=[default]", "budget.flights=2"}),
                 "failure_stalled");
   ExpectRunCompleted(run, 1);
-  const std::vector<EvaluationRow> flights = RowsOfKind(run, "long");
+  const std::vector<EvaluationRow> flights = RowsOfKind(run, EvalKind::kLong);
   ASSERT_EQ(flights.size(), 2u);
   for (const auto& r : flights) {
-    EXPECT_EQ(r.status, "ok");  // the flight ran; it just could not finish
+    EXPECT_EQ(r.status, EvalStatus::kOk);  // the flight ran; it just could not finish
+    EXPECT_EQ(r.state, EvalState::kStalled);
     EXPECT_EQ(r.message.rfind("stalled: no progress: moved ", 0), 0u) << r.message;
     EXPECT_EQ(r.value, kFailureValue);
     const nlohmann::json terms = nlohmann::json::parse(r.terms);
@@ -107,10 +110,11 @@ TEST(RealPlannerFailureRows, TimedOutFlightIsStoredWithItsReasonAndTheRunGoesOn)
       RunStored(TinyWith({"planner.max_time=2", "methods=[default, random]", "budget.flights=2"}),
                 "failure_timeout");
   ExpectRunCompleted(run, 2);
-  const std::vector<EvaluationRow> flights = RowsOfKind(run, "long");
+  const std::vector<EvaluationRow> flights = RowsOfKind(run, EvalKind::kLong);
   ASSERT_EQ(flights.size(), 4u);
   for (const auto& r : flights) {
-    EXPECT_EQ(r.status, "ok");
+    EXPECT_EQ(r.status, EvalStatus::kOk);
+    EXPECT_EQ(r.state, EvalState::kTimeout);
     EXPECT_EQ(r.message, "timeout: mission not finished within max_time");
     EXPECT_EQ(r.value, kFailureValue);
     EXPECT_NEAR(nlohmann::json::parse(r.terms)["t_f"].get<double>(), 2.0, 0.02);
@@ -137,20 +141,23 @@ TEST(RealPlannerFailureRows, RejectedSolvesAreCountedInTheRowsAndTheRunGoesOn) {
   }
   const StoredRun run = RunStored(e, "failure_solver");
   ExpectRunCompleted(run, 1);
-  const std::vector<EvaluationRow> flights = RowsOfKind(run, "long");
+  const std::vector<EvaluationRow> flights = RowsOfKind(run, EvalKind::kLong);
   ASSERT_EQ(flights.size(), 1u);
   const nlohmann::json flight = nlohmann::json::parse(flights[0].terms);
   EXPECT_GT(flight["plans"].get<double>(), 0.0);
   EXPECT_EQ(flight["fallback_plans"], flight["plans"]);  // no plan of the back end was accepted
   EXPECT_EQ(flight["failed_attempts"].get<double>(), 3.0 * flight["plans"].get<double>());
   EXPECT_EQ(flight["completed"], 0.0);
-  const std::vector<EvaluationRow> solves = RowsOfKind(run, "short");
+  EXPECT_EQ(flights[0].state, EvalState::kSolverFailure) << flights[0].message;
+  const std::vector<EvaluationRow> solves = RowsOfKind(run, EvalKind::kShort);
   ASSERT_EQ(solves.size(), 4u);  // short_evals_per_flight
   for (const auto& r : solves) {
     const nlohmann::json terms = nlohmann::json::parse(r.terms);
     EXPECT_EQ(terms["success"], 0.0) << r.params;
     EXPECT_EQ(terms["n_s"], 3.0) << r.params;
-    EXPECT_EQ(r.status, "ok");  // the failure is the planner's answer, not an engine error
+    // The failure is the planner's answer, not an engine error.
+    EXPECT_EQ(r.status, EvalStatus::kOk);
+    EXPECT_EQ(r.state, EvalState::kSolverFailure);
     EXPECT_TRUE(std::isfinite(r.value));
   }
 }

@@ -63,14 +63,15 @@ TEST(IpoptEngine, EveryMethodRunsEndToEndAndAgreesAt1And2And8Threads) {
     std::map<std::string, int> longs, shorts;
     ResultStore store(o.store_path);
     for (const auto& r : store.Evaluations()) {
-      if (r.kind == "validation") continue;  // the held-out flights: counted by their own tests
-      (r.kind == "long" ? longs : shorts)[r.method] += 1;
-      EXPECT_EQ(r.status, "ok") << r.method << " " << r.kind << " " << r.message;
+      if (r.kind == EvalKind::kValidation) continue;  // the held-out flights: counted by their own tests
+      (r.kind == EvalKind::kLong ? longs : shorts)[ToString(r.method)] += 1;
+      EXPECT_EQ(r.status, EvalStatus::kOk)
+          << ToString(r.method) << " " << ToString(r.kind) << " " << r.message;
     }
     for (const char* m : {"default", "random", "pso", "bo", "bo_pso"}) EXPECT_EQ(longs[m], 3) << m;
     EXPECT_EQ(shorts["bo_pso"], 4 + 8);  // 4 per flight: first flight, then a round of 2
     EXPECT_EQ(store.Trials().size(), 5u);
-    for (const auto& t : store.Trials()) EXPECT_EQ(t.status, "done");
+    for (const auto& t : store.Trials()) EXPECT_EQ(t.status, TrialStatus::kDone);
     runs.push_back(test::Deterministic(o.store_path));
   }
   EXPECT_EQ(runs[0], runs[1]);

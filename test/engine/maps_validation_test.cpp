@@ -28,7 +28,9 @@ std::map<std::pair<std::string, int>, std::vector<EvaluationRow>> LongRows(
   for (const auto& t : store.Trials()) repeat_of[t.id] = t.repeat;
   std::map<std::pair<std::string, int>, std::vector<EvaluationRow>> rows;
   for (const auto& r : store.Evaluations()) {
-    if (r.kind == "long") rows[{r.method, repeat_of.at(r.trial_id)}].push_back(r);
+    if (r.kind == EvalKind::kLong) {
+      rows[{ToString(r.method), repeat_of.at(r.trial_id)}].push_back(r);
+    }
   }
   return rows;
 }
@@ -132,8 +134,8 @@ TEST(Validation, HeldOutMapsAreDisjointFromTuningMapsAndSharedByEveryPoint) {
   std::map<std::int64_t, std::vector<std::uint64_t>> held_out;  // trial → map seeds by map
   std::map<std::int64_t, std::vector<std::uint64_t>> flight_seeds;
   for (const auto& r : store.Evaluations()) {
-    if (r.kind == "long") tuning.insert(r.map_seed);
-    if (r.kind == "validation") {
+    if (r.kind == EvalKind::kLong) tuning.insert(r.map_seed);
+    if (r.kind == EvalKind::kValidation) {
       held_out[r.trial_id].push_back(r.map_seed);
       flight_seeds[r.trial_id].push_back(r.flight_seed);
     }
@@ -211,7 +213,7 @@ TEST(Recommendation, BoRecommendsAnObservedPointAndDefaultTheDefaults) {
   ResultStore store(o.store_path);
   std::map<std::string, std::vector<std::string>> observed;  // method → params JSON of flights
   for (const auto& r : store.Evaluations()) {
-    if (r.kind == "long") observed[r.method].push_back(r.params);
+    if (r.kind == EvalKind::kLong) observed[ToString(r.method)].push_back(r.params);
   }
   for (const auto& t : s.trials) {
     nlohmann::json j = nlohmann::json::object();
@@ -241,14 +243,14 @@ TEST(Recommendation, BoRecommendsAnObservedPointAndDefaultTheDefaults) {
 std::map<std::int64_t, std::map<std::pair<int, int>, EvaluationRow>> RecheckRows(const ResultStore& store) {
   std::map<std::int64_t, std::map<std::pair<int, int>, EvaluationRow>> rows;
   for (const auto& r : store.Evaluations()) {
-    if (r.kind == "recheck") rows[r.trial_id][{r.iteration, r.index}] = r;
+    if (r.kind == EvalKind::kRecheck) rows[r.trial_id][{r.iteration, r.index}] = r;
   }
   return rows;
 }
 
 bool RowPasses(const EvaluationRow& r) {
   const auto t = nlohmann::json::parse(r.terms);
-  return r.status == "ok" && t.at("completed") == 1.0 && t.at("n_c") == 0.0 && t.at("n_e") == 0.0;
+  return r.status == EvalStatus::kOk && t.at("completed") == 1.0 && t.at("n_c") == 0.0 && t.at("n_e") == 0.0;
 }
 
 /// mean(c) − z·sd(c) of the rows' smallest clearances (sd with n − 1).
@@ -283,7 +285,7 @@ TEST(Recommendation, ReFlightsPickTheFirstCandidateThatPassesOnSharedFreshMaps) 
   ResultStore store(o.store_path);
   std::set<std::uint64_t> other_maps;  // tuning and held-out maps
   for (const auto& r : store.Evaluations()) {
-    if (r.kind == "long" || r.kind == "validation") other_maps.insert(r.map_seed);
+    if (r.kind == EvalKind::kLong || r.kind == EvalKind::kValidation) other_maps.insert(r.map_seed);
   }
   const auto rechecks = RecheckRows(store);
   int passed = 0;

@@ -32,9 +32,9 @@ std::map<std::int64_t, Rows> RowsByTrial(const std::string& store_path) {
   ResultStore store(store_path);
   for (const auto& r : store.Evaluations()) {
     auto& t = out[r.trial_id];
-    if (r.kind == "long") t.tuning.push_back(r);
-    if (r.kind == "race") t.race.push_back(r);
-    if (r.kind == "incumbent") t.incumbent.push_back(r);
+    if (r.kind == EvalKind::kLong) t.tuning.push_back(r);
+    if (r.kind == EvalKind::kRace) t.race.push_back(r);
+    if (r.kind == EvalKind::kIncumbent) t.incumbent.push_back(r);
   }
   return out;
 }

@@ -30,8 +30,8 @@ const char* kYaml =
 EvaluationRow SampleRow(std::int64_t trial, int iteration, int index) {
   EvaluationRow r;
   r.trial_id = trial;
-  r.method = "bo_pso";
-  r.kind = "short";
+  r.method = Method::kBoPso;
+  r.kind = EvalKind::kShort;
   r.iteration = iteration;
   r.index = index;
   r.params = "{\"w_col\":0.73128840911203,\"w_dyn\":0.0412093381297,\"n_pol\":6}";
@@ -40,7 +40,7 @@ EvaluationRow SampleRow(std::int64_t trial, int iteration, int index) {
       "\"jerk_integral\":12.0912331,\"min_clearance\":0.412,\"queries\":8.0,\"solve_time\":"
       "0.00091223,\"success\":1.0,\"t_c\":0.0008,\"tau\":0.0}";
   r.value = 0.000812 + 1e-9 * index;
-  r.status = "ok";
+  r.status = EvalStatus::kOk;
   r.wall_s = 0.0091;
   r.started = 1.7e9 + index;
   r.finished = r.started + r.wall_s;

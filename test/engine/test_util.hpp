@@ -54,14 +54,21 @@ inline std::string TempDir(const std::string& name) {
   return dir.string();
 }
 
-/// Evaluations without the wall-clock columns, one string per row, for exact comparison.
+/// Evaluations without the wall-clock columns (wall_s, started, finished) and the trial ids,
+/// one string per row, every other column of EvaluationColumns(), for exact comparison.
 inline std::vector<std::string> Deterministic(const std::string& store_path) {
   ResultStore store(store_path);
   std::vector<std::string> rows;
   for (const auto& r : store.Evaluations()) {
-    rows.push_back(r.method + "|" + r.kind + "|" + std::to_string(r.iteration) + "|" +
-                   std::to_string(r.index) + "|" + r.params + "|" + r.terms + "|" +
-                   std::to_string(r.value) + "|" + r.status + "|" + r.message);
+    std::string row;
+    for (const auto& c : EvaluationColumns().List()) {
+      if (c.name == "wall_s" || c.name == "started" || c.name == "finished" ||
+          c.name == "trial_id") {
+        continue;
+      }
+      row += ColumnText(c.get(r), c.type, /*shortest=*/false) + "|";
+    }
+    rows.push_back(row);
   }
   return rows;
 }

@@ -25,8 +25,8 @@ std::map<std::string, std::pair<int, int>> CountByMethod(const std::string& stor
   std::map<std::string, std::pair<int, int>> counts;  // method → (long, short)
   ResultStore store(store_path);
   for (const auto& r : store.Evaluations()) {
-    auto& c = counts[r.method];
-    (r.kind == "long" ? c.first : c.second) += 1;
+    auto& c = counts[ToString(r.method)];
+    (r.kind == EvalKind::kLong ? c.first : c.second) += 1;
   }
   return counts;
 }
@@ -79,15 +79,15 @@ TEST(Tuner, EachMethodGivesCompleteResultSet) {
   EXPECT_EQ(counts.at("bo").second, 0);
   ResultStore store(o.store_path);
   for (const auto& t : store.Trials()) {
-    EXPECT_EQ(t.status, "done") << t.method;
-    EXPECT_GT(t.best_value, 0.0) << t.method;
+    EXPECT_EQ(t.status, TrialStatus::kDone) << ToString(t.method);
+    EXPECT_GT(t.best_value, 0.0) << ToString(t.method);
   }
   for (const auto& r : store.Evaluations()) {
-    EXPECT_EQ(r.status, "ok") << r.method << " " << r.message;
+    EXPECT_EQ(r.status, EvalStatus::kOk) << ToString(r.method) << " " << r.message;
     EXPECT_NE(r.params.find('{'), std::string::npos);
     EXPECT_GT(r.finished, 0.0);
-    const char* key = r.kind == "long" ? "\"t_f\"" : "\"J_t\"";
-    EXPECT_NE(r.terms.find(key), std::string::npos) << r.kind;
+    const char* key = r.kind == EvalKind::kLong ? "\"t_f\"" : "\"J_t\"";
+    EXPECT_NE(r.terms.find(key), std::string::npos) << ToString(r.kind);
   }
   // CSV export.
   store.ExportCsv(dir + "/csv");
@@ -145,13 +145,13 @@ TEST(Tuner, BestShortTermParametersFlowIntoLaterFlights) {
   const auto rows = ResultStore(o.store_path).Evaluations();
   const EvaluationRow* best = nullptr;
   for (const auto& r : rows) {
-    if (r.kind == "short" && r.iteration == 0 && (best == nullptr || r.value < best->value)) best = &r;
+    if (r.kind == EvalKind::kShort && r.iteration == 0 && (best == nullptr || r.value < best->value)) best = &r;
   }
   ASSERT_NE(best, nullptr);
   const auto theta_s = nlohmann::json::parse(best->params);
   int checked = 0;
   for (const auto& r : rows) {
-    if (r.kind != "long" || r.iteration != 1) continue;
+    if (r.kind != EvalKind::kLong || r.iteration != 1) continue;
     const auto p = nlohmann::json::parse(r.params);
     EXPECT_EQ(p["gain"], theta_s["gain"]);
     EXPECT_EQ(p["max_iter"], theta_s["max_iter"]);
@@ -171,7 +171,7 @@ TEST(Tuner, GivenInitialShortTermParametersSkipTheFirstPhase) {
   // rounds (none in the first round), 4 evaluations per flight.
   EXPECT_EQ(CountByMethod(o.store_path).at("bo_pso"), std::make_pair(6, 8 + 8));
   for (const auto& r : ResultStore(o.store_path).Evaluations()) {
-    if (r.kind != "long" || r.iteration != 0) continue;
+    if (r.kind != EvalKind::kLong || r.iteration != 0) continue;
     const auto p = nlohmann::json::parse(r.params);
     EXPECT_DOUBLE_EQ(p["gain"].get<double>(), 0.7);
     EXPECT_DOUBLE_EQ(p["max_iter"].get<double>(), 30.0);
@@ -241,7 +241,7 @@ TEST(Tuner, ThrowingFlightIsRecordedAsFailedAndRunCompletes) {
   ASSERT_EQ(run.s.status, RunStatus::kCompleted);
   int failed = 0;
   for (const auto& r : ResultStore(o.store_path).Evaluations()) {
-    if (r.status == "failed") {
+    if (r.status == EvalStatus::kFailed) {
       ++failed;
       EXPECT_NE(r.message.find("exception: toy planner: speed"), std::string::npos) << r.message;
       EXPECT_DOUBLE_EQ(r.value, e.objective.failure_value);
@@ -265,7 +265,7 @@ TEST(Tuner, TrialWhoseEveryFlightFailedReportsTheFailureValue) {
     EXPECT_DOUBLE_EQ(t.best_value, e.objective.failure_value) << t.method;
   }
   for (const auto& t : ResultStore(run.o.store_path).Trials()) {
-    EXPECT_DOUBLE_EQ(t.best_value, e.objective.failure_value) << t.method;
+    EXPECT_DOUBLE_EQ(t.best_value, e.objective.failure_value) << ToString(t.method);
   }
 }
 

@@ -11,6 +11,7 @@
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -22,6 +23,7 @@
 #include <vector>
 
 #include "../cli_util.hpp"
+#include "../sqlite_util.hpp"
 #include "../process_util.hpp"
 
 namespace quadtune {
@@ -498,6 +500,80 @@ TEST(CliMpi, BuildWithoutMpiRefusesAMultiProcessLaunch) {
   EXPECT_NE(ReadText(dir / "log").find("built without MPI"), std::string::npos)
       << ReadText(dir / "log");
   EXPECT_FALSE(fs::exists(dir / "out" / "results.sqlite"));
+}
+
+// Every failure kind is stored with a state that names it and its reason, and that state is
+// what the tidy export, the Python loader and the report see: toy flights that collide (gates
+// slower than braking from any speed of the range allows), toy flights whose planner raises
+// (throw_speed_above below every speed of the range), real-planner flights cut by max_time.
+// Random search varies the parameters, so the report's importance has pairs to rank: it must
+// find none, as no flight succeeded. The tidy columns and the Python loader's columns are the
+// store's own column list (stored_column).
+TEST(CliStoredStates, EachFailureIsNamedInTheTidyExportPythonAndReport) {
+  const fs::path dir = Fresh("stored_states");
+  struct Planted {
+    std::string name, experiment, sets, state, message;
+  };
+  const std::string fast =
+      " --set 'parameters=[{name: gain, lower: 0.05, upper: 1.5, default: 0.3}, {name: max_iter, "
+      "lower: 2, upper: 40, type: integer, default: 20}, {name: speed, lower: 5.5, upper: 6.0, "
+      "default: 5.8}, {name: margin, lower: 0.0, upper: 0.1, default: 0.05}]'";
+  const std::vector<Planted> planted = {
+      {"collision", ToyExperimentFile(),
+       "--set 'planner.toy={length: 20, gates: 6, gate_speed_min: 0.1, gate_speed_max: 0.2, "
+       "plan_interval: 1.0}'" + fast,
+       "collision", "completed"},
+      {"error", ToyExperimentFile(), "--set planner.toy.throw_speed_above=1" + fast, "error",
+       "exception: toy planner: speed "},
+      {"timeout", kExperiments + "tiny.yaml", "--set planner.max_time=2", "timeout",
+       "timeout: mission not finished within max_time"},
+  };
+  const std::string python_path =
+      "PYTHONPATH='" + std::string(QUADTUNE_SOURCE_DIR) + "/experiments/python:" +
+      std::string(QUADTUNE_SOURCE_DIR) + "/experiments/report' /usr/bin/python3 -c ";
+  for (const Planted& p : planted) {
+    SCOPED_TRACE(p.name);
+    const fs::path out = dir / p.name;
+    ASSERT_EQ(RunQuadtune("--log-level warn run --no-plot " + p.experiment + " --out " +
+                              out.string() + " --quiet --set 'methods=[random]' --set repeats=1 "
+                              "--set budget.flights=3 --set validation.maps=0 " + p.sets,
+                          dir / "run.log"),
+              0)
+        << ReadText(dir / "run.log");
+    ASSERT_EQ(RunQuadtune("--log-level warn export " + (out / "results.sqlite").string() +
+                              " --tidy " + (out / "tidy").string(),
+                          dir / "export.log"),
+              0)
+        << ReadText(dir / "export.log");
+    // The tidy header: id, repeat, then the store's listed columns but the JSON objects.
+    std::string listed = "id,repeat";
+    for (const auto& row : test::Query(out / "results.sqlite",
+                                       "SELECT name FROM stored_column WHERE tbl = 'evaluation' "
+                                       "AND type != 'object' ORDER BY position")) {
+      listed += "," + row[0];
+    }
+    EXPECT_EQ(FirstLine(out / "tidy" / "long_term.csv").rfind(listed + ",", 0), 0u)
+        << FirstLine(out / "tidy" / "long_term.csv");
+    const auto flights = ReadCsv(out / "tidy" / "long_term.csv");
+    ASSERT_EQ(flights.size(), 3u);
+    for (const auto& f : flights) {
+      EXPECT_EQ(f.at("state"), p.state);
+      EXPECT_EQ(f.at("message").rfind(p.message, 0), 0u) << f.at("message");
+    }
+    // Python: the same states and reasons, the same leading columns, and the report's
+    // importance over successful flights only (here none).
+    const fs::path py = dir / (p.name + ".py.log");
+    const std::string script =
+        "\"import quadtune, quadtune_report; r = quadtune.load('" + out.string() +
+        "'); print(','.join(r.long.columns[:" + std::to_string(std::count(listed.begin(),
+        listed.end(), ',') + 1) + "])); print(sorted(set(r.long['state']))); "
+        "print(all(m.startswith('" + p.message + "') for m in r.long['message'])); "
+        "print(str(r.long['state'].dtype)); "
+        "print(len(quadtune_report.run_data('" + out.string() + "')['importance']))\"";
+    ASSERT_EQ(std::system((python_path + script + " > '" + py.string() + "' 2>&1").c_str()), 0)
+        << ReadText(py);
+    EXPECT_EQ(ReadText(py), listed + "\n['" + p.state + "']\nTrue\ncategory\n0\n");
+  }
 }
 
 }  // namespace

@@ -66,11 +66,12 @@ validation: {maps: $maps}
 YAML
 
 # What must be identical: evaluations.csv without its wall-clock columns (wall_s, started,
-# finished: plain numbers before the last two columns, map_seed and flight_seed) and trials.csv.
+# finished: plain numbers before the last two columns, map_seed and flight_seed) and trials.csv
+# without its wall-clock column (finished, a plain number in the last column).
 export_store() {  # export_store RUN_DIR → RUN_DIR/evaluations.txt, RUN_DIR/trials.txt
   "$quadtune" --log-level warn export "$1/results.sqlite" --csv "$1/csv"
   sed -E 's/,[^,]*,[^,]*,[^,]*(,[^,]*,[^,]*)$/\1/' "$1/csv/evaluations.csv" > "$1/evaluations.txt"
-  cp "$1/csv/trials.csv" "$1/trials.txt"
+  sed -E 's/,[^,]*$//' "$1/csv/trials.csv" > "$1/trials.txt"
 }
 
 same_results() {  # same_results DIR_A DIR_B

@@ -8,11 +8,16 @@
     r.race      # racing flights (race: enabled), r.incumbent the outcome of each race
     r.validation, r.trials, r.experiment
 
-The tables have the columns of `quadtune export STORE --tidy DIR`: id, trial_id, method, repeat,
-kind, iteration, index, status, value, wall_s, map_seed, flight_seed, then one column per
-parameter and one per objective term (a name clashing with a fixed column gets the prefix
-"param_" or "term_"). `rows()` gives the same rows as plain dicts with the standard library only;
-`load()` needs pandas (Debian: python3-pandas). Stores are opened read-only.
+The tables have the columns of `quadtune export STORE --tidy DIR`: id, repeat, then the
+evaluation table's columns as the store lists them in its `stored_column` table (written from
+the C++ column list, EvaluationColumns in engine/result_store.cpp): trial_id, method, kind,
+iteration, index, value, status, state (what became of the evaluation: ok, collision, timeout,
+stalled, diverged, solver_failure, error, ...), message (the reason), wall_s, started, finished,
+map_seed, flight_seed, then one column per parameter and one per objective term (a name clashing
+with a fixed column gets the prefix the list gives: "param_" or "term_"). `rows()` gives the same
+rows as plain dicts with the standard library only; `load()` needs pandas (Debian:
+python3-pandas) and types the columns by the list (enums as categoricals, seeds as UInt64,
+integers as Int64). Stores are opened read-only.
 """
 
 import collections
@@ -20,12 +25,14 @@ import json
 import os
 import sqlite3
 
-FIXED = ["id", "trial_id", "method", "repeat", "kind", "iteration", "index", "status", "value",
-         "wall_s", "map_seed", "flight_seed"]
 KINDS = ["long", "short", "validation", "recheck", "race", "incumbent"]
+# Columns of every tidy row that are not in the evaluation table: the row's id and its trial's
+# repeat.
+KEYS = ["id", "repeat"]
 
 Results = collections.namedtuple(
     "Results", "long short validation recheck race incumbent trials experiment")
+Column = collections.namedtuple("Column", "name sql type names prefix")
 
 
 class DamagedStore(ValueError):
@@ -71,10 +78,30 @@ def connect(path):
         con.close()
         raise DamagedStore("{}: not a quadtune results store (no evaluation, trial and "
                            "experiment tables)".format(file))
+    if "stored_column" not in tables:
+        con.close()
+        raise DamagedStore("{}: a results store without its column list (no stored_column "
+                           "table): written by an older quadtune; export it with that version"
+                           .format(file))
     return con
 
 
-def _seed(value, file, row_id, column):
+def columns(path, table="evaluation"):
+    """The columns of `table` (evaluation, trial or experiment) as the store lists them
+    (Column: name, sql, type, names, prefix), in order."""
+    with connect(path) as db:
+        return [Column(name, sql, kind, names.split(",") if names else [], prefix or "")
+                for name, sql, kind, names, prefix in db.execute(
+                    "SELECT name, sql, type, names, prefix FROM stored_column"
+                    " WHERE tbl = ? ORDER BY position", (table,))]
+
+
+def fixed_columns(path):
+    """The tidy columns every row has (KEYS, then the store's columns but its JSON objects)."""
+    return KEYS + [c.name for c in columns(path) if c.type != "object"]
+
+
+def _seed(value, file, where, column):
     """A stored seed as an int in [0, 2^64), None when absent; DamagedStore otherwise."""
     if value is None or value == "" or value == 0:
         return None
@@ -83,32 +110,48 @@ def _seed(value, file, row_id, column):
     except (TypeError, ValueError):
         seed = -1
     if not 0 <= seed < 2 ** 64 or (isinstance(value, float) and value != seed):
-        raise DamagedStore("{}: damaged results store: evaluation {}: {} is {!r}, not a seed (an "
-                           "integer in [0, 2^64))".format(file, row_id, column, value))
+        raise DamagedStore("{}: damaged results store: {}: {} is {!r}, not a seed (an "
+                           "integer in [0, 2^64))".format(file, where, column, value))
     return seed
+
+
+def _value(column, value, file, where):
+    """One stored value of row `where` ("evaluation 5") checked against its column;
+    DamagedStore naming the row and the column otherwise."""
+    if column.type == "seed":
+        return _seed(value, file, where, column.name)
+    if column.type == "enum" and value not in column.names:
+        raise DamagedStore("{}: damaged results store: {}: {} is {!r}, not one of {}"
+                           .format(file, where, column.name, value, ", ".join(column.names)))
+    return value
 
 
 def rows(path):
     """{kind: [dict per evaluation]} for every kind in KINDS (standard library)."""
     out = {k: [] for k in KINDS}
     file = store_path(path)
+    listed = columns(path)
+    fixed = set(fixed_columns(path))
     with connect(path) as db:
-        query = ("SELECT e.id, e.trial_id, e.method, t.repeat, e.kind, e.iteration, e.idx, e.status,"
-                 " e.value, e.wall_s, e.map_seed, e.flight_seed, e.params, e.terms, t.map_seed"
-                 " FROM evaluation e LEFT JOIN trial t ON t.id = e.trial_id"
+        query = ("SELECT e.id, t.repeat, t.map_seed, "
+                 + ", ".join("e." + c.sql for c in listed)
+                 + " FROM evaluation e LEFT JOIN trial t ON t.id = e.trial_id"
                  " ORDER BY e.kind, e.trial_id, e.iteration, e.idx")
         for r in db.execute(query):
-            kind = r[4]
-            row = dict(zip(FIXED, r[:12]))
-            row["map_seed"] = _seed(r[10], file, r[0], "map_seed")
-            if row["map_seed"] is None and kind != "short":
-                row["map_seed"] = _seed(r[14], file, r[0], "the trial's map_seed")
-            row["flight_seed"] = _seed(r[11], file, r[0], "flight_seed")
-            for source, prefix in ((json_field(r[12], file, r[0], "params"), "param_"),
-                                   (json_field(r[13], file, r[0], "terms"), "term_")):
+            row = {"id": r[0], "repeat": r[1]}
+            objects = []
+            for column, value in zip(listed, r[3:]):
+                if column.type == "object":
+                    objects.append((column, json_field(value, file, r[0], column.name)))
+                else:
+                    row[column.name] = _value(column, value, file, "evaluation {}".format(r[0]))
+            if row.get("map_seed") is None and row.get("kind") != "short":
+                row["map_seed"] = _seed(r[2], file, "evaluation {}".format(r[0]),
+                                        "the trial's map_seed")
+            for column, source in objects:
                 for name, value in source.items():
-                    row[prefix + name if name in FIXED else name] = value
-            out.setdefault(kind, []).append(row)
+                    row[column.prefix + name if name in fixed else name] = value
+            out.setdefault(row.get("kind"), []).append(row)
     return out
 
 
@@ -127,22 +170,30 @@ def parameter_names(path):
 
 
 def trials(path):
-    """The trial table as dicts (id, method, repeat, map_seed, status, best_params, best_value)."""
+    """The trial table as dicts: id, then the columns the store lists for it (experiment_id,
+    method, repeat, map_seed, status, best_params, best_value, finished)."""
+    listed = columns(path, "trial")
+    file = store_path(path)
     with connect(path) as db:
-        cur = db.execute("SELECT id, method, repeat, map_seed, status, best_params, best_value"
-                         " FROM trial ORDER BY id")
-        names = [c[0] for c in cur.description]
-        return [dict(zip(names, r)) for r in cur]
+        out = []
+        for r in db.execute("SELECT id, " + ", ".join(c.sql for c in listed)
+                            + " FROM trial ORDER BY id"):
+            row = {"id": r[0]}
+            for column, value in zip(listed, r[1:]):
+                row[column.name] = _value(column, value, file, "trial {}".format(r[0])) \
+                    if value is not None else None
+            out.append(row)
+        return out
 
 
 def experiment(path):
-    """The experiment row as a dict (name, config text, seed, version, machine, threads, mode)."""
+    """The experiment row as a dict: id, then the columns the store lists for it (name, config
+    text, seed, version, machine, threads, mode, started)."""
+    listed = columns(path, "experiment")
     with connect(path) as db:
-        cur = db.execute("SELECT id, name, config, seed, version, machine, threads, mode, started"
-                         " FROM experiment ORDER BY id LIMIT 1")
-        names = [c[0] for c in cur.description]
-        row = cur.fetchone()
-        return dict(zip(names, row)) if row else {}
+        row = db.execute("SELECT id, " + ", ".join(c.sql for c in listed)
+                         + " FROM experiment ORDER BY id LIMIT 1").fetchone()
+        return dict(zip(["id"] + [c.name for c in listed], row)) if row else {}
 
 
 def load(path):
@@ -151,14 +202,26 @@ def load(path):
 
     by_kind = rows(path)
     params, terms = parameter_names(path)
+    listed = columns(path)
+    fixed = fixed_columns(path)
+    dtypes = {"id": "Int64", "repeat": "Int64"}
+    for c in listed:
+        if c.type == "integer":
+            dtypes[c.name] = "Int64"
+        elif c.type == "seed":
+            dtypes[c.name] = "UInt64"
+        elif c.type == "real":
+            dtypes[c.name] = "float64"
+        elif c.type == "enum":
+            dtypes[c.name] = pd.CategoricalDtype(c.names)
+    prefixes = {c.name: c.prefix for c in listed if c.type == "object"}
 
     def frame(kind):
-        columns = FIXED + [("param_" + n if n in FIXED else n) for n in params.get(kind, [])]
-        columns += [("term_" + n if n in FIXED else n) for n in terms.get(kind, [])]
-        df = pd.DataFrame(by_kind.get(kind, []), columns=columns)
-        for seed in ("map_seed", "flight_seed"):
-            df[seed] = df[seed].astype("UInt64")
-        return df
+        names = list(fixed)
+        for source, column in ((params, "params"), (terms, "terms")):
+            names += [(prefixes[column] + n if n in fixed else n) for n in source.get(kind, [])]
+        df = pd.DataFrame(by_kind.get(kind, []), columns=names)
+        return df.astype({k: v for k, v in dtypes.items() if k in df.columns})
 
     return Results(long=frame("long"), short=frame("short"), validation=frame("validation"),
                    recheck=frame("recheck"), race=frame("race"), incumbent=frame("incumbent"),

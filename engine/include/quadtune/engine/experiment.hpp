@@ -82,23 +82,11 @@
 #include "quadtune/optimizers/bayes_opt.hpp"
 #include "quadtune/optimizers/parameter_space.hpp"
 #include "quadtune/optimizers/pso.hpp"
+#include "quadtune/engine/method.hpp"
 #include "quadtune/optimizers/racing.hpp"
 
 namespace quadtune::engine {
 
-/// A tuning method compared by the experiment (paper Sec. IV-A).
-enum class Method {
-  kDefault,  ///< the planner's defaults, flown `flights` times
-  kRandom,   ///< random search over all parameters, scored by f_l
-  kPso,      ///< PSO over all parameters, scored by f_l
-  kBo,       ///< Bayesian optimisation over all parameters, scored by f_l
-  kBoPso,    ///< BO on θ_l by f_l + PSO on θ_s by f_s on recorded queries (the paper's method)
-};
-constexpr auto EnumNames(Method) {
-  return std::array{EnumName{Method::kDefault, "default"}, EnumName{Method::kRandom, "random"},
-                    EnumName{Method::kPso, "pso"}, EnumName{Method::kBo, "bo"},
-                    EnumName{Method::kBoPso, "bo_pso"}};
-}
 
 /// Which map a flight flies (YAML `maps.mode`).
 enum class MapMode {

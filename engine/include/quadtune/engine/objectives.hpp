@@ -83,4 +83,12 @@ ObjectiveValue LongTermObjective(const FlightRecord& flight, const ObjectiveOpti
 ObjectiveValue ShortTermObjective(const ResolveRecord& solve, const ObjectiveOptions& o,
                                   TimingMode mode);
 
+/// The stored state of a flight: cancelled and failed flights by their status (a failure by
+/// its `ending`: diverged, else error), an unfinished flight by its `ending` (solver_failure
+/// when it had plans and every one fell back to stop-and-go; incomplete when the planner gave
+/// no ending), a finished one collision when it collided, else ok.
+EvalState StateOf(const FlightRecord& flight);
+/// The stored state of a re-solve: cancelled, error, solver_failure (no trajectory) or ok.
+EvalState StateOf(const ResolveRecord& solve);
+
 }  // namespace quadtune::engine

@@ -105,11 +105,40 @@ constexpr auto EnumNames(EvalStatus) {
                     EnumName{EvalStatus::kCancelled, "cancelled"}};
 }
 
+/// What became of one evaluation, stored with it (column `state`) beside the EvalStatus: kOk
+/// only for a flight that reached every waypoint without a collision and a re-solve that found
+/// a trajectory; otherwise what went wrong. StateOf (objectives.hpp) decides it, in one place.
+enum class EvalState {
+  kOk,
+  kCollision,      ///< the flight finished, with collisions (n_c > 0)
+  kIncomplete,     ///< the flight did not finish and its planner gave no reason
+  kTimeout,        ///< the flight did not finish within its time limit
+  kStalled,        ///< the flight stopped making progress
+  kDiverged,       ///< the simulation diverged
+  kSolverFailure,  ///< no trajectory: every plan of an unfinished flight, or a re-solve, failed
+  kError,          ///< an exception or error inside the evaluation
+  kCancelled,      ///< stopped by a cancel request
+};
+constexpr auto EnumNames(EvalState) {
+  return std::array{EnumName{EvalState::kOk, "ok"},
+                    EnumName{EvalState::kCollision, "collision"},
+                    EnumName{EvalState::kIncomplete, "incomplete"},
+                    EnumName{EvalState::kTimeout, "timeout"},
+                    EnumName{EvalState::kStalled, "stalled"},
+                    EnumName{EvalState::kDiverged, "diverged"},
+                    EnumName{EvalState::kSolverFailure, "solver_failure"},
+                    EnumName{EvalState::kError, "error"},
+                    EnumName{EvalState::kCancelled, "cancelled"}};
+}
+
 /// What a flight produced (SI units) — the long-term objective's inputs.
 struct FlightRecord {
   EvalStatus status = EvalStatus::kOk;
   std::string message;           ///< why it failed / how it ended
   bool completed = false;        ///< every waypoint reached
+  /// Why the flight ended before its last waypoint (kTimeout, kStalled, kDiverged, kError,
+  /// kCancelled); kOk when it did not, or when the planner does not say (StateOf).
+  EvalState ending = EvalState::kOk;
   double flight_time = 0.0;      ///< t_f (s)
   int collisions = 0;            ///< n_c
   int emergency_stops = 0;       ///< n_e

@@ -4,14 +4,16 @@
 /// transaction per evaluation (Insert); rank 0 of a distributed run commits a batch of
 /// evaluations per transaction (InsertBatch).
 ///
-/// Tables:
-///   experiment(id, name, config TEXT, seed, version, machine, threads, mode, started)
-///   trial(id, experiment_id, method, repeat, map_seed, status, best_params, best_value, finished)
-///   evaluation(id, trial_id, method, kind 'short'|'long'|'validation', iteration, idx,
-///              params JSON, terms JSON (every objective term), value, status, message, wall_s,
-///              started, finished, map_seed, flight_seed) — UNIQUE(trial_id, kind, iteration, idx)
-///   (map_seed and flight_seed: decimal text of the 64-bit seeds a flight flew with, so that any
-///   stored flight can be flown again; empty for short-term rows)
+/// Tables (docs/data.md lists every column with its meaning):
+///   experiment(id, then the columns of ExperimentColumns(): name, config, seed, version,
+///     machine, threads, mode, started)
+///   trial(id, then the columns of TrialColumns(): experiment_id, method, repeat, map_seed,
+///     status, best_params, best_value, finished) — UNIQUE(experiment_id, method, repeat)
+///   evaluation(id, then the columns of EvaluationColumns() in list order)
+///     — UNIQUE(trial_id, kind, iteration, idx)
+///   stored_column(tbl, position, name, sql, type, names, prefix, meaning): the column lists of
+///     the experiment, trial and evaluation tables as written, which readers outside C++ (the
+///     Python loader) follow
 ///
 /// Resume: Open(resume = true) checks that the stored configuration text equals the experiment's
 /// and loads the stored evaluations; the tuner replays them (same order, same values) instead of
@@ -33,6 +35,11 @@
 #include <tuple>
 #include <vector>
 
+#include "quadtune/common/columns.hpp"
+#include "quadtune/engine/method.hpp"
+#include "quadtune/engine/objectives.hpp"
+#include "quadtune/engine/planner.hpp"
+
 struct sqlite3;
 struct sqlite3_stmt;
 
@@ -40,18 +47,37 @@ namespace quadtune::engine {
 
 struct Experiment;
 
-/// One stored evaluation.
+/// What an evaluation row holds.
+enum class EvalKind {
+  kShort,       ///< θ_s candidate scored by re-solves of recorded queries (f_s)
+  kLong,        ///< tuning flight (f_l)
+  kValidation,  ///< held-out flight of a recommended point (or the defaults)
+  kRecheck,     ///< re-flight of a candidate for the recommended point
+  kRace,        ///< racing flight
+  kIncumbent,   ///< a race's outcome: the incumbent after it
+};
+constexpr auto EnumNames(EvalKind) {
+  return std::array{EnumName{EvalKind::kShort, "short"},
+                    EnumName{EvalKind::kLong, "long"},
+                    EnumName{EvalKind::kValidation, "validation"},
+                    EnumName{EvalKind::kRecheck, "recheck"},
+                    EnumName{EvalKind::kRace, "race"},
+                    EnumName{EvalKind::kIncumbent, "incumbent"}};
+}
+
+/// One stored evaluation; EvaluationColumns() lists its columns.
 struct EvaluationRow {
   std::int64_t trial_id = 0;
-  std::string method;
-  std::string kind;            ///< "short" | "long" | "validation"
+  Method method = Method::kDefault;
+  EvalKind kind = EvalKind::kLong;
   int iteration = 0;           ///< round (long), PSO generation (short), held-out map (validation)
   int index = 0;               ///< position inside the iteration
   std::string params;          ///< JSON object name → value
   std::string terms;           ///< JSON object of objective terms
   double value = 0.0;          ///< objective value told to the optimiser
-  std::string status;          ///< "ok" | "failed" | "cancelled"
-  std::string message;
+  EvalStatus status = EvalStatus::kOk;
+  EvalState state = EvalState::kOk;  ///< what became of it (StateOf)
+  std::string message;         ///< the reason, in words
   double wall_s = 0.0;         ///< wall-clock duration (s)
   double started = 0.0;        ///< unix time (s)
   double finished = 0.0;       ///< unix time (s)
@@ -59,15 +85,58 @@ struct EvaluationRow {
   std::uint64_t flight_seed = 0;  ///< flights: seed of the flight's random streams; else 0
 };
 
-/// A trial as stored.
+/// The one list of the evaluation table's columns (columns.hpp): the SQL table, the row reader
+/// and insert, the row codec, the distributed JSON, the CSV and tidy exports and the
+/// `stored_column` table the Python loader reads all follow it.
+const Columns<EvaluationRow>& EvaluationColumns();
+/// The SQL names of EvaluationColumns(), comma-separated, each after `prefix` (e.g. "e.").
+[[nodiscard]] std::string EvaluationSqlColumns(const std::string& prefix = "");
+/// The row whose EvaluationColumns() stand in `statement`'s result columns `first`, `first`+1,
+/// ... in list order. Throws ColumnError naming the column for a value its column cannot hold.
+[[nodiscard]] EvaluationRow ReadEvaluationRow(sqlite3_stmt* statement, int first);
+/// A column's value as the CSV and tidy exports write it: reals in their shortest exact form
+/// when `shortest`, else as %.17g; seeds as decimal text, "" for 0.
+[[nodiscard]] std::string ColumnText(const ColumnValue& value, ColumnType type, bool shortest);
+
+/// The run as stored (one row per store).
+struct ExperimentRow {
+  std::int64_t id = 0;
+  std::string name;
+  std::string config;       ///< the experiment's configuration text (compared on resume)
+  std::int64_t seed = 0;    ///< the experiment's 64-bit seed, its bits as a signed integer
+  std::string version;      ///< quadtune's version
+  std::string machine;      ///< host name and cores
+  int threads = 0;
+  TimingMode mode = TimingMode::kReproducible;
+  double started = 0.0;     ///< unix time (s)
+};
+
+/// The one list of the experiment table's columns, as EvaluationColumns() for evaluations.
+const Columns<ExperimentRow>& ExperimentColumns();
+
+/// Where a trial stands.
+enum class TrialStatus { kRunning, kDone, kCancelled };
+constexpr auto EnumNames(TrialStatus) {
+  return std::array{EnumName{TrialStatus::kRunning, "running"},
+                    EnumName{TrialStatus::kDone, "done"},
+                    EnumName{TrialStatus::kCancelled, "cancelled"}};
+}
+
+/// A trial as stored; TrialColumns() lists its columns (all but the id).
 struct TrialRow {
   std::int64_t id = 0;
-  std::string method;
+  std::int64_t experiment_id = 0;
+  Method method = Method::kDefault;
   int repeat = 0;
-  std::string status;  ///< "running" | "done" | "cancelled"
-  std::string best_params;
+  std::uint64_t map_seed = 0;
+  TrialStatus status = TrialStatus::kRunning;
+  std::string best_params;  ///< JSON object name → value; empty while running
   double best_value = 0.0;
+  double finished = 0.0;    ///< unix time (s); 0 while running
 };
+
+/// The one list of the trial table's columns, as EvaluationColumns() for evaluations.
+const Columns<TrialRow>& TrialColumns();
 
 /// The store interface the tuner writes through. Implementations say their thread safety.
 class EvaluationStore {
@@ -76,12 +145,12 @@ class EvaluationStore {
   /// The trial's id (created when new).
   virtual std::int64_t Trial(const std::string& method, int repeat, std::uint64_t map_seed) = 0;
   /// A stored evaluation to replay, if any.
-  [[nodiscard]] virtual const EvaluationRow* Find(std::int64_t trial_id, const std::string& kind,
+  [[nodiscard]] virtual const EvaluationRow* Find(std::int64_t trial_id, EvalKind kind,
                                                   int iteration, int index) const = 0;
   /// Stores one evaluation. Ignores a key already stored.
   virtual void Insert(const EvaluationRow& row) = 0;
   /// Marks a trial finished with its best point.
-  virtual void FinishTrial(std::int64_t trial_id, const std::string& status,
+  virtual void FinishTrial(std::int64_t trial_id, TrialStatus status,
                            const std::string& best_params, double best_value) = 0;
 };
 
@@ -101,8 +170,8 @@ class ResultStore : public EvaluationStore {
   /// The trial's id (created when new).
   std::int64_t Trial(const std::string& method, int repeat, std::uint64_t map_seed) override;
   /// A stored evaluation, if any.
-  [[nodiscard]] const EvaluationRow* Find(std::int64_t trial_id, const std::string& kind,
-                                          int iteration, int index) const override;
+  [[nodiscard]] const EvaluationRow* Find(std::int64_t trial_id, EvalKind kind, int iteration,
+                                          int index) const override;
   /// Stores one evaluation (one transaction): once it returns, the row survives a kill -9 of
   /// the process (WAL journal, synchronous=NORMAL: not a power loss). Ignores a key already
   /// stored.
@@ -111,7 +180,7 @@ class ResultStore : public EvaluationStore {
   /// throws none is. Keys already stored (also twice inside `rows`) keep their first row.
   void InsertBatch(std::span<const EvaluationRow> rows);
   /// Marks a trial finished with its best point.
-  void FinishTrial(std::int64_t trial_id, const std::string& status, const std::string& best_params,
+  void FinishTrial(std::int64_t trial_id, TrialStatus status, const std::string& best_params,
                    double best_value) override;
   /// The rows of one trial loaded for resume (what Find() can return for it), in key order.
   [[nodiscard]] std::vector<EvaluationRow> StoredRows(std::int64_t trial_id) const;
@@ -119,6 +188,8 @@ class ResultStore : public EvaluationStore {
   /// Every evaluation, ordered by trial, kind, iteration, index.
   [[nodiscard]] std::vector<EvaluationRow> Evaluations() const;
   [[nodiscard]] std::vector<TrialRow> Trials() const;
+  /// The experiment row (an empty one when the store holds none).
+  [[nodiscard]] ExperimentRow ExperimentInfo() const;
   /// Writes experiment.csv, trials.csv and evaluations.csv into `directory` (created), each
   /// atomically and only once every row was read (a damaged store leaves no file).
   void ExportCsv(const std::string& directory) const;
@@ -143,7 +214,7 @@ class ResultStore : public EvaluationStore {
   std::unique_ptr<sqlite3, CloseConnection> db_;
   std::unique_ptr<sqlite3_stmt, FinalizeStatement> insert_;  // prepared on first use
   std::int64_t experiment_id_ = 0;
-  std::map<std::tuple<std::int64_t, std::string, int, int>, EvaluationRow> stored_;
+  std::map<std::tuple<std::int64_t, EvalKind, int, int>, EvaluationRow> stored_;
 };
 
 }  // namespace quadtune::engine

@@ -1,10 +1,10 @@
 #pragma once
 /// \file
 /// The compact binary form in which a distributed run ships evaluation rows to rank 0: every
-/// field of an EvaluationRow (map_seed and flight_seed included), integers and the bit patterns
-/// of the doubles in little-endian byte order (so a decoded row equals the encoded one bit for
-/// bit on any host), strings as a 32-bit length and their bytes. A batch is a sequence number,
-/// a row count and the rows back to back.
+/// column of EvaluationColumns(), in list order: integers, seeds and the bit patterns of the
+/// doubles as 8 bytes in little-endian byte order (so a decoded row equals the encoded one bit
+/// for bit on any host), text, enum names and JSON objects as a 32-bit length and their bytes.
+/// A batch is a sequence number, a row count and the rows back to back.
 ///
 /// Thread safety: plain functions on caller-owned data; RowBatch is a value (one thread at a
 /// time).

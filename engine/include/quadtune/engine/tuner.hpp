@@ -64,6 +64,7 @@
 #include <string>
 #include <vector>
 
+#include "quadtune/common/columns.hpp"
 #include "quadtune/engine/experiment.hpp"
 #include "quadtune/engine/validation.hpp"
 
@@ -138,6 +139,10 @@ struct TrialSummary {
   /// (a round whose θ_s differs from the previous round's).
   int context_changes = 0;
 };
+
+/// The one list of TrialSummary's fields (columns.hpp): the JSON of the distributed path and
+/// the trials of `summary.json` follow it.
+const Columns<TrialSummary>& TrialSummaryColumns();
 
 struct RunSummary {
   RunStatus status = RunStatus::kCompleted;
