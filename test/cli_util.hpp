@@ -3,6 +3,8 @@
 /// Helpers for tests that run the `quadtune` program end to end: make a fresh temporary directory,
 /// run a command line, read the CSV files and check the figures it writes.
 
+#include <unistd.h>
+
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
@@ -43,9 +45,11 @@ inline std::string ReadText(const std::filesystem::path& path) {
   return ss.str();
 }
 
-/// A fresh, empty directory `name` under the system's temporary directory.
+/// An empty folder `name`_<process id> in the temporary directory: test programs running at the
+/// same time (two checkouts, two ctest runs) never share one.
 inline std::filesystem::path FreshTempDir(const std::string& name) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / name;
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;

@@ -9,6 +9,7 @@
 //   one flight              quadtune fly (top-down figure)
 // The changing-environment experiment has its own end-to-end test (test/adapt).
 #include <gtest/gtest.h>
+#include <unistd.h>
 #include <sqlite3.h>
 #include <sys/wait.h>
 
@@ -37,7 +38,8 @@ using test::RunQuadtune;
 const std::string kExperiments = std::string(QUADTUNE_SOURCE_DIR) + "/experiments/";
 
 fs::path Fresh(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("quadtune_paper_" + name);
+  const fs::path dir =
+      fs::temp_directory_path() / ("quadtune_paper_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
