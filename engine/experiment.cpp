@@ -1,29 +1,38 @@
 #include "quadtune/engine/experiment.hpp"
 
 #include <algorithm>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "field_util.hpp"
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/text_file.hpp"
 #include "quadtune/engine/planner_registry.hpp"
 
-#ifndef QUADTUNE_SOURCE_DIR
-#define QUADTUNE_SOURCE_DIR "."
-#endif
-
 namespace quadtune::engine {
+namespace {
+
+std::vector<std::string>& AssetDirList() {
+  static std::vector<std::string> dirs;
+  return dirs;
+}
+
+}  // namespace
+
+void SetAssetDirs(std::vector<std::string> dirs) { AssetDirList() = std::move(dirs); }
+
+const std::vector<std::string>& AssetDirs() { return AssetDirList(); }
 
 std::string ResolvePath(const std::string& relative, const std::string& base_dir) {
   namespace fs = std::filesystem;
   if (relative.empty() || fs::path(relative).is_absolute()) return relative;
   std::vector<fs::path> candidates{fs::path(base_dir) / relative, fs::path(relative)};
-  if (const char* env = std::getenv("QUADTUNE_ASSETS")) candidates.push_back(fs::path(env) / relative);
-  candidates.push_back(fs::path(QUADTUNE_SOURCE_DIR) / "assets" / relative);
+  for (const std::string& dir : AssetDirs()) candidates.push_back(fs::path(dir) / relative);
   for (const auto& c : candidates) {
     if (PathExists(c.string())) return c.string();
   }
