@@ -1,29 +1,38 @@
 #include "quadtune/engine/experiment.hpp"
 
 #include <algorithm>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "field_util.hpp"
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/text_file.hpp"
 #include "quadtune/engine/planner_registry.hpp"
 
-#ifndef QUADTUNE_SOURCE_DIR
-#define QUADTUNE_SOURCE_DIR "."
-#endif
-
 namespace quadtune::engine {
+namespace {
+
+std::vector<std::string>& AssetDirList() {
+  static std::vector<std::string> dirs;
+  return dirs;
+}
+
+}  // namespace
+
+void SetAssetDirs(std::vector<std::string> dirs) { AssetDirList() = std::move(dirs); }
+
+const std::vector<std::string>& AssetDirs() { return AssetDirList(); }
 
 std::string ResolvePath(const std::string& relative, const std::string& base_dir) {
   namespace fs = std::filesystem;
   if (relative.empty() || fs::path(relative).is_absolute()) return relative;
   std::vector<fs::path> candidates{fs::path(base_dir) / relative, fs::path(relative)};
-  if (const char* env = std::getenv("QUADTUNE_ASSETS")) candidates.push_back(fs::path(env) / relative);
-  candidates.push_back(fs::path(QUADTUNE_SOURCE_DIR) / "assets" / relative);
+  for (const std::string& dir : AssetDirs()) candidates.push_back(fs::path(dir) / relative);
   for (const auto& c : candidates) {
     if (PathExists(c.string())) return c.string();
   }
@@ -374,117 +383,131 @@ const Fields<Budget>& BudgetFields() {
   return fields;
 }
 
+namespace {
+
+/// Adds the keys that name the tuned parameters and their starting points: `parameters`,
+/// `short_term`, `long_term`, `initial_short_term`, `start` (read in this order; each reads what
+/// the ones before it set).
+void AddTunedParameterFields(Fields<Experiment>& fields) {
+  using E = Experiment;
+  fields
+      .Custom(
+          {"parameters", "list", "required", "", "the tuned parameters, see below"},
+          [](const YamlMap& map, E& e) {
+            e.space = optimizers::ParameterSpace::FromYaml(map);
+            CheckParameters(map, e);
+          },
+          [](YAML::Emitter& out, const E& e) { WriteParameters(out, e.space); })
+      .Custom(
+          {"short_term", "list of names", "required",
+           "the planner's short-term parameters (ipopt: `w_col`, `w_dyn`, `n_pol`) that "
+           "have bounds in `parameters`",
+           "θ_s (PSO in `bo_pso`); every tuned parameter is in exactly one of "
+           "`short_term`, `long_term`"},
+          [](const YamlMap& map, E& e) {
+            e.short_names = ReadSide(map, "short_term", SchemaOf(e).short_term, e.space);
+          },
+          [](YAML::Emitter& out, const E& e) { WriteNames(out, "short_term", e.short_names); })
+      .Custom(
+          {"long_term", "list of names", "required",
+           "the planner's long-term parameters (ipopt: `v_des`, `h_pl`, `t_pl`) that have "
+           "bounds in `parameters`",
+           "θ_l (BO in `bo_pso`)"},
+          [](const YamlMap& map, E& e) {
+            e.long_names = ReadSide(map, "long_term", SchemaOf(e).long_term, e.space);
+            if (e.short_names.size() + e.long_names.size() !=
+                static_cast<std::size_t>(e.space.Dim())) {
+              map.Fail("parameters", "every parameter must be listed in short_term or long_term");
+            }
+          },
+          [](YAML::Emitter& out, const E& e) { WriteNames(out, "long_term", e.long_names); })
+      .Custom(
+          {"initial_short_term", "map name → number", "absent", "θ_s names, inside their bounds",
+           "a given θ_s: `bo_pso` skips its first θ_s phase"},
+          [](const YamlMap& map, E& e) {
+            e.initial_short =
+                ReadPoint(map, "initial_short_term", e.short_names, /*all=*/true, e.space);
+          },
+          [](YAML::Emitter& out, const E& e) {
+            WritePoint(out, "initial_short_term", e.initial_short);
+          })
+      .Custom(
+          {"start", "map name → number", "absent", "tuned names, inside their bounds",
+           "a known good point (refinement, paper Sec. III-E): with "
+           "`bo.moving_bounds.enabled`, BO begins inside start ± `half_width`; "
+           "`bo_pso`'s PSO starts from its θ_s part"},
+          [](const YamlMap& map, E& e) {
+            e.start = ReadPoint(map, "start", e.space.Names(), /*all=*/false, e.space);
+          },
+          [](YAML::Emitter& out, const E& e) { WritePoint(out, "start", e.start); });
+}
+
+}  // namespace
+
 const Fields<Experiment>& ExperimentFields() {
   using E = Experiment;
-  static const Fields<E> fields =
-      Fields<E>()
-          .Text("name", &E::name, {}, "name stored with the results")
-          .Integer("seed", &E::seed, Range::Closed(0, 9.0e15),
-                   "master seed; every random stream derives from it")
-          .Integer("threads", &E::threads, Range::Closed(1, kMaxThreads),
-                   "worker threads (`--threads` overrides)")
-          .Choice("mode", &E::mode,
-                  "how solve time t_c is taken: `reproducible` derives it from the solver's "
-                  "deterministic compute units, so stored results are identical at any thread or "
-                  "rank count; `realtime` uses wall-clock time, as on board")
-          .Integer("repeats", &E::repeats, Range::Closed(1, kMaxRepeats), "trials per method")
-          .Custom(
-              {"methods", "list", "required", CodeList(EnumNameList<Method>()),
-               "methods compared; `bo_pso` is the paper's complementary tuner (BO on θ_l, "
-               "PSO on θ_s)"},
-              [](const YamlMap& map, E& e) { e.methods = ReadMethods(map); },
-              [](YAML::Emitter& out, const E& e) {
-                std::vector<std::string> names;
-                for (Method m : e.methods) names.emplace_back(ToString(m));
-                WriteNames(out, "methods", names);
-              })
-          .Custom(
-              MapDoc("planner", "the planner plug-in and its world, below", "required"),
-              [](const YamlMap& map, E& e) {
-                BuiltPlanner built = BuildPlanner(map.Map("planner"), e.base_dir);
-                e.planner_type = built.type;
-                e.planner = built.planner;
-              },
-              [](YAML::Emitter& out, const E& e) { WriteAsGiven(out, e.text, "planner"); })
-          .Custom(
-              {"parameters", "list", "required", "", "the tuned parameters, see below"},
-              [](const YamlMap& map, E& e) {
-                e.space = optimizers::ParameterSpace::FromYaml(map);
-                CheckParameters(map, e);
-              },
-              [](YAML::Emitter& out, const E& e) { WriteParameters(out, e.space); })
-          .Custom(
-              {"short_term", "list of names", "required",
-               "the planner's short-term parameters (ipopt: `w_col`, `w_dyn`, `n_pol`) that "
-               "have bounds in `parameters`",
-               "θ_s (PSO in `bo_pso`); every tuned parameter is in exactly one of "
-               "`short_term`, `long_term`"},
-              [](const YamlMap& map, E& e) {
-                e.short_names = ReadSide(map, "short_term", SchemaOf(e).short_term, e.space);
-              },
-              [](YAML::Emitter& out, const E& e) { WriteNames(out, "short_term", e.short_names); })
-          .Custom(
-              {"long_term", "list of names", "required",
-               "the planner's long-term parameters (ipopt: `v_des`, `h_pl`, `t_pl`) that have "
-               "bounds in `parameters`",
-               "θ_l (BO in `bo_pso`)"},
-              [](const YamlMap& map, E& e) {
-                e.long_names = ReadSide(map, "long_term", SchemaOf(e).long_term, e.space);
-                if (e.short_names.size() + e.long_names.size() !=
-                    static_cast<std::size_t>(e.space.Dim())) {
-                  map.Fail("parameters",
-                           "every parameter must be listed in short_term or long_term");
-                }
-              },
-              [](YAML::Emitter& out, const E& e) { WriteNames(out, "long_term", e.long_names); })
-          .Custom(
-              {"initial_short_term", "map name → number", "absent",
-               "θ_s names, inside their bounds", "a given θ_s: `bo_pso` skips its first θ_s phase"},
-              [](const YamlMap& map, E& e) {
-                e.initial_short =
-                    ReadPoint(map, "initial_short_term", e.short_names, /*all=*/true, e.space);
-              },
-              [](YAML::Emitter& out, const E& e) {
-                WritePoint(out, "initial_short_term", e.initial_short);
-              })
-          .Custom(
-              {"start", "map name → number", "absent", "tuned names, inside their bounds",
-               "a known good point (refinement, paper Sec. III-E): with "
-               "`bo.moving_bounds.enabled`, BO begins inside start ± `half_width`; "
-               "`bo_pso`'s PSO starts from its θ_s part"},
-              [](const YamlMap& map, E& e) {
-                e.start = ReadPoint(map, "start", e.space.Names(), /*all=*/false, e.space);
-              },
-              [](YAML::Emitter& out, const E& e) { WritePoint(out, "start", e.start); })
-          .Nested("objective", &E::objective, ObjectiveFields(), "weights of f_s and f_l, below")
-          .Nested("maps", &E::maps, MapsFields(), "which map each flight flies, below")
-          .Nested("validation", &E::validation, ValidationFields(),
-                  "held-out validation after the trials, below")
-          .Nested("recommend", &E::recommend, RecommendFields(),
-                  "how a trial picks the point it hands back, below")
-          .Custom(MapDoc("race", "racing challengers against an incumbent during tuning, below",
-                         "see below"),
-                  ReadRace,
-                  [](YAML::Emitter& out, const E& e) {
-                    out << YAML::Key << "race" << YAML::Value;
-                    optimizers::RaceFields().Write(out, e.race);
-                  })
-          .Custom(MapDoc("budget", "budgets of one trial, below", "see below"), ReadBudget,
-                  [](YAML::Emitter& out, const E& e) {
-                    out << YAML::Key << "budget" << YAML::Value;
-                    BudgetFields().Write(out, e.budget);
-                  })
-          .Nested("pso", &E::pso, optimizers::PsoFields(),
-                  "[PSO](#pso) settings (seed derived per trial)")
-          .Custom(
-              MapDoc("bo",
-                     "[Bayesian optimisation](#bayesian-optimisation) settings (seed derived "
-                     "per trial)",
-                     "see below"),
-              [](const YamlMap& map, E& e) {
-                if (map.Has("bo")) e.bo = optimizers::BayesOptOptions::FromYaml(map.Map("bo"));
-              },
-              [](YAML::Emitter& out, const E& e) { WriteAsGiven(out, e.text, "bo"); });
+  static const Fields<E> fields = [] {
+    Fields<E> f;
+    f.Text("name", &E::name, {}, "name stored with the results")
+        .Integer("seed", &E::seed, Range::Closed(0, 9.0e15),
+                 "master seed; every random stream derives from it")
+        .Integer("threads", &E::threads, Range::Closed(1, kMaxThreads),
+                 "worker threads (`--threads` overrides)")
+        .Choice("mode", &E::mode,
+                "how solve time t_c is taken: `reproducible` derives it from the solver's "
+                "deterministic compute units, so stored results are identical at any thread or "
+                "rank count; `realtime` uses wall-clock time, as on board")
+        .Integer("repeats", &E::repeats, Range::Closed(1, kMaxRepeats), "trials per method")
+        .Custom(
+            {"methods", "list", "required", CodeList(EnumNameList<Method>()),
+             "methods compared; `bo_pso` is the paper's complementary tuner (BO on θ_l, "
+             "PSO on θ_s)"},
+            [](const YamlMap& map, E& e) { e.methods = ReadMethods(map); },
+            [](YAML::Emitter& out, const E& e) {
+              std::vector<std::string> names;
+              for (Method m : e.methods) names.emplace_back(ToString(m));
+              WriteNames(out, "methods", names);
+            })
+        .Custom(
+            MapDoc("planner", "the planner plug-in and its world, below", "required"),
+            [](const YamlMap& map, E& e) {
+              BuiltPlanner built = BuildPlanner(map.Map("planner"), e.base_dir);
+              e.planner_type = built.type;
+              e.planner = built.planner;
+            },
+            [](YAML::Emitter& out, const E& e) { WriteAsGiven(out, e.text, "planner"); });
+    AddTunedParameterFields(f);
+    f.Nested("objective", &E::objective, ObjectiveFields(), "weights of f_s and f_l, below")
+        .Nested("maps", &E::maps, MapsFields(), "which map each flight flies, below")
+        .Nested("validation", &E::validation, ValidationFields(),
+                "held-out validation after the trials, below")
+        .Nested("recommend", &E::recommend, RecommendFields(),
+                "how a trial picks the point it hands back, below")
+        .Custom(MapDoc("race", "racing challengers against an incumbent during tuning, below",
+                       "see below"),
+                ReadRace,
+                [](YAML::Emitter& out, const E& e) {
+                  out << YAML::Key << "race" << YAML::Value;
+                  optimizers::RaceFields().Write(out, e.race);
+                })
+        .Custom(MapDoc("budget", "budgets of one trial, below", "see below"), ReadBudget,
+                [](YAML::Emitter& out, const E& e) {
+                  out << YAML::Key << "budget" << YAML::Value;
+                  BudgetFields().Write(out, e.budget);
+                })
+        .Nested("pso", &E::pso, optimizers::PsoFields(),
+                "[PSO](#pso) settings (seed derived per trial)")
+        .Custom(
+            MapDoc("bo",
+                   "[Bayesian optimisation](#bayesian-optimisation) settings (seed derived "
+                   "per trial)",
+                   "see below"),
+            [](const YamlMap& map, E& e) {
+              if (map.Has("bo")) e.bo = optimizers::BayesOptOptions::FromYaml(map.Map("bo"));
+            },
+            [](YAML::Emitter& out, const E& e) { WriteAsGiven(out, e.text, "bo"); });
+    return f;
+  }();
   return fields;
 }
 

@@ -5,6 +5,7 @@
 
 #include <CLI/CLI.hpp>
 #include <string>
+#include <vector>
 
 #include "quadtune/layout/options.hpp"
 
@@ -74,8 +75,11 @@ int WriteReport(const std::string& dir, int flights = 3);
 /// 'DIR'"), then DIR/report.html. Returns 0, or 1 when either failed (each failure one log line;
 /// the results stay).
 int DrawFiguresAndReport(const std::string& plot_args, const std::string& dir);
-/// Path of an asset shipped with the sources (assets/…), found from the source tree or
-/// $QUADTUNE_ASSETS.
+/// The asset folders of `quadtune` (main hands them to engine::SetAssetDirs at start-up):
+/// $QUADTUNE_ASSETS when set, then the source tree's assets/.
+std::vector<std::string> ProgramAssetDirs();
+/// Path of an asset shipped with the sources (assets/…): the first of engine::AssetDirs() that
+/// holds it (else `relative`).
 std::string AssetPath(const std::string& relative);
 /// The forest the experiments fly at `spacing` (m): assets/layouts/forest_<S>.yaml when one is
 /// shipped for that spacing (e.g. forest_1p3.yaml for 1.3), else forest_1p3.yaml with its

@@ -13,17 +13,22 @@
 #include "commands.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/text_file.hpp"
+#include "quadtune/engine/experiment.hpp"
 
 namespace quadtune::cli {
 
+std::vector<std::string> ProgramAssetDirs() {
+  std::vector<std::string> dirs;
+  if (const char* env = std::getenv("QUADTUNE_ASSETS")) dirs.emplace_back(env);
+  dirs.push_back((std::filesystem::path(QUADTUNE_SOURCE_DIR) / "assets").string());
+  return dirs;
+}
+
 std::string AssetPath(const std::string& relative) {
-  namespace fs = std::filesystem;
-  if (const char* env = std::getenv("QUADTUNE_ASSETS")) {
-    const std::string given = (fs::path(env) / relative).string();
-    if (PathExists(given)) return given;
+  for (const std::string& dir : engine::AssetDirs()) {
+    const std::string path = (std::filesystem::path(dir) / relative).string();
+    if (PathExists(path)) return path;
   }
-  const fs::path in_tree = fs::path(QUADTUNE_SOURCE_DIR) / "assets" / relative;
-  if (PathExists(in_tree.string())) return in_tree.string();
   return relative;
 }
 

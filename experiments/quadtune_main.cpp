@@ -14,6 +14,7 @@
 #include "config_reference.hpp"
 #include "limits_reference.hpp"
 #include "quadtune/common/error.hpp"
+#include "quadtune/engine/experiment.hpp"
 
 namespace {
 
@@ -54,6 +55,8 @@ std::string OneLine(std::string text) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Drone and layout files named in experiments are found in these folders (ResolvePath).
+  quadtune::engine::SetAssetDirs(quadtune::cli::ProgramAssetDirs());
   spdlog::set_default_logger(std::make_shared<spdlog::logger>("", std::make_shared<SplitSink>()));
   CLI::App app{"quadtune — tunes the parameters of online quadrotor trajectory planners "
                "(short-term by PSO, long-term by Bayesian optimisation)"};

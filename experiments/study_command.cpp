@@ -26,7 +26,6 @@
 namespace quadtune::cli {
 namespace {
 
-
 struct StudyArgs {
   std::string file;
   std::vector<std::string> set;  ///< --set KEY=VALUE edits of the study file
@@ -37,6 +36,31 @@ struct StudyArgs {
   bool quiet = false;
   bool plot = true;
 };
+
+/// The progress line of a study: the point, then its validation flights or its stage's trial.
+std::string ProgressLine(const engine::StudyProgress& p, double job_s, const Eta& left) {
+  if (p.validating) {
+    return fmt::format("point {}/{} ({}): validation flights {}/{}, elapsed {:.0f} s, {}",
+                       p.point + 1, p.points, p.label, p.validation_done, p.validation_total, job_s,
+                       left.Text());
+  }
+  return fmt::format(
+      "point {}/{} ({}), stage {}: trial {}/{} {} r{}: flights {}/{}, best f_l "
+      "{:.3f}, elapsed {:.0f} s, {}",
+      p.point + 1, p.points, p.label, p.stage, p.run.trials_done + 1, p.run.trials_total,
+      p.run.method, p.run.repeat, p.run.flights_done, p.run.flights_total, p.run.best_long, job_s,
+      left.Text());
+}
+
+/// OUT/summary.json: the study's status, wall time, flights and re-solves.
+void WriteSummary(const engine::StudySummary& s, const std::string& out) {
+  nlohmann::json j;
+  j["status"] = quadtune::ToString(s.status);
+  j["wall_s"] = s.wall_s;
+  j["flights"] = s.flights;
+  j["resolves"] = s.resolves;
+  std::ofstream(std::filesystem::path(out) / "summary.json") << j.dump(1) << '\n';
+}
 
 int RunStudyCommand(const StudyArgs& a) {
   engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "study");
@@ -82,19 +106,7 @@ int RunStudyCommand(const StudyArgs& a) {
     }
     eta.Observe(report, job_s, run);
     const Eta left = eta.Remaining();
-    std::string line;
-    if (p.validating) {
-      line = fmt::format("point {}/{} ({}): validation flights {}/{}, elapsed {:.0f} s, {}",
-                         p.point + 1, p.points, p.label, p.validation_done, p.validation_total,
-                         job_s, left.Text());
-    } else {
-      line = fmt::format(
-          "point {}/{} ({}), stage {}: trial {}/{} {} r{}: flights {}/{}, best f_l "
-          "{:.3f}, elapsed {:.0f} s, {}",
-          p.point + 1, p.points, p.label, p.stage, p.run.trials_done + 1, p.run.trials_total,
-          p.run.method, p.run.repeat, p.run.flights_done, p.run.flights_total, p.run.best_long,
-          job_s, left.Text());
-    }
+    const std::string line = ProgressLine(p, job_s, left);
     spdlog::debug(
         "eta: at {:.2f} s, {:.1f} s left{}, predicted total {:.1f} s; flights {:.0f} of "
         "{:.0f} planned",
@@ -129,12 +141,7 @@ int RunStudyCommand(const StudyArgs& a) {
     s.status = engine::RunStatus::kCancelled;  // cancelled while a map was generated
   }
   if (tty) std::fprintf(stderr, "\n");
-  nlohmann::json j;
-  j["status"] = quadtune::ToString(s.status);
-  j["wall_s"] = s.wall_s;
-  j["flights"] = s.flights;
-  j["resolves"] = s.resolves;
-  std::ofstream(std::filesystem::path(a.out) / "summary.json") << j.dump(1) << '\n';
+  WriteSummary(s, a.out);
   spdlog::info("{} flights and {} re-solves in {:.1f} s; results in {}", s.flights, s.resolves,
                s.wall_s, a.out);
   if (s.status != engine::RunStatus::kCompleted) {

@@ -289,22 +289,9 @@ std::function<void(const engine::SweepProgress&)> Printer(bool tty, bool quiet, 
   };
 }
 
-int RunSweepCommand(const SweepArgs& a) {
-  engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "sweep");
-  CheckFileKind(a.experiment, FileKind::kExperiment);
-  CheckOutputDir(a.out, "--out");
-  if (a.resume && !PathExists(JournalPath(a.out, 0))) {
-    throw ConfigError(a.out, "--resume",
-                      "holds no sweep to continue (no sweep.journal); run the sweep without "
-                      "--resume");
-  }
-  if (!a.resume && HoldsFiles(a.out) && !a.overwrite) {
-    throw ConfigError(a.out, "--out",
-                      "the output directory exists and is not empty; choose another --out, "
-                      "pass --overwrite to replace its sweep files, or --resume to continue an "
-                      "interrupted sweep");
-  }
-  // Every configuration error is reported here, before any flight.
+/// The sweep's layouts: the experiment as given, or once per --layouts value with the layout key
+/// set to it, labelled; `spacing` for an ipopt planner's uniform forest.
+std::vector<Group> LoadGroups(const SweepArgs& a) {
   std::vector<Group> groups;
   if (a.layouts.empty()) {
     Group g;
@@ -328,6 +315,26 @@ int RunSweepCommand(const SweepArgs& a) {
       if (ipopt->options().layout.zones.empty()) g.spacing = ipopt->options().layout.spacing;
     }
   }
+  return groups;
+}
+
+int RunSweepCommand(const SweepArgs& a) {
+  engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "sweep");
+  CheckFileKind(a.experiment, FileKind::kExperiment);
+  CheckOutputDir(a.out, "--out");
+  if (a.resume && !PathExists(JournalPath(a.out, 0))) {
+    throw ConfigError(a.out, "--resume",
+                      "holds no sweep to continue (no sweep.journal); run the sweep without "
+                      "--resume");
+  }
+  if (!a.resume && HoldsFiles(a.out) && !a.overwrite) {
+    throw ConfigError(a.out, "--out",
+                      "the output directory exists and is not empty; choose another --out, "
+                      "pass --overwrite to replace its sweep files, or --resume to continue an "
+                      "interrupted sweep");
+  }
+  // Every configuration error is reported here, before any flight.
+  std::vector<Group> groups = LoadGroups(a);
   const engine::Experiment& first = groups.front().experiment;
   const std::uint64_t seed = a.seed >= 0 ? static_cast<std::uint64_t>(a.seed) : first.seed;
   engine::SweepOptions options;

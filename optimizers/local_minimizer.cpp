@@ -4,6 +4,7 @@
 #include <cmath>
 #include <deque>
 #include <stdexcept>
+#include <vector>
 
 #include "quadtune/common/error.hpp"
 
@@ -16,6 +17,40 @@ void BoxLbfgsOptions::Validate() const {
   if (!(relative_tolerance >= 0.0)) throw ConfigError("", "relative_tolerance", "must be a number >= 0");
   if (max_line_search < 1) throw ConfigError("", "max_line_search", "must be an integer >= 1");
 }
+
+namespace {
+
+// Projected gradient: components pushing out of the box at an active bound are dropped.
+void ProjectGradient(const Eigen::VectorXd& x, const Eigen::VectorXd& g,
+                     const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
+                     Eigen::VectorXd* pg) {
+  for (Eigen::Index i = 0; i < x.size(); ++i) {
+    const bool at_low = x[i] <= lower[i] && g[i] > 0.0;
+    const bool at_high = x[i] >= upper[i] && g[i] < 0.0;
+    (*pg)[i] = (at_low || at_high || lower[i] == upper[i]) ? 0.0 : g[i];
+  }
+}
+
+// L-BFGS two-loop recursion on the free variables: `q` = the inverse-Hessian estimate of the
+// history (steps s, gradient changes y, rho = 1 / sᵀy) times `pg`; `alpha` holds one scratch
+// number per history entry.
+void TwoLoopRecursion(const Eigen::VectorXd& pg, const std::deque<Eigen::VectorXd>& s_hist,
+                      const std::deque<Eigen::VectorXd>& y_hist, const std::deque<double>& rho_hist,
+                      std::vector<double>* alpha, Eigen::VectorXd* q) {
+  *q = pg;
+  const std::size_t m = s_hist.size();
+  for (std::size_t k = m; k-- > 0;) {
+    (*alpha)[k] = rho_hist[k] * s_hist[k].dot(*q);
+    *q -= (*alpha)[k] * y_hist[k];
+  }
+  if (m > 0) *q *= s_hist.back().dot(y_hist.back()) / y_hist.back().squaredNorm();
+  for (std::size_t k = 0; k < m; ++k) {
+    const double beta = rho_hist[k] * y_hist[k].dot(*q);
+    *q += ((*alpha)[k] - beta) * s_hist[k];
+  }
+}
+
+}  // namespace
 
 BoxLbfgsSummary MinimizeBox(const ValueAndGradient& f, Eigen::VectorXd& x,
                             const Eigen::VectorXd& lower, const Eigen::VectorXd& upper,
@@ -41,29 +76,14 @@ BoxLbfgsSummary MinimizeBox(const ValueAndGradient& f, Eigen::VectorXd& x,
   std::vector<double> alpha(static_cast<std::size_t>(options.memory));
 
   for (int it = 0; it < options.max_iterations; ++it) {
-    // Projected gradient: components pushing out of the box at an active bound are dropped.
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const bool at_low = x[i] <= lower[i] && g[i] > 0.0;
-      const bool at_high = x[i] >= upper[i] && g[i] < 0.0;
-      pg[i] = (at_low || at_high || lower[i] == upper[i]) ? 0.0 : g[i];
-    }
+    ProjectGradient(x, g, lower, upper, &pg);
     const double pg_norm = pg.cwiseAbs().maxCoeff();
     if (pg_norm <= options.gradient_tolerance) {
       summary.converged = true;
       break;
     }
-    // Two-loop recursion on the free variables.
-    q = pg;
     const std::size_t m = s_hist.size();
-    for (std::size_t k = m; k-- > 0;) {
-      alpha[k] = rho_hist[k] * s_hist[k].dot(q);
-      q -= alpha[k] * y_hist[k];
-    }
-    if (m > 0) q *= s_hist.back().dot(y_hist.back()) / y_hist.back().squaredNorm();
-    for (std::size_t k = 0; k < m; ++k) {
-      const double beta = rho_hist[k] * y_hist[k].dot(q);
-      q += (alpha[k] - beta) * s_hist[k];
-    }
+    TwoLoopRecursion(pg, s_hist, y_hist, rho_hist, &alpha, &q);
     d = -q;
     for (Eigen::Index i = 0; i < n; ++i) {
       if (pg[i] == 0.0) d[i] = 0.0;

@@ -436,6 +436,35 @@ void FixBoundary(const PlanningQuery& query, double dt, ControlPoints* q) {
       BoundaryControlPoints(query.goal_W, query.goal_v_W, Eigen::Vector3d::Zero(), dt);
 }
 
+// The curve of `q` at its inner knots: positions (`targets`) and unit tangents (+x where it
+// stands still), the fit a time reallocation keeps.
+void InnerKnotStates(const ControlPoints& q, double dt, Eigen::Matrix3Xd* targets,
+                     Eigen::Matrix3Xd* tangents) {
+  const Trajectory old = BsplineToTrajectory(q, dt);
+  const int n = static_cast<int>(q.cols());
+  targets->resize(3, n - 4);
+  tangents->resize(3, n - 4);
+  for (int j = 1; j + 3 < n; ++j) {
+    Eigen::Vector3d p, v, a;
+    old.State(j * dt, &p, &v, &a);
+    targets->col(j - 1) = p;
+    const double speed = v.norm();
+    tangents->col(j - 1) = speed > 1e-9 ? Eigen::Vector3d(v / speed) : Eigen::Vector3d::UnitX();
+  }
+}
+
+// The collision, feasibility and total cost of the final control points into `result->cost`.
+void SetFinalCostTerms(const ControlPoints& q, double dt, const std::vector<RepulsionPair>& pairs,
+                       const PlannerParams& params, PlanResult* result) {
+  EgoCost final_cost(q, dt, pairs, params);
+  const Eigen::VectorXd x = final_cost.Variables();
+  EgoCostTerms terms;
+  final_cost.Evaluate(x.data(), nullptr, &terms);
+  result->cost.collision = terms.collision;
+  result->cost.feasibility = terms.feasibility;
+  result->cost.total = terms.total;
+}
+
 }  // namespace
 
 PlanResult SolveEgo(const PlanningQuery& query, const PlannerParams& params,
@@ -509,17 +538,8 @@ PlanResult SolveEgo(const PlanningQuery& query, const PlannerParams& params,
     const double ratio = std::max(vm / params.v_des, std::sqrt(am / params.a_max));
     if (ratio <= 1.0 + o.limit_tolerance) break;
     ++stats.reallocations;
-    // The previous curve at the inner knots: targets and unit tangents.
-    const Trajectory old = BsplineToTrajectory(q, dt);
-    const int n = static_cast<int>(q.cols());
-    Eigen::Matrix3Xd targets(3, n - 4), tangents(3, n - 4);
-    for (int j = 1; j + 3 < n; ++j) {
-      Eigen::Vector3d p, v, a;
-      old.State(j * dt, &p, &v, &a);
-      targets.col(j - 1) = p;
-      const double speed = v.norm();
-      tangents.col(j - 1) = speed > 1e-9 ? Eigen::Vector3d(v / speed) : Eigen::Vector3d::UnitX();
-    }
+    Eigen::Matrix3Xd targets, tangents;
+    InnerKnotStates(q, dt, &targets, &tangents);
     dt *= ratio;
     FixBoundary(query, dt, &q);
     EgoCost refit(q, dt, pairs, params);
@@ -537,15 +557,7 @@ PlanResult SolveEgo(const PlanningQuery& query, const PlannerParams& params,
   }
   result.trajectory = BsplineToTrajectory(q, dt);
   result.cost.jerk = result.trajectory.JerkEnergy();
-  {
-    EgoCost final_cost(q, dt, pairs, params);
-    const Eigen::VectorXd x = final_cost.Variables();
-    EgoCostTerms terms;
-    final_cost.Evaluate(x.data(), nullptr, &terms);
-    result.cost.collision = terms.collision;
-    result.cost.feasibility = terms.feasibility;
-    result.cost.total = terms.total;
-  }
+  SetFinalCostTerms(q, dt, pairs, params, &result);
   const int samples = CheckCurve(map, params, o, &result);
   return finish(std::move(result), samples);
 }

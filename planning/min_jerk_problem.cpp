@@ -43,6 +43,64 @@ Eigen::Matrix<double, 6, 6> JerkGram(double t) {
   return q;
 }
 
+// Throws std::invalid_argument unless every piece has a finite duration > 0 and a sample count
+// >= 1 and the weights and limits are in range.
+void CheckProblemInputs(const std::vector<double>& nominal,
+                        const std::vector<int>& samples_per_piece,
+                        const MinJerkCostParams& params) {
+  if (nominal.empty() || samples_per_piece.size() != nominal.size()) {
+    throw std::invalid_argument("MinJerkProblem: need >= 1 piece and one sample count per piece");
+  }
+  for (std::size_t i = 0; i < nominal.size(); ++i) {
+    if (!std::isfinite(nominal[i]) || nominal[i] <= 0.0) {
+      throw std::invalid_argument("MinJerkProblem: nominal duration " + std::to_string(i) +
+                                  " must be finite and > 0");
+    }
+    if (samples_per_piece[i] < 1) {
+      throw std::invalid_argument("MinJerkProblem: samples_per_piece must be >= 1");
+    }
+  }
+  if (!(params.clearance > 0.0) || !(params.v_max > 0.0) || !(params.a_max > 0.0) ||
+      !(params.w_smooth > 0.0) || params.w_col < 0.0 || params.w_dyn < 0.0 || params.w_time < 0.0 ||
+      !(params.collision_scale > 0.0) || !(params.feasibility_scale > 0.0) ||
+      !(params.brake_from_speed >= 0.0) || !(params.braking_deceleration >= 0.0) ||
+      !std::isfinite(params.brake_from_speed) || !std::isfinite(params.braking_deceleration)) {
+    throw std::invalid_argument("MinJerkProblem: weights/limits out of range");
+  }
+}
+
+// The map K from the boundary vector b (start p, v, a; inner waypoints; end p, v, a) to the
+// coefficients c = K b of every piece (6 per piece, one axis), for nominal piece durations.
+Eigen::MatrixXd CoefficientMap(const std::vector<double>& nominal, int nb) {
+  const int n = static_cast<int>(nominal.size());
+  // Min-jerk system M c = E b (per axis): boundary p, v, a at both ends; at each inner knot the
+  // waypoint on both sides and continuity of derivatives 1..4.
+  Eigen::MatrixXd m = Eigen::MatrixXd::Zero(6 * n, 6 * n);
+  Eigen::MatrixXd e = Eigen::MatrixXd::Zero(6 * n, nb);
+  for (int d = 0; d < 3; ++d) {
+    m.block(d, 0, 1, 6) = BasisRow(0.0, d);
+    e(d, d) = 1.0;
+  }
+  for (int i = 0; i + 1 < n; ++i) {
+    const int r = 3 + 6 * i;
+    const double t = nominal[static_cast<std::size_t>(i)];
+    m.block(r, 6 * i, 1, 6) = BasisRow(t, 0);
+    e(r, 3 + i) = 1.0;
+    m.block(r + 1, 6 * (i + 1), 1, 6) = BasisRow(0.0, 0);
+    e(r + 1, 3 + i) = 1.0;
+    for (int d = 1; d <= 4; ++d) {
+      m.block(r + 1 + d, 6 * i, 1, 6) = BasisRow(t, d);
+      m.block(r + 1 + d, 6 * (i + 1), 1, 6) = -BasisRow(0.0, d);
+    }
+  }
+  const double t_last = nominal.back();
+  for (int d = 0; d < 3; ++d) {
+    m.block(6 * n - 3 + d, 6 * (n - 1), 1, 6) = BasisRow(t_last, d);
+    e(6 * n - 3 + d, n + 2 + d) = 1.0;
+  }
+  return m.partialPivLu().solve(e);
+}
+
 }  // namespace
 
 MinJerkCostParams MinJerkCostParams::FromPlannerParams(const PlannerParams& params) {
@@ -66,55 +124,11 @@ MinJerkProblem::MinJerkProblem(const MinJerkBoundary& boundary,
       field_(&field),
       params_(params),
       num_pieces_(static_cast<int>(nominal_.size())) {
-  if (num_pieces_ < 1 || samples_per_piece.size() != nominal_.size()) {
-    throw std::invalid_argument("MinJerkProblem: need >= 1 piece and one sample count per piece");
-  }
-  for (std::size_t i = 0; i < nominal_.size(); ++i) {
-    if (!std::isfinite(nominal_[i]) || nominal_[i] <= 0.0) {
-      throw std::invalid_argument("MinJerkProblem: nominal duration " + std::to_string(i) +
-                                  " must be finite and > 0");
-    }
-    if (samples_per_piece[i] < 1) {
-      throw std::invalid_argument("MinJerkProblem: samples_per_piece must be >= 1");
-    }
-  }
-  if (!(params_.clearance > 0.0) || !(params_.v_max > 0.0) || !(params_.a_max > 0.0) ||
-      !(params_.w_smooth > 0.0) || params_.w_col < 0.0 || params_.w_dyn < 0.0 ||
-      params_.w_time < 0.0 || !(params_.collision_scale > 0.0) ||
-      !(params_.feasibility_scale > 0.0) || !(params_.brake_from_speed >= 0.0) ||
-      !(params_.braking_deceleration >= 0.0) || !std::isfinite(params_.brake_from_speed) ||
-      !std::isfinite(params_.braking_deceleration)) {
-    throw std::invalid_argument("MinJerkProblem: weights/limits out of range");
-  }
+  CheckProblemInputs(nominal_, samples_per_piece, params_);
 
   const int n = num_pieces_;
   const int nb = BoundarySize();
-  // Min-jerk system M c = E b (per axis): boundary p, v, a at both ends; at each inner knot the
-  // waypoint on both sides and continuity of derivatives 1..4.
-  Eigen::MatrixXd m = Eigen::MatrixXd::Zero(6 * n, 6 * n);
-  Eigen::MatrixXd e = Eigen::MatrixXd::Zero(6 * n, nb);
-  for (int d = 0; d < 3; ++d) {
-    m.block(d, 0, 1, 6) = BasisRow(0.0, d);
-    e(d, d) = 1.0;
-  }
-  for (int i = 0; i + 1 < n; ++i) {
-    const int r = 3 + 6 * i;
-    const double t = nominal_[static_cast<std::size_t>(i)];
-    m.block(r, 6 * i, 1, 6) = BasisRow(t, 0);
-    e(r, 3 + i) = 1.0;
-    m.block(r + 1, 6 * (i + 1), 1, 6) = BasisRow(0.0, 0);
-    e(r + 1, 3 + i) = 1.0;
-    for (int d = 1; d <= 4; ++d) {
-      m.block(r + 1 + d, 6 * i, 1, 6) = BasisRow(t, d);
-      m.block(r + 1 + d, 6 * (i + 1), 1, 6) = -BasisRow(0.0, d);
-    }
-  }
-  const double t_last = nominal_.back();
-  for (int d = 0; d < 3; ++d) {
-    m.block(6 * n - 3 + d, 6 * (n - 1), 1, 6) = BasisRow(t_last, d);
-    e(6 * n - 3 + d, n + 2 + d) = 1.0;
-  }
-  coeff_map_ = m.partialPivLu().solve(e);
+  coeff_map_ = CoefficientMap(nominal_, nb);
   for (double t : nominal_) sum_nominal_ += t;
   inv_limit_sq_[1] = 1.0 / (params_.v_max * params_.v_max);
   inv_limit_sq_[2] = 1.0 / (params_.a_max * params_.a_max);

@@ -168,7 +168,8 @@ class MinJerkTnlp final : public UnconstrainedDenseTnlp {
   long distance_queries_ = 0;
 };
 
-// One Ipopt application per thread (creating one costs ≈0.3 ms).
+// One Ipopt application per thread: a new one per solve would add its creation to every solve
+// (NewPlannerIpoptApplication).
 Ipopt::IpoptApplication& ThreadApplication() {
   thread_local Ipopt::SmartPtr<Ipopt::IpoptApplication> app = NewPlannerIpoptApplication();
   return *app;
@@ -334,21 +335,20 @@ Ipopt::SmartPtr<Ipopt::IpoptApplication> NewPlannerIpoptApplication() {
   opts->SetNumericValue("ma27_la_init_factor", 1.0);
   opts->SetNumericValue("ma27_liw_init_factor", 1.0);
   // No constraints: second-order corrections never apply, their trial points only cost
-  // objective evaluations (measured: same iterates, ≈25% fewer evaluations).
+  // objective evaluations (what leaving them out saves: docs/performance.md).
   opts->SetIntegerValue("max_soc", 0);
   // A Newton step that moves every variable by less than 1e-8 of max(1, |value|) (0.1 µm on a
   // waypoint 10 m from the world origin, a relative change of 1e-8 of the time scale) is taken
   // without a line search: at that resolution f(x + αd) and f(x) differ by rounding only, and the
-  // line search (Ipopt's default threshold is 10 machine epsilons) halved α 20–35 times per
+  // line search (Ipopt's default threshold is 10 machine epsilons) would halve α many times per
   // iteration before the rounding-floor stall test ended the solve. Convergence is still
-  // decided by `tol` on the gradient; measured on the recorded 1.3 m queries: the same solutions
-  // (mean cost equal to 5 digits), 21–31% fewer objective evaluations (n_pol 3, 6, 8).
+  // decided by `tol` on the gradient, so the solutions stay the same (docs/performance.md
+  // measures the evaluations saved).
   opts->SetNumericValue("tiny_step_tol", 1e-8);
   // Iterative refinement of a Newton step only when its residual asks for it (Ipopt's default
   // refines every step at least once: a residual and a back-solve through its vector classes).
-  // The dense LDLᵀ of this small system meets residual_ratio_max (1e-10) without it. Measured
-  // with callgrind on the 1.3 m flights of seeds 2 and 3: 3.8% and 4.1% fewer instructions in
-  // the solves; on the recorded queries the same mean cost to 0.1% and the same iterations.
+  // The dense LDLᵀ of this small system meets residual_ratio_max (1e-10) without it
+  // (docs/performance.md measures the instructions saved and the unchanged solutions).
   opts->SetIntegerValue("min_refinement_steps", 0);
   // An empty file name: no `ipopt.opt` is read from the working directory.
   a->Initialize("");

@@ -1,15 +1,20 @@
 #!/usr/bin/python3
-"""Lists every C++ function longer than a limit in the algorithm modules; fails when one exists.
+"""Lists every C++ function longer than a limit in the production code; fails when one exists.
 
 Usage: scripts/check_code_shape.py [--max-lines N] [--all] [ROOT]
 
-ROOT is the repository root (default: the parent of this script's folder). The modules checked
-are engine/, planning/, optimizers/ and sim/ (those present); every .cpp, .hpp and .h file below
-them, include/ folders included. A function's length is counted from the line where its
-declaration starts to the line of its closing brace, both included. Lambdas and local classes are
-part of the function that encloses them; member functions defined inside a class body count on
-their own (a long class is not a long function). Exit status: 0 when no function is over the
-limit, 1 when one is (each is listed as `path:line: name N lines`), 2 on bad usage.
+ROOT is the repository root (default: the parent of this script's folder). The production code is
+every .cpp, .hpp, .h and .cc file below common/, physics/, planning/, sim/, optimizers/, engine/
+and experiments/ (those present), include/ folders included; test/ and examples/ are not
+production code. The limit is 100 lines (--max-lines). A function's length is counted from the
+line where its declaration starts to the line of its closing brace, both included. Lambdas and
+local classes are part of the function that encloses them; member functions defined inside a
+class body count on their own (a long class is not a long function).
+
+ALLOWED names the functions over the limit that the check lets pass for now; each is listed with
+`(allowed)` and does not fail the check. An entry whose function is no longer over the limit is
+reported on stderr, so that it is taken out. Exit status: 0 when no function outside ALLOWED is
+over the limit, 1 when one is (each is listed as `path:line: name N lines`), 2 on bad usage.
 
 The scanner is a brace matcher over source with comments, string and character literals blanked
 out; it needs no compiler. It recognises namespaces, classes, structs, unions and enums (and
@@ -22,7 +27,18 @@ import pathlib
 import re
 import sys
 
-MODULES = ("engine", "planning", "optimizers", "sim")
+MODULES = ("common", "physics", "planning", "sim", "optimizers", "engine", "experiments")
+SKIP_PARTS = ("node_modules",)
+MAX_LINES = 100
+# Functions over the limit that the check lets pass: each sits in a file that other work on
+# issue 41 is rewriting (the stored-row schema, the adaptation experiment, the built-in planners,
+# the layout options) and is split there; its entry goes with it. (path, function name)
+ALLOWED = {
+    ("engine/online_adaptation.cpp", "AdaptExperimentFields"),
+    ("engine/planners.cpp", "IpoptPlannerFields"),
+    ("experiments/run_command.cpp", "Bench"),
+    ("physics/layout/options.cpp", "LayoutOptions::Validate"),
+}
 SUFFIXES = (".cpp", ".hpp", ".h", ".cc")
 CONTAINER_RE = re.compile(r"\b(namespace|class|struct|union|enum)\b")
 EXTERN_RE = re.compile(r'^\s*extern\s+"\s*"\s*$')  # extern "C" (literals are blanked)
@@ -159,35 +175,51 @@ def FunctionsIn(path):
   return result
 
 
-def main():
-  parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-  parser.add_argument("root", nargs="?", default=str(pathlib.Path(__file__).resolve().parents[1]))
-  parser.add_argument("--max-lines", type=int, default=120)
-  parser.add_argument("--all", action="store_true",
-                      help="list every function with its length, longest first, then check")
-  args = parser.parse_args()
-  root = pathlib.Path(args.root)
-  rows = []
+def ProductionFiles(root):
+  """Every C++ file of the production code below `root`, sorted, as paths."""
   for module in MODULES:
     folder = root / module
     if not folder.is_dir():
       continue
     for path in sorted(folder.rglob("*")):
-      if path.suffix in SUFFIXES and path.is_file():
-        for first, last, name in FunctionsIn(path):
-          rows.append((last - first + 1, path.relative_to(root), first, name))
+      if (path.suffix in SUFFIXES and path.is_file() and
+          not any(part in SKIP_PARTS for part in path.relative_to(root).parts)):
+        yield path
+
+
+def main():
+  parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+  parser.add_argument("root", nargs="?", default=str(pathlib.Path(__file__).resolve().parents[1]))
+  parser.add_argument("--max-lines", type=int, default=MAX_LINES)
+  parser.add_argument("--all", action="store_true",
+                      help="list every function with its length, longest first, then check")
+  args = parser.parse_args()
+  root = pathlib.Path(args.root)
+  rows = []
+  for path in ProductionFiles(root):
+    for first, last, name in FunctionsIn(path):
+      rows.append((last - first + 1, path.relative_to(root), first, name))
   rows.sort(key=lambda r: (-r[0], str(r[1]), r[2]))
   if args.all:
     for length, path, line, name in rows:
       print(f"{path}:{line}: {name} {length} lines")
   long_ones = [r for r in rows if r[0] > args.max_lines]
+  allowed = [r for r in long_ones if (r[1].as_posix(), r[3]) in ALLOWED]
+  failing = [r for r in long_ones if (r[1].as_posix(), r[3]) not in ALLOWED]
   if not args.all:
     for length, path, line, name in long_ones:
-      print(f"{path}:{line}: {name} {length} lines")
-  if long_ones:
-    print(f"{len(long_ones)} function(s) over {args.max_lines} lines", file=sys.stderr)
+      note = " (allowed)" if (path.as_posix(), name) in ALLOWED else ""
+      print(f"{path}:{line}: {name} {length} lines{note}")
+  present = {(r[1].as_posix(), r[3]) for r in rows}
+  for path, name in sorted(ALLOWED):
+    if (path, name) in present and (path, name) not in {(r[1].as_posix(), r[3]) for r in allowed}:
+      print(f"{path}: {name} is within {args.max_lines} lines now: take it out of ALLOWED",
+            file=sys.stderr)
+  if failing:
+    print(f"{len(failing)} function(s) over {args.max_lines} lines", file=sys.stderr)
     return 1
-  print(f"no function over {args.max_lines} lines in {len(rows)} functions", file=sys.stderr)
+  print(f"no function over {args.max_lines} lines in {len(rows)} functions"
+        f"{f' but the {len(allowed)} allowed' if allowed else ''}", file=sys.stderr)
   return 0
 
 

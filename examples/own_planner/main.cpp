@@ -6,7 +6,6 @@
 // Loads the experiment (any registered planner type, this program's included), runs it with
 // engine::RunExperiment into the SQLite store and prints the best value of every trial.
 
-#include <cstdlib>
 #include <exception>
 #include <iostream>
 #include <memory>
@@ -46,10 +45,8 @@ int main(int argc, char** argv) {
     std::cerr << "usage: own_planner EXPERIMENT.yaml RESULTS.sqlite\n";
     return 2;
   }
-#ifdef OWN_PLANNER_ASSETS
   // Drone and layout files named in the experiment are found in the installed package's assets.
-  setenv("QUADTUNE_ASSETS", OWN_PLANNER_ASSETS, /*overwrite=*/0);
-#endif
+  engine::SetAssetDirs({OWN_PLANNER_ASSETS});
   try {
     engine::RegisterPlanner("waypoint", BuildWaypoint, engine::BackendPlanner::Schema());
     const engine::Experiment experiment = engine::Experiment::LoadFile(argv[1]);

@@ -1,7 +1,10 @@
 #include "quadtune/engine/experiment.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <regex>
 #include <string>
@@ -188,6 +191,30 @@ TEST(ExperimentFields, WriteThenReadGivesTheSameExperiment) {
     EXPECT_EQ(again.maps.mode, e.maps.mode);
     EXPECT_EQ(again.pso.num_particles, e.pso.num_particles);
   }
+}
+
+// ResolvePath looks next to the file, then in the folders SetAssetDirs gives, in their order,
+// and never in $QUADTUNE_ASSETS: the library reads no environment.
+TEST(ResolvePath, SearchesTheAssetFoldersItIsGivenAndNotTheEnvironment) {
+  namespace fs = std::filesystem;
+  const fs::path root =
+      fs::temp_directory_path() / ("quadtune_asset_dirs_" + std::to_string(getpid()));
+  for (const char* dir : {"a", "b"}) fs::create_directories(root / dir / "drones");
+  std::ofstream(root / "a" / "drones" / "both.yaml") << "a\n";
+  std::ofstream(root / "b" / "drones" / "both.yaml") << "b\n";
+  std::ofstream(root / "b" / "drones" / "only_b.yaml") << "b\n";
+  const std::vector<std::string> saved = AssetDirs();
+  ASSERT_EQ(setenv("QUADTUNE_ASSETS", (root / "b").c_str(), 1), 0);
+  SetAssetDirs({});
+  EXPECT_EQ(ResolvePath("drones/only_b.yaml", "."), "drones/only_b.yaml");
+  SetAssetDirs({(root / "a").string(), (root / "b").string()});
+  EXPECT_EQ(ResolvePath("drones/only_b.yaml", "."), (root / "b" / "drones/only_b.yaml").string());
+  EXPECT_EQ(ResolvePath("drones/both.yaml", "."), (root / "a" / "drones/both.yaml").string());
+  EXPECT_EQ(ResolvePath("drones/both.yaml", (root / "b").string()),
+            (root / "b" / "drones/both.yaml").string());
+  unsetenv("QUADTUNE_ASSETS");
+  SetAssetDirs(saved);
+  fs::remove_all(root);
 }
 
 TEST(ExperimentFields, EveryKeyHasATypeAndAMeaning) {

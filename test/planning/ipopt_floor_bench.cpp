@@ -6,6 +6,7 @@
 // subtracting this is the cost function, the distance field and the post-solve checks.
 //
 //   ipopt_floor_bench      arg 0: variables n (7, 16, 22 = n_pol 3, 6, 8); arg 1: 100 · x0
+//   NewApplication         NewPlannerIpoptApplication() alone: creating an application
 //
 // Counters: iterations per solve, us_per_solve (Ipopt and the trivial callbacks together) and
 // us_per_iteration (the same divided by the iterations). The slope of us_per_solve over the
@@ -98,6 +99,16 @@ void BM_IpoptFloor(benchmark::State& state) {
       elapsed_us / static_cast<double>(state.iterations()) / std::max(1, iterations);
 }
 BENCHMARK(BM_IpoptFloor)->ArgsProduct({{7, 16, 22}, {105, 150, 300}});
+
+// Creating and initialising one application with the planner's options (what ThreadApplication
+// saves every solve but a thread's first).
+void BM_NewApplication(benchmark::State& state) {
+  for (auto _ : state) {
+    Ipopt::SmartPtr<Ipopt::IpoptApplication> app = quadtune::planning::NewPlannerIpoptApplication();
+    benchmark::DoNotOptimize(app);
+  }
+}
+BENCHMARK(BM_NewApplication)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

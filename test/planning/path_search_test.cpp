@@ -94,7 +94,7 @@ TEST(PathSearch, FailsClearlyWhenGoalIsEnclosed) {
   // Enclosing the start instead fails the same way.
   const PathSearchResult s = searcher.Search(map, goal, Vector3d(0, 0, 1.2));
   EXPECT_EQ(s.status, PathSearchStatus::kNoPath);
-  EXPECT_STREQ(ToString(s.status), "kNoPath");
+  EXPECT_STREQ(ToString(s.status), "no_path");
 }
 
 TEST(PathSearch, ReportsExpansionLimitAndOccupiedEnds) {

@@ -68,7 +68,8 @@
 ///     pso: {num_particles: 8, ...}             # PsoOptions (seed derived per trial)
 ///     bo: {initial_design_size: 3, ...}        # BayesOptOptions (seed derived per trial)
 ///
-/// Thread safety: an Experiment is an immutable value after loading.
+/// Thread safety: an Experiment is an immutable value after loading. SetAssetDirs is not
+/// synchronised: call it before any thread loads a file.
 
 #include <cstdint>
 #include <optional>
@@ -228,8 +229,17 @@ const Fields<ValidationOptions>& ValidationFields();
 const Fields<RecommendOptions>& RecommendFields();
 const Fields<Budget>& BudgetFields();
 
-/// Finds `relative`: as given, under `base_dir`, under $QUADTUNE_ASSETS, under the source
-/// tree's assets/. Returns the first that exists (else `relative`).
+/// Sets the asset folders, searched in order by ResolvePath after the file's own folder and the
+/// working directory. The library reads no environment and knows no folder of its own: a program
+/// sets them once at start-up, before it loads a file or starts a thread (`quadtune`:
+/// $QUADTUNE_ASSETS when set, then the source tree's assets/; a planner of one's own: the
+/// installed package's assets, `quadtune_ASSETS_DIR`). Empty until set.
+void SetAssetDirs(std::vector<std::string> dirs);
+/// The asset folders SetAssetDirs set.
+const std::vector<std::string>& AssetDirs();
+
+/// Finds `relative`: as given when absolute, else under `base_dir`, under the working directory,
+/// under each of AssetDirs(). Returns the first that exists (else `relative`).
 std::string ResolvePath(const std::string& relative, const std::string& base_dir);
 
 }  // namespace quadtune::engine

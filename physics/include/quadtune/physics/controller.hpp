@@ -14,13 +14,13 @@
 ///   w_d   from jerk: h = m/|F| (j - (b3_d·j) b3_d),  w_d = (-h·b2_d, h·b1_d, ψ̇ e_z·b3_d)
 /// then rotor speeds through Mixer::RotorSpeedsFor (clamped to the rotor limits).
 ///
-/// Measured step response (research_1kg.yaml, default gains, 1000 Hz physics, 500 Hz control,
-/// motor lag 1/30 s, 1 m step in x from hover; test Controller.StepResponseSettles):
-/// overshoot 4.7 %, 2 % settling time 1.86 s, altitude excursion ≤ 2 cm, no steady-state error.
-/// Tracking a 2 m/s circle of radius 2 m (a = 2 m/s²) with acceleration, jerk and drag
-/// feed-forward: max position error 2.3 mm, rms 2.2 mm (test Controller.TracksCircle; without
-/// the drag feed-forward it was 3.6 cm). There is no integral term: a constant unmodelled force
-/// F leaves a steady offset F / (m kp) (e.g. wind, or WorldOptions::mass_scale).
+/// The step response (a 1 m step in x from hover) and the tracking of a 2 m/s circle of
+/// radius 2 m with acceleration, jerk and drag feed-forward, at the default gains, are in
+/// docs/design.md, "The controller" (the tests Controller.StepResponseSettles and
+/// Controller.TracksCircle print the figures; research_1kg.yaml, 1000 Hz physics, 500 Hz
+/// control, motor lag 1/30 s).
+/// There is no integral term: a constant unmodelled force F leaves a steady offset F / (m kp)
+/// (e.g. wind, or WorldOptions::mass_scale).
 ///
 /// Thread safety: immutable after construction; Compute() is const and safe from any thread.
 

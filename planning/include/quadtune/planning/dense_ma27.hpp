@@ -3,10 +3,11 @@
 /// A thread-safe, MA27-compatible dense symmetric-indefinite linear solver for Ipopt.
 ///
 /// Debian's Ipopt 3.11.9 ships only sequential MUMPS, which crashes when two threads solve at once
-/// (shared/DESIGN.md). Ipopt can instead call an MA27-interface solver registered in-process with
-/// `LSL_setMA27` and selected with the option `linear_solver ma27`. This file supplies such a
-/// solver: the four MA27 entry points (MA27ID/AD/BD/CD, same Fortran-style signatures as in
-/// <coin/HSLLoader.h>) implemented on LAPACK's Bunch–Kaufman factorisation (dsytrf/dsytrs).
+/// (docs/design.md, "Concurrent Ipopt solves"). Ipopt can instead call an MA27-interface solver
+/// registered in-process with `LSL_setMA27` and selected with the option `linear_solver ma27`.
+/// This file supplies such a solver: the four MA27 entry points (MA27ID/AD/BD/CD, same
+/// Fortran-style signatures as in <coin/HSLLoader.h>) implemented on LAPACK's Bunch–Kaufman
+/// factorisation (dsytrf/dsytrs).
 ///
 /// Every bit of state lives in the arrays the caller passes (A, IW, INFO, ...): the entry points
 /// keep no static or global data, so concurrent solves in different threads (each with its own

@@ -21,8 +21,9 @@
 
 namespace quadtune::planning {
 
-/// A new, initialised application with the planner's options. Creating one costs ≈0.3 ms;
-/// reuse it for many solves (one thread at a time).
+/// A new, initialised application with the planner's options. Creating one has a cost of its own
+/// (docs/performance.md: `ipopt_floor_bench --benchmark_filter=NewApplication`); reuse it for
+/// many solves (one thread at a time).
 Ipopt::SmartPtr<Ipopt::IpoptApplication> NewPlannerIpoptApplication();
 
 /// Base of an unconstrained problem in n unbounded variables whose Hessian is handed to Ipopt as

@@ -102,7 +102,7 @@ struct LocalPlannerOptions {
   /// Factor on w_col for the attempts after one whose plan came too close to an obstacle,
   /// [1, 1e6] (1: off). The collision cost is a penalty: with a small w_col the optimum may cut
   /// into the clearance by a few millimetres, and a drone hovering just outside it then fails
-  /// the same way on every re-plan (measured: the usual cause of stalled benchmark flights).
+  /// the same way on every re-plan until the flight stalls (docs/design.md, "Safety nets").
   double retry_collision_gain = 10.0;
   /// Braking for the mission goal (EGO-Planner's local-target rule): a local goal on the
   /// horizon whose distance d to the mission goal is within stopping distance gets the terminal

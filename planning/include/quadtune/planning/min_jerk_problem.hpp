@@ -39,9 +39,9 @@
 ///    spline reproduces constants: position rows of S_0 sum to 1, velocity and acceleration rows
 ///    to 0, and H̄ annihilates a constant), but in world coordinates, tens to thousands of metres
 ///    from the world origin, the jerk energy bᵀH̄b and the sampled velocities are small
-///    differences of large products: measured on recorded 1.3 m forest queries, the gradient
-///    then stopped agreeing with f at a scaled dual infeasibility of 1e-7 to 1e-4, above Ipopt's
-///    `tol`, and ≈30% of the objective evaluations were line-search trials at that floor.
+///    differences of large products: the gradient then stops agreeing with f above Ipopt's
+///    `tol`, and the line search spends its trials at that floor (docs/performance.md, "What the
+///    Ipopt back end's settings save", measures both).
 ///    Sample positions get p0 added back before the field is read; ToTrajectory adds it to each
 ///    piece's constant coefficient.
 ///  - Derivatives: gradient and Hessian are exact for every term, the collision term included:

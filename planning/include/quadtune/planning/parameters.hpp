@@ -2,7 +2,8 @@
 /// \file
 /// The planner's parameters: the short-term set θ_s, scored right after a plan; the long-term set
 /// θ_l, scored after a flight; and fixed safety parameters that are not tuned (paper Sec. IV-A).
-/// Defaults follow EGO-Planner (shared/DESIGN.md, "Reference values").
+/// Defaults follow EGO-Planner where the two planners share a quantity (docs/design.md,
+/// "Reference values", names each source and each default of quadtune's own).
 ///
 /// Thread safety: a value type.
 

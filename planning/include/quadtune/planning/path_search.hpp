@@ -71,15 +71,15 @@ enum class PathSearchStatus {
   kSearchBoxTooLarge,  ///< the search box exceeds max_search_cells
 };
 
-/// Names of the statuses, e.g. "kNoPath".
+/// Short names ("success", "no_path", ...), lower_snake as every enum name table.
 constexpr auto EnumNames(PathSearchStatus) {
-  return std::array{EnumName{PathSearchStatus::kSuccess, "kSuccess"},
-                    EnumName{PathSearchStatus::kNoFreeLocalGoal, "kNoFreeLocalGoal"},
-                    EnumName{PathSearchStatus::kStartOccupied, "kStartOccupied"},
-                    EnumName{PathSearchStatus::kGoalOccupied, "kGoalOccupied"},
-                    EnumName{PathSearchStatus::kNoPath, "kNoPath"},
-                    EnumName{PathSearchStatus::kExpansionLimit, "kExpansionLimit"},
-                    EnumName{PathSearchStatus::kSearchBoxTooLarge, "kSearchBoxTooLarge"}};
+  return std::array{EnumName{PathSearchStatus::kSuccess, "success"},
+                    EnumName{PathSearchStatus::kNoFreeLocalGoal, "no_free_local_goal"},
+                    EnumName{PathSearchStatus::kStartOccupied, "start_occupied"},
+                    EnumName{PathSearchStatus::kGoalOccupied, "goal_occupied"},
+                    EnumName{PathSearchStatus::kNoPath, "no_path"},
+                    EnumName{PathSearchStatus::kExpansionLimit, "expansion_limit"},
+                    EnumName{PathSearchStatus::kSearchBoxTooLarge, "search_box_too_large"}};
 }
 using quadtune::ToString;
 

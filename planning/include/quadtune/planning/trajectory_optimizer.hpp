@@ -97,7 +97,7 @@ struct TrajectoryOptimizerOptions {
   /// rounding floor", reported as converged) when |Δf|/max(1,|f|) stays below this value for
   /// `stall_iterations` consecutive iterations: the objective is then constant to a few units in
   /// the last place, the line search backtracks to α ≈ 1e-10 without seeing a decrease, and more
-  /// iterations only cost evaluations (measured: up to 300 of them in one solve). Quadratic
+  /// iterations only cost evaluations (docs/performance.md measures how many). Quadratic
   /// convergence never has three such iterations in a row before meeting `tolerance`.
   /// (0, 1e-10].
   double rounding_floor = 1e-13;
@@ -159,8 +159,8 @@ struct PlanResult {
   long distance_queries = 0;
   int num_variables = 0;          ///< decision variables
   /// Deterministic cost measure (same inputs → same value on any machine/thread): a weighted
-  /// count of the work done, in nominal units of 0.1 ms taken from Ipopt's measured overheads
-  /// (≈0.2 ms per solve + 0.13 ms per iteration, shared/DESIGN.md) plus evaluation work:
+  /// count of the work done in nominal units of 0.1 ms, Ipopt's fixed costs of a solve and of an
+  /// iteration plus evaluation work (docs/design.md, "Compute units"):
   /// 2 + 1.3·iterations + 0.4·(function + gradient evaluations) + 0.002·distance_queries +
   /// 1e-4·(n³/3)·hessian_evaluations (n = num_variables). Use it, not solve_time_s, where an
   /// experiment must be exactly reproducible; it is not a wall-clock prediction.
