@@ -453,11 +453,46 @@ Fields<AdaptExperiment> AddFlightKeys(Fields<AdaptExperiment> f) {
   return f;
 }
 
+// The baselines and the adaptation (read last: the adaptation checks the planner's v_des).
+Fields<AdaptExperiment> AddAdaptationKeys(Fields<AdaptExperiment> f) {
+  using E = AdaptExperiment;
+  f.Custom(
+      {"baselines", "list", "[2]", "each in (0, 15]",
+       "fixed v_des flown on the same map and seed for comparison (m/s)"},
+      [](const YamlMap& map, E& e) {
+        if (!map.Has("baselines")) return;
+        e.baselines = map.Numbers("baselines");
+        for (double v : e.baselines) {
+          if (!(v > 0.0 && v <= 15.0)) {
+            map.Fail("baselines", "each v_des must lie in (0, 15] (m/s)");
+          }
+        }
+      },
+      [](YAML::Emitter& out, const E& e) {
+        out << YAML::Key << "baselines" << YAML::Value << YAML::Flow << e.baselines;
+      })
+      .Custom(
+          MapDoc("adaptation", "the online adaptation, below", "see below"),
+          [](const YamlMap& map, E& e) {
+            e.adaptation = AdaptationOptions::FromYaml(map.Map("adaptation", true));
+            if (e.params.v_des < e.adaptation.v_min || e.params.v_des > e.adaptation.v_max) {
+              map.Fail("planner",
+                       "v_des (the adapted flight's start value) must lie in "
+                       "adaptation.v_des_bounds");
+            }
+          },
+          [](YAML::Emitter& out, const E& e) {
+            out << YAML::Key << "adaptation" << YAML::Value;
+            AdaptationFields().Write(out, e.adaptation);
+          });
+  return f;
+}
+
 const Fields<AdaptExperiment>& AdaptExperimentFields() {
   using E = AdaptExperiment;
   // world and planner are written by nothing here: WorldOptions and PlannerParams have no writer.
   const auto unwritten = [](YAML::Emitter&, const E&) {};
-  static const Fields<E> fields =
+  static const Fields<E> fields = AddAdaptationKeys(
       AddFlightKeys(Fields<E>())
           .Text("name", &E::name, {}, "name of the experiment")
           .Integer("seed", &E::seed, Range::Closed(0, 9.0e15),
@@ -538,36 +573,7 @@ const Fields<AdaptExperiment>& AdaptExperimentFields() {
                 e.params.Validate(e.file);
                 sim::FlightOptions{}.planner.CheckParams(e.params, e.file);  // as the flights plan
               },
-              unwritten)
-          .Custom(
-              {"baselines", "list", "[2]", "each in (0, 15]",
-               "fixed v_des flown on the same map and seed for comparison (m/s)"},
-              [](const YamlMap& map, E& e) {
-                if (!map.Has("baselines")) return;
-                e.baselines = map.Numbers("baselines");
-                for (double v : e.baselines) {
-                  if (!(v > 0.0 && v <= 15.0)) {
-                    map.Fail("baselines", "each v_des must lie in (0, 15] (m/s)");
-                  }
-                }
-              },
-              [](YAML::Emitter& out, const E& e) {
-                out << YAML::Key << "baselines" << YAML::Value << YAML::Flow << e.baselines;
-              })
-          .Custom(
-              MapDoc("adaptation", "the online adaptation, below", "see below"),
-              [](const YamlMap& map, E& e) {
-                e.adaptation = AdaptationOptions::FromYaml(map.Map("adaptation", true));
-                if (e.params.v_des < e.adaptation.v_min || e.params.v_des > e.adaptation.v_max) {
-                  map.Fail("planner",
-                           "v_des (the adapted flight's start value) must lie in "
-                           "adaptation.v_des_bounds");
-                }
-              },
-              [](YAML::Emitter& out, const E& e) {
-                out << YAML::Key << "adaptation" << YAML::Value;
-                AdaptationFields().Write(out, e.adaptation);
-              });
+              unwritten));
   return fields;
 }
 

@@ -101,6 +101,15 @@ Fields<IpoptPlannerSection> AddClosedLoopKeys(Fields<IpoptPlannerSection> f) {
           [](YAML::Emitter& out, const S& s) {
             if (s.options.flight.planner.goal_braking)
               out << YAML::Key << "goal_braking" << YAML::Value << true;
+          })
+      .Custom(
+          {"max_time", "number", FormatNumber(kDefaultMaxTime), DescribeInterval(Range::Positive()),
+           "ipopt: flight time limit; a flight past it fails (s)"},
+          [](const YamlMap& p, S& s) {
+            s.options.flight.max_time = p.Number("max_time", kDefaultMaxTime, Range::Positive());
+          },
+          [](YAML::Emitter& out, const S& s) {
+            out << YAML::Key << "max_time" << YAML::Value << s.options.flight.max_time;
           });
   return f;
 }
@@ -170,17 +179,6 @@ const Fields<IpoptPlannerSection>& IpoptPlannerFields() {
                 WriteText(out, "mission", sim::ToString(s.options.mission));
               })
           .Custom(
-              {"max_time", "number", FormatNumber(kDefaultMaxTime),
-               DescribeInterval(Range::Positive()),
-               "ipopt: flight time limit; a flight past it fails (s)"},
-              [](const YamlMap& p, S& s) {
-                s.options.flight.max_time =
-                    p.Number("max_time", kDefaultMaxTime, Range::Positive());
-              },
-              [](YAML::Emitter& out, const S& s) {
-                out << YAML::Key << "max_time" << YAML::Value << s.options.flight.max_time;
-              })
-          .Custom(
               {"fixed", "map", "planner defaults", "[planner parameters](#planner-parameters)",
                "ipopt: values of parameters not tuned"},
               [](const YamlMap& p, S& s) {
@@ -247,12 +245,18 @@ Opaque PrepareLayoutMap(const IpoptPlannerOptions& o, std::uint64_t map_seed) {
 /// A flight's end as the stored state names it (kOk for a completed flight).
 EvalState FlightEnding(sim::FlightStatus status) {
   switch (status) {
-    case sim::FlightStatus::kCompleted: return EvalState::kOk;
-    case sim::FlightStatus::kTimeout: return EvalState::kTimeout;
-    case sim::FlightStatus::kStalled: return EvalState::kStalled;
-    case sim::FlightStatus::kDiverged: return EvalState::kDiverged;
-    case sim::FlightStatus::kError: return EvalState::kError;
-    case sim::FlightStatus::kCancelled: return EvalState::kCancelled;
+    case sim::FlightStatus::kCompleted:
+      return EvalState::kOk;
+    case sim::FlightStatus::kTimeout:
+      return EvalState::kTimeout;
+    case sim::FlightStatus::kStalled:
+      return EvalState::kStalled;
+    case sim::FlightStatus::kDiverged:
+      return EvalState::kDiverged;
+    case sim::FlightStatus::kError:
+      return EvalState::kError;
+    case sim::FlightStatus::kCancelled:
+      return EvalState::kCancelled;
   }
   return EvalState::kError;
 }

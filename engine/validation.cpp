@@ -92,6 +92,62 @@ struct Subject {
   int reuse = -1;  // >= 0: the rows of that subject (a `default` trial reuses the defaults')
 };
 
+// The stored row of one held-out flight of `subject` on map `map`.
+EvaluationRow ValidationRow(const Experiment& e, const Subject& subject, int map,
+                            const FlightJob& job, const FlightRecord& rec) {
+  const ObjectiveValue value = LongTermObjective(rec, e.objective);
+  EvaluationRow r;
+  r.trial_id = subject.trial_id;
+  const std::optional<Method> method = FromString<Method>(subject.method);
+  QT_DEMAND(method.has_value(), "validation of an unknown method '" + subject.method + "'");
+  r.method = *method;
+  r.kind = EvalKind::kValidation;
+  r.iteration = map;
+  r.index = 0;
+  r.params = ToJson(job.params);
+  r.terms = ToJson(value.terms);
+  r.value = value.value;
+  r.status = rec.status;
+  r.state = StateOf(rec);
+  r.message = rec.message;
+  r.wall_s = rec.wall_time;
+  r.finished = Now();
+  r.started = r.finished - rec.wall_time;
+  r.map_seed = job.map_seed;
+  r.flight_seed = job.flight_seed;
+  return r;
+}
+
+// One summary per subject over its `n` held-out rows (a reusing subject reads the rows of the
+// subject it reuses).
+std::vector<ValidationSummary> Summaries(const std::vector<Subject>& subjects,
+                                         const std::vector<EvaluationRow>& rows, int n) {
+  std::vector<ValidationSummary> out;
+  for (std::size_t s = 0; s < subjects.size(); ++s) {
+    const std::size_t from =
+        subjects[s].reuse >= 0 ? static_cast<std::size_t>(subjects[s].reuse) : s;
+    ValidationSummary v;
+    v.method = subjects[s].method;
+    v.repeat = subjects[s].repeat;
+    v.params = subjects[s].params;
+    for (int m = 0; m < n; ++m) {
+      const EvaluationRow& r =
+          rows[from * static_cast<std::size_t>(n) + static_cast<std::size_t>(m)];
+      if (r.status == EvalStatus::kCancelled) continue;
+      const auto terms = nlohmann::json::parse(r.terms.empty() ? std::string("{}") : r.terms);
+      const bool completed = terms.value("completed", 0.0) > 0.5;
+      ++v.flights;
+      v.mean_value += r.value;
+      v.completed += completed ? 1 : 0;
+      v.collision_free += completed && terms.value("n_c", 0.0) == 0.0 ? 1 : 0;
+      v.emergency_stops += static_cast<int>(terms.value("n_e", 0.0));
+    }
+    if (v.flights > 0) v.mean_value /= v.flights;
+    out.push_back(std::move(v));
+  }
+  return out;
+}
+
 }  // namespace
 
 std::vector<ValidationSummary> RunValidation(const Experiment& e,
@@ -116,7 +172,8 @@ std::vector<ValidationSummary> RunValidation(const Experiment& e,
     for (int v = 0; v < n; ++v) {
       const std::size_t slot = s * static_cast<std::size_t>(n) + static_cast<std::size_t>(v);
       const EvaluationRow* stored =
-          store != nullptr ? store->Find(subjects[s].trial_id, EvalKind::kValidation, v, 0) : nullptr;
+          store != nullptr ? store->Find(subjects[s].trial_id, EvalKind::kValidation, v, 0)
+                           : nullptr;
       if (stored != nullptr) {
         rows[slot] = *stored;
         continue;
@@ -148,54 +205,12 @@ std::vector<ValidationSummary> RunValidation(const Experiment& e,
   if (options.cancel != nullptr && options.cancel->load()) return {};
   for (std::size_t j = 0; j < jobs.size(); ++j) {
     const std::size_t slot = job_slot[j];
-    const Subject& subject = subjects[slot / static_cast<std::size_t>(n)];
-    const FlightRecord& rec = records[j];
-    const ObjectiveValue value = LongTermObjective(rec, e.objective);
     EvaluationRow& r = rows[slot];
-    r.trial_id = subject.trial_id;
-    const std::optional<Method> method = FromString<Method>(subject.method);
-    QT_DEMAND(method.has_value(), "validation of an unknown method '" + subject.method + "'");
-    r.method = *method;
-    r.kind = EvalKind::kValidation;
-    r.iteration = static_cast<int>(slot % static_cast<std::size_t>(n));
-    r.index = 0;
-    r.params = ToJson(jobs[j].params);
-    r.terms = ToJson(value.terms);
-    r.value = value.value;
-    r.status = rec.status;
-    r.state = StateOf(rec);
-    r.message = rec.message;
-    r.wall_s = rec.wall_time;
-    r.finished = Now();
-    r.started = r.finished - rec.wall_time;
-    r.map_seed = jobs[j].map_seed;
-    r.flight_seed = jobs[j].flight_seed;
+    r = ValidationRow(e, subjects[slot / static_cast<std::size_t>(n)],
+                      static_cast<int>(slot % static_cast<std::size_t>(n)), jobs[j], records[j]);
     if (store != nullptr) store->Insert(r);
   }
-  std::vector<ValidationSummary> out;
-  for (std::size_t s = 0; s < subjects.size(); ++s) {
-    const std::size_t from =
-        subjects[s].reuse >= 0 ? static_cast<std::size_t>(subjects[s].reuse) : s;
-    ValidationSummary v;
-    v.method = subjects[s].method;
-    v.repeat = subjects[s].repeat;
-    v.params = subjects[s].params;
-    for (int m = 0; m < n; ++m) {
-      const EvaluationRow& r =
-          rows[from * static_cast<std::size_t>(n) + static_cast<std::size_t>(m)];
-      if (r.status == EvalStatus::kCancelled) continue;
-      const auto terms = nlohmann::json::parse(r.terms.empty() ? std::string("{}") : r.terms);
-      const bool completed = terms.value("completed", 0.0) > 0.5;
-      ++v.flights;
-      v.mean_value += r.value;
-      v.completed += completed ? 1 : 0;
-      v.collision_free += completed && terms.value("n_c", 0.0) == 0.0 ? 1 : 0;
-      v.emergency_stops += static_cast<int>(terms.value("n_e", 0.0));
-    }
-    if (v.flights > 0) v.mean_value /= v.flights;
-    out.push_back(std::move(v));
-  }
-  return out;
+  return Summaries(subjects, rows, n);
 }
 
 }  // namespace quadtune::engine

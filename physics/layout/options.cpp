@@ -400,12 +400,11 @@ void LayoutOptions::Validate(const std::string& file, const std::string& key_pre
   for (std::size_t i = 0; i < effective.size(); ++i) {
     const ObstacleMix& mix = MixOf(effective[i]);
     const std::string k = zones.empty() ? "spacing" : "zones[" + std::to_string(i) + "].spacing";
-    if (density == DensityDefinition::kFreeGap) {
-      if (effective[i].spacing < min_gap) {
-        c.Fail(k, "target free gap " + Num(effective[i].spacing) +
-                      " m is smaller than min_gap (" + Num(min_gap) +
-                      " m), the least gap any two footprints keep; use a spacing >= min_gap");
-      }
+    if (density == DensityDefinition::kFreeGap && effective[i].spacing < min_gap) {
+      c.Fail(k, "target free gap " + Num(effective[i].spacing) + " m is smaller than min_gap (" +
+                    Num(min_gap) +
+                    " m), the least gap any two footprints keep; use a spacing >= "
+                    "min_gap");
     }
     const double required = mix.RequiredSpacing(min_gap);
     if (density != DensityDefinition::kFreeGap && effective[i].spacing < required) {
@@ -454,10 +453,11 @@ LayoutOptions LayoutOptions::FromYaml(const YamlMap& map) {
 LayoutOptions LayoutOptions::LoadFile(const std::string& path) {
   const YamlMap map = YamlMap::LoadFile(path);
   if (map.Has("format")) {  // the first key of every file Layout::Save writes
-    throw ConfigError(path, "",
-                      "is a saved layout (written by `quadtune layout`), not layout generator "
-                      "options; give generator options here (e.g. assets/layouts/forest_thin_1p3.yaml), "
-                      "or fly the saved layout with `quadtune fly --layout FILE`");
+    throw ConfigError(
+        path, "",
+        "is a saved layout (written by `quadtune layout`), not layout generator "
+        "options; give generator options here (e.g. assets/layouts/forest_thin_1p3.yaml), "
+        "or fly the saved layout with `quadtune fly --layout FILE`");
   }
   return FromYaml(map);
 }
