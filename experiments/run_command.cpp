@@ -6,40 +6,39 @@
 
 #include <algorithm>
 #include <atomic>
-#include <limits>
-#include <mutex>
 #include <chrono>
-#include <memory>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
+#include <memory>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include "file_kind.hpp"
 #include "commands.hpp"
 #include "eta.hpp"
+#include "file_kind.hpp"
 #include "limits.hpp"
-#include "soak.hpp"
-#include "stored_flight.hpp"
-#include "result_dir.hpp"
 #include "quadtune/common/cancel.hpp"
 #include "quadtune/common/error.hpp"
+#include "quadtune/engine/column_json.hpp"
 #include "quadtune/engine/distributed.hpp"
 #include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/column_json.hpp"
 #include "quadtune/engine/result_store.hpp"
 #include "quadtune/engine/scheduler.hpp"
 #include "quadtune/engine/tuner.hpp"
+#include "result_dir.hpp"
+#include "soak.hpp"
+#include "stored_flight.hpp"
 
 namespace quadtune::cli {
 namespace {
-
 
 struct RunArgs {
   std::string experiment;
@@ -60,8 +59,7 @@ struct RunArgs {
 /// show progress without flooding the log. Every other update, and all of them with `quiet`,
 /// goes to the debug log. The ETA is the measured cost of the work `plan` has left (eta.hpp),
 /// on a wall clock started here.
-std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quiet,
-                                                             WorkPlan plan) {
+std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quiet, WorkPlan plan) {
   using Clock = std::chrono::steady_clock;
   auto last = std::make_shared<Clock::time_point>();
   auto eta = std::make_shared<EtaEstimator>(std::move(plan));
@@ -77,8 +75,7 @@ std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quie
       line = fmt::format("validation on held-out maps: flights {}/{}, elapsed {:.0f} s, {}",
                          p.flights_done, p.flights_total, job_s, left.Text());
     } else {
-      const double rate =
-          p.elapsed_s > 0 ? static_cast<double>(p.short_evals) / p.elapsed_s : 0.0;
+      const double rate = p.elapsed_s > 0 ? static_cast<double>(p.short_evals) / p.elapsed_s : 0.0;
       line = fmt::format(
           "trial {}/{} {} r{}{}: flights {}/{}, best f_l {:.3f}, re-solves {} ({:.0f}/s), "
           "elapsed {:.0f} s, {}",
@@ -123,20 +120,22 @@ int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& sto
   j["resolves"] = s.resolves;
   j["worlds"] = s.worlds;
   for (const auto& t : s.trials) {
-    spdlog::info("{} repeat {}: best f_l {:.3f} after {} flights, {} θ_s candidates ({} "
-                 "re-solves), {} failed, {} replayed",
-                 t.method, t.repeat, t.best_value, t.flights, t.short_evals,
-                 static_cast<long>(t.short_evals) * queries_per_eval, t.failed, t.replayed);
+    spdlog::info(
+        "{} repeat {}: best f_l {:.3f} after {} flights, {} θ_s candidates ({} "
+        "re-solves), {} failed, {} replayed",
+        t.method, t.repeat, t.best_value, t.flights, t.short_evals,
+        static_cast<long>(t.short_evals) * queries_per_eval, t.failed, t.replayed);
     nlohmann::json tj =
         engine::ToJson(t, engine::TrialSummaryColumns(), engine::JsonReals::kNumbers);
     tj["resolves"] = static_cast<long>(t.short_evals) * queries_per_eval;
     j["trials"].push_back(tj);
   }
   for (const auto& v : s.validation) {
-    spdlog::info("held-out validation, {}{}: mean f_l {:.3f} over {} maps, {} completed, {} "
-                 "collision-free, {} emergency stops",
-                 v.method, v.repeat >= 0 ? fmt::format(" repeat {}", v.repeat) : std::string(),
-                 v.mean_value, v.flights, v.completed, v.collision_free, v.emergency_stops);
+    spdlog::info(
+        "held-out validation, {}{}: mean f_l {:.3f} over {} maps, {} completed, {} "
+        "collision-free, {} emergency stops",
+        v.method, v.repeat >= 0 ? fmt::format(" repeat {}", v.repeat) : std::string(), v.mean_value,
+        v.flights, v.completed, v.collision_free, v.emergency_stops);
     nlohmann::json vj;
     vj["method"] = v.method;
     vj["repeat"] = v.repeat;
@@ -150,21 +149,24 @@ int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& sto
   }
   std::ofstream(fs::path(a.out) / "summary.json") << j.dump(1) << '\n';
   if (s.ranks > 1) {
-    spdlog::info("{} flights and {} re-solves in {:.1f} s on {} ranks × {} threads ({} pooled "
-                 "worlds); results in {}",
-                 s.flights, s.resolves, s.wall_s, s.ranks, s.threads, s.worlds, store);
+    spdlog::info(
+        "{} flights and {} re-solves in {:.1f} s on {} ranks × {} threads ({} pooled "
+        "worlds); results in {}",
+        s.flights, s.resolves, s.wall_s, s.ranks, s.threads, s.worlds, store);
   } else {
-    spdlog::info("{} flights and {} re-solves in {:.1f} s on {} threads ({} pooled worlds); "
-                 "results in {}",
-                 s.flights, s.resolves, s.wall_s, s.threads, s.worlds, store);
+    spdlog::info(
+        "{} flights and {} re-solves in {:.1f} s on {} threads ({} pooled worlds); "
+        "results in {}",
+        s.flights, s.resolves, s.wall_s, s.threads, s.worlds, store);
   }
   if (s.status != engine::RunStatus::kCompleted) {
     std::string sets;
     for (const auto& kv : a.set) sets += " --set '" + kv + "'";
-    spdlog::warn("interrupted; the store is consistent. Continue with: quadtune run {} --out {} "
-                 "--resume{}{}",
-                 a.experiment, a.out,
-                 a.threads > 0 ? fmt::format(" --threads {}", a.threads) : std::string(), sets);
+    spdlog::warn(
+        "interrupted; the store is consistent. Continue with: quadtune run {} --out {} "
+        "--resume{}{}",
+        a.experiment, a.out,
+        a.threads > 0 ? fmt::format(" --threads {}", a.threads) : std::string(), sets);
     return 130;
   }
   return 0;
@@ -290,12 +292,13 @@ int RunMpi(const RunArgs& a, const engine::FaultInjection& fault) {
           "mpirun -np {} {} run {} --out {} --resume{}{}", mpi.Size(),
           ec ? std::string("quadtune") : self.string(), a.experiment, a.out,
           a.threads > 0 ? fmt::format(" --threads {}", a.threads) : std::string(), sets);
-      spdlog::info("experiment '{}' ({}): planner {}, methods {}, repeats {}, {} flights per "
-                   "trial, {} ranks × {} threads, {} mode{}",
-                   e.name, a.experiment, e.planner.Name(), e.methods.size(), e.repeats,
-                   e.budget.flights, mpi.Size(), a.threads > 0 ? a.threads : e.threads,
-                   e.mode == engine::TimingMode::kRealtime ? "realtime" : "reproducible",
-                   a.resume ? ", resuming" : "");
+      spdlog::info(
+          "experiment '{}' ({}): planner {}, methods {}, repeats {}, {} flights per "
+          "trial, {} ranks × {} threads, {} mode{}",
+          e.name, a.experiment, e.planner.Name(), e.methods.size(), e.repeats, e.budget.flights,
+          mpi.Size(), a.threads > 0 ? a.threads : e.threads,
+          e.mode == engine::TimingMode::kRealtime ? "realtime" : "reproducible",
+          a.resume ? ", resuming" : "");
     }
     const engine::RunSummary s = engine::RunDistributed(mpi, e, options);
     if (rank != 0) return 0;
@@ -337,12 +340,12 @@ int Run(const RunArgs& a) {
   InstallCancelSignalHandlers();
   const bool tty = isatty(fileno(stderr)) != 0 && !a.quiet;
   const int threads = a.threads > 0 ? a.threads : e.threads;
-  spdlog::info("experiment '{}' ({}): planner {}, methods {}, repeats {}, {} flights per trial, "
-               "{} threads, {} mode{}",
-               e.name, a.experiment, e.planner.Name(), e.methods.size(), e.repeats,
-               e.budget.flights, threads,
-               e.mode == engine::TimingMode::kRealtime ? "realtime" : "reproducible",
-               a.resume ? ", resuming" : "");
+  spdlog::info(
+      "experiment '{}' ({}): planner {}, methods {}, repeats {}, {} flights per trial, "
+      "{} threads, {} mode{}",
+      e.name, a.experiment, e.planner.Name(), e.methods.size(), e.repeats, e.budget.flights,
+      threads, e.mode == engine::TimingMode::kRealtime ? "realtime" : "reproducible",
+      a.resume ? ", resuming" : "");
   options.on_progress = ProgressPrinter(tty, a.quiet, WorkPlan::Of(e, threads));
   engine::RunSummary s;
   try {
@@ -372,17 +375,17 @@ struct BenchArgs {
   int max_threads = 2;
   int flights = 4;
   int resolves = 200;
-  std::string csv;    ///< "": no CSV; else one row per thread count
-  bool plot = false;  ///< draw the thread-scaling figure next to the CSV
-  int soak = 0;       ///< > 0: the soak benchmark (Soak) with this many flights instead
+  std::string csv;               ///< "": no CSV; else one row per thread count
+  bool plot = false;             ///< draw the thread-scaling figure next to the CSV
+  int soak = 0;                  ///< > 0: the soak benchmark (Soak) with this many flights instead
   std::vector<std::string> set;  ///< --set KEY=VALUE edits of the experiment file
 };
 
 /// The soak benchmark: `flights` closed-loop flights with the defaults on one map, through one
 /// world pool and `threads` workers (as a tuning run flies them), the resident set sampled after
 /// every 1 % of the flights. Reports whether memory is flat (within 5 %) after the first 1 000
-/// flights (half of them when fewer than 2 000), i.e. whether the pool's reused worlds leak. Exit 0 when flat, 3 when
-/// not, 130 when interrupted.
+/// flights (half of them when fewer than 2 000), i.e. whether the pool's reused worlds leak. Exit 0
+/// when flat, 3 when not, 130 when interrupted.
 int Soak(const engine::Experiment& e, int flights, int threads, const std::string& csv_path) {
   using Clock = std::chrono::steady_clock;
   InstallCancelSignalHandlers();
@@ -435,16 +438,62 @@ int Soak(const engine::Experiment& e, int flights, int threads, const std::strin
   const SoakVerdict v = JudgeSoak(samples, warmup);
   std::printf("soak: %d flights on %d threads in %.1f s (%.2f flights/s), %d pooled worlds\n",
               flights, threads, wall, flights / wall, pool.Size());
-  std::printf("soak: RSS %.1f MiB at start; after %d flights %.1f .. %.1f MiB; median of the first "
-              "tenth after warm-up %.1f MiB, of the last %.1f MiB (growth %+.2f %%, largest "
-              "tenth %.1f MiB), least-squares trend %+.2f %% over the run: %s\n",
-              rss_start, warmup, v.low, v.high, v.first_median, v.last_median,
-              100.0 * v.growth, v.max_median, 100.0 * v.trend,
-              v.flat ? "flat within 5 %" : "NOT flat within 5 %");
+  std::printf(
+      "soak: RSS %.1f MiB at start; after %d flights %.1f .. %.1f MiB; median of the first "
+      "tenth after warm-up %.1f MiB, of the last %.1f MiB (growth %+.2f %%, largest "
+      "tenth %.1f MiB), least-squares trend %+.2f %% over the run: %s\n",
+      rss_start, warmup, v.low, v.high, v.first_median, v.last_median, 100.0 * v.growth,
+      v.max_median, 100.0 * v.trend, v.flat ? "flat within 5 %" : "NOT flat within 5 %");
   return v.flat ? 0 : 3;
 }
 
 /// Flights/s and re-solves/s at 1..N threads, and the scheduler's overhead per task.
+// The planning queries one flight at the defaults records on `map`.
+std::vector<engine::Opaque> RecordQueries(const engine::Experiment& e, const engine::Opaque& map,
+                                          const engine::ParamValues& defaults) {
+  std::vector<engine::Opaque> queries;
+  engine::WorkerSlot slot;
+  engine::FlightRequest req;
+  req.map = map;
+  req.params = defaults;
+  req.seed = 1;
+  req.on_query = [&](const engine::Opaque& q) { queries.push_back(q); };
+  (void)e.planner.Fly(req, slot);
+  return queries;
+}
+
+// The bench CSV with its header, or a closed stream when `path` is empty.
+std::ofstream OpenBenchCsv(const std::string& path) {
+  std::ofstream csv;
+  if (path.empty()) return csv;
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  if (!parent.empty()) std::filesystem::create_directories(parent);
+  csv.open(path);
+  if (!csv) throw ConfigError(path, "--csv", "cannot write the file");
+  csv << "threads,cores,flights_per_s,resolves_per_s,mixed_s,mixed_speedup,overhead_us,"
+         "flights,resolves,experiment\n";
+  return csv;
+}
+
+// Memory of a world pool: 64 slots, each holding the world a flight built on this map (the
+// flights are cancelled at once; the worlds stay in their slots, as in a tuning run).
+void PrintPoolMemory(const engine::Experiment& e, const engine::Opaque& map,
+                     const engine::ParamValues& defaults) {
+  const double before = ResidentMiB();
+  std::vector<engine::WorkerSlot> slots(64);
+  for (std::size_t i = 0; i < slots.size(); ++i) {
+    engine::FlightRequest req;
+    req.map = map;
+    req.params = defaults;
+    req.seed = i;
+    req.cancelled = [] { return true; };
+    (void)e.planner.Fly(req, slots[i]);
+  }
+  const double mib = ResidentMiB() - before;
+  std::printf("memory of a pool of %zu worlds on this map: %.1f MiB (%.3f MiB per world)\n",
+              slots.size(), mib, mib / static_cast<double>(slots.size()));
+}
+
 int Bench(const BenchArgs& a) {
   CheckFileKind(a.experiment, FileKind::kExperiment);
   const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
@@ -452,17 +501,7 @@ int Bench(const BenchArgs& a) {
   if (a.soak > 0) return Soak(e, a.soak, a.max_threads, a.csv);
   const engine::Opaque map = e.planner.PrepareMap(e.MapSeed(0));
   const engine::ParamValues defaults = e.planner.Defaults();
-  // Record queries once.
-  std::vector<engine::Opaque> queries;
-  {
-    engine::WorkerSlot slot;
-    engine::FlightRequest req;
-    req.map = map;
-    req.params = defaults;
-    req.seed = 1;
-    req.on_query = [&](const engine::Opaque& q) { queries.push_back(q); };
-    (void)e.planner.Fly(req, slot);
-  }
+  const std::vector<engine::Opaque> queries = RecordQueries(e, map, defaults);
   if (queries.empty()) {
     spdlog::error("the benchmark flight recorded no planning query");
     return 1;
@@ -473,15 +512,7 @@ int Bench(const BenchArgs& a) {
   std::printf("%8s %12s %16s %16s %14s %20s\n", "threads", "flights/s", "re-solves/s",
               "mixed wall (s)", "mixed speed-up", "overhead/task (us)");
   double mixed_one_thread = 0.0;
-  std::ofstream csv;
-  if (!a.csv.empty()) {
-    const std::filesystem::path parent = std::filesystem::path(a.csv).parent_path();
-    if (!parent.empty()) std::filesystem::create_directories(parent);
-    csv.open(a.csv);
-    if (!csv) throw ConfigError(a.csv, "--csv", "cannot write the file");
-    csv << "threads,cores,flights_per_s,resolves_per_s,mixed_s,mixed_speedup,overhead_us,"
-           "flights,resolves,experiment\n";
-  }
+  std::ofstream csv = OpenBenchCsv(a.csv);
   const unsigned cores = std::thread::hardware_concurrency();
   for (int t = 1; t <= a.max_threads; ++t) {
     engine::Scheduler sched(t);
@@ -540,23 +571,7 @@ int Bench(const BenchArgs& a) {
       csv.flush();
     }
   }
-  // Memory of a world pool: 64 slots, each holding the world a flight built on this map (the
-  // flights are cancelled at once; the worlds stay in their slots, as in a tuning run).
-  {
-    const double before = ResidentMiB();
-    std::vector<engine::WorkerSlot> slots(64);
-    for (std::size_t i = 0; i < slots.size(); ++i) {
-      engine::FlightRequest req;
-      req.map = map;
-      req.params = defaults;
-      req.seed = i;
-      req.cancelled = [] { return true; };
-      (void)e.planner.Fly(req, slots[i]);
-    }
-    const double mib = ResidentMiB() - before;
-    std::printf("memory of a pool of %zu worlds on this map: %.1f MiB (%.3f MiB per world)\n",
-                slots.size(), mib, mib / static_cast<double>(slots.size()));
-  }
+  PrintPoolMemory(e, map, defaults);
   if (csv.is_open()) {
     spdlog::info("wrote {}", a.csv);
     if (a.plot) return RunPlotScript("bench '" + a.csv + "'");
@@ -602,8 +617,9 @@ void RegisterExport(CLI::App& app, int& exit_code) {
   cmd->add_option("results", store, "results.sqlite")->required();
   static std::string tidy;
   cmd->add_option("--csv", csv, "output directory")->capture_default_str();
-  cmd->add_option("--tidy", tidy, "instead: one row per evaluation, one column per parameter and "
-                                  "objective term (long_term.csv, short_term.csv) in this folder");
+  cmd->add_option("--tidy", tidy,
+                  "instead: one row per evaluation, one column per parameter and "
+                  "objective term (long_term.csv, short_term.csv) in this folder");
   cmd->callback([&exit_code] {
     if (!tidy.empty()) {
       WriteTidyCsv(store, tidy);
@@ -620,13 +636,15 @@ void RegisterExport(CLI::App& app, int& exit_code) {
 
 void RegisterBench(CLI::App& app, int& exit_code) {
   static BenchArgs args;
-  auto* cmd = app.add_subcommand("bench", "flights/s and re-solves/s at 1..N threads, and the "
-                                          "scheduler's overhead per task");
+  auto* cmd = app.add_subcommand("bench",
+                                 "flights/s and re-solves/s at 1..N threads, and the "
+                                 "scheduler's overhead per task");
   cmd->add_option("experiment", args.experiment,
                   "experiment file (its planner and map), e.g. experiments/tiny.yaml")
       ->required();
-  cmd->add_option("--set", args.set, "KEY=VALUE: change the experiment file's dotted KEY "
-                                     "(repeatable), e.g. --set planner.max_time=20");
+  cmd->add_option("--set", args.set,
+                  "KEY=VALUE: change the experiment file's dotted KEY "
+                  "(repeatable), e.g. --set planner.max_time=20");
   cmd->add_option("--max-threads", args.max_threads, "largest thread count")
       ->capture_default_str()
       ->check(CountIn(1, kMaxBenchThreads, kBenchThreadsWhy));
