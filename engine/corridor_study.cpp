@@ -62,15 +62,21 @@ std::vector<CorridorFlight> RunCorridors(
   const std::vector<FlightPolicy> policies = CorridorPolicies(e);
   const int total = options.count * static_cast<int>(policies.size());
   std::vector<CorridorFlight> rows(static_cast<std::size_t>(total));
+  // Each corridor's experiment (its seeds) and layout, made once for all its policies.
+  std::vector<AdaptExperiment> experiments(static_cast<std::size_t>(options.count), e);
+  std::vector<layout::Layout> layouts(experiments.size());
+  ParallelFor(std::max(1, options.threads), std::size_t{0}, experiments.size(), [&](std::size_t c) {
+    experiments[c].SetSeed(options.first_seed + c);
+    layouts[c] = layout::GenerateLayout(experiments[c].layout, experiments[c].seed);
+  });
   std::mutex mutex;
   int done = 0;
   ParallelFor(std::max(1, options.threads), 0, total, [&](int index) {
     if (cancel != nullptr && cancel->load()) return;
-    const int corridor = index / static_cast<int>(policies.size());
+    const std::size_t corridor = static_cast<std::size_t>(index) / policies.size();
     const FlightPolicy& policy = policies[static_cast<std::size_t>(index) % policies.size()];
-    AdaptExperiment ex = e;
-    ex.SetSeed(options.first_seed + static_cast<std::uint64_t>(corridor));
-    const layout::Layout layout = layout::GenerateLayout(ex.layout, ex.seed);
+    const AdaptExperiment& ex = experiments[corridor];
+    const layout::Layout& layout = layouts[corridor];
     const AdaptFlight flight = RunAdaptFlight(ex, layout, policy, {}, cancel);
     const sim::FlightMetrics& m = flight.result.metrics;
     CorridorFlight& row = rows[static_cast<std::size_t>(index)];

@@ -4,6 +4,8 @@
 
 #include <map>
 
+#include "quadtune/common/error.hpp"
+#include "quadtune/common/yaml.hpp"
 #include "quadtune/engine/planners.hpp"
 #include "quadtune/engine/result_store.hpp"
 #include "quadtune/engine/tuner.hpp"
@@ -22,7 +24,35 @@ Experiment Tiny(const std::string& methods, int flights) {
   };
   replace("methods: [bo_pso]", "methods: " + methods);
   replace("flights: 3", "flights: " + std::to_string(flights));
-  return Experiment::FromString(text, "tiny.yaml", std::string(QUADTUNE_SOURCE_DIR) + "/experiments");
+  return Experiment::FromString(text, "tiny.yaml",
+                                std::string(QUADTUNE_SOURCE_DIR) + "/experiments");
+}
+
+// `sensor` changes only the keys it names (the rest keep the closed loop's camera), a bad value is
+// refused naming the key; `goal_braking` reaches the local planner's options.
+TEST(IpoptPlannerOptions, SensorAndGoalBrakingKeys) {
+  const std::string base = "layout: {spacing: 3.0}\n";
+  const IpoptPlannerOptions plain =
+      IpoptPlannerOptions::FromYaml(YamlMap::FromString(base, "p.yaml"), ".");
+  EXPECT_FALSE(plain.flight.planner.goal_braking);
+  const IpoptPlannerOptions o = IpoptPlannerOptions::FromYaml(
+      YamlMap::FromString(base + "sensor: {horizontal_fov_deg: 120, rate_hz: 12}\n"
+                                 "goal_braking: true\n",
+                          "p.yaml"),
+      ".");
+  EXPECT_DOUBLE_EQ(o.flight.sensor.horizontal_fov_deg, 120.0);
+  EXPECT_DOUBLE_EQ(o.flight.sensor.rate_hz, 12.0);
+  EXPECT_EQ(o.flight.sensor.width, plain.flight.sensor.width);
+  EXPECT_DOUBLE_EQ(o.flight.sensor.max_range, plain.flight.sensor.max_range);
+  EXPECT_TRUE(o.flight.planner.goal_braking);
+  try {
+    (void)IpoptPlannerOptions::FromYaml(
+        YamlMap::FromString(base + "sensor: {horizontal_fov_deg: 200}\n", "p.yaml"), ".");
+    ADD_FAILURE() << "a 200° camera was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("horizontal_fov_deg"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("p.yaml"), std::string::npos) << e.what();
+  }
 }
 
 TEST(IpoptEngine, PluginFliesRecordsQueriesAndResolvesThem) {
@@ -40,11 +70,13 @@ TEST(IpoptEngine, PluginFliesRecordsQueriesAndResolvesThem) {
   EXPECT_GT(f.flight_time, 0.0);
   ASSERT_FALSE(queries.empty());
   EXPECT_EQ(static_cast<int>(queries.size()), f.queries);
-  const ResolveRecord r = e.planner.Resolve(queries.front(), {{"w_col", 0.5}, {"w_dyn", 0.1}, {"n_pol", 5}});
+  const ResolveRecord r =
+      e.planner.Resolve(queries.front(), {{"w_col", 0.5}, {"w_dyn", 0.1}, {"n_pol", 5}});
   EXPECT_EQ(r.status, EvalStatus::kOk);
   EXPECT_GT(r.compute_units, 0.0);
   // Deterministic: the same query and θ_s give the same compute units.
-  EXPECT_EQ(e.planner.Resolve(queries.front(), {{"w_col", 0.5}, {"w_dyn", 0.1}, {"n_pol", 5}}).compute_units,
+  EXPECT_EQ(e.planner.Resolve(queries.front(), {{"w_col", 0.5}, {"w_dyn", 0.1}, {"n_pol", 5}})
+                .compute_units,
             r.compute_units);
   // The world pool slot is reused by the next flight.
   (void)e.planner.Fly(req, slot);
@@ -63,7 +95,8 @@ TEST(IpoptEngine, EveryMethodRunsEndToEndAndAgreesAt1And2And8Threads) {
     std::map<std::string, int> longs, shorts;
     ResultStore store(o.store_path);
     for (const auto& r : store.Evaluations()) {
-      if (r.kind == EvalKind::kValidation) continue;  // the held-out flights: counted by their own tests
+      if (r.kind == EvalKind::kValidation)
+        continue;  // the held-out flights: counted by their own tests
       (r.kind == EvalKind::kLong ? longs : shorts)[ToString(r.method)] += 1;
       EXPECT_EQ(r.status, EvalStatus::kOk)
           << ToString(r.method) << " " << ToString(r.kind) << " " << r.message;

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <thread>
 
 #include "../config_error_util.hpp"
@@ -28,6 +29,31 @@ struct ForestQuery {
   LocalMap map;
   PlanningQuery query;
 };
+
+// goal_braking: a horizon goal d from the mission goal is reached at min(v_des, √(2 a_max d));
+// far from the mission goal, or without the rule, at v_des.
+TEST(LocalPlanner, GoalBrakingSlowsHorizonGoalsNearTheMissionGoal) {
+  PlannerParams params;
+  params.v_des = 5.0;
+  params.h_pl = 5.0;
+  LocalMap map(LocalMapOptions::FromPlannerParams(params), Eigen::Vector3d(4, 0, 1.5));
+  const auto speed_at_horizon = [&](bool braking, double mission_x) {
+    LocalPlannerOptions options;
+    options.goal_braking = braking;
+    LocalPlanner planner(options);
+    const auto q = planner.MakeQuery(map, Eigen::Vector3d(0, 0, 1.2), Eigen::Vector3d::Zero(),
+                                     Eigen::Vector3d::Zero(), Eigen::Vector3d(mission_x, 0, 1.2),
+                                     params, nullptr, 0.0);
+    EXPECT_TRUE(q.has_value());
+    EXPECT_FALSE(q->goal_is_mission_goal);
+    return std::pair{q->goal_v_W.norm(), (Eigen::Vector3d(mission_x, 0, 1.2) - q->goal_W).norm()};
+  };
+  const auto [near_speed, d] = speed_at_horizon(true, 7.0);
+  EXPECT_NEAR(near_speed, std::sqrt(2.0 * params.a_max * d), 1e-9);
+  EXPECT_LT(near_speed, params.v_des);
+  EXPECT_NEAR(speed_at_horizon(false, 7.0).first, params.v_des, 1e-9);
+  EXPECT_NEAR(speed_at_horizon(true, 40.0).first, params.v_des, 1e-9);
+}
 
 void ExpectSameOutcome(const PlanOutcome& a, const PlanOutcome& b) {
   EXPECT_EQ(a.result.status, b.result.status);
