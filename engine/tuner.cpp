@@ -15,6 +15,7 @@
 #include "quadtune/common/random.hpp"
 #include "quadtune/engine/result_store.hpp"
 #include "quadtune/engine/scheduler.hpp"
+#include "quadtune/optimizers/challenger_model.hpp"
 #include "quadtune/optimizers/racing.hpp"
 #include "quadtune/optimizers/random_search.hpp"
 
@@ -475,6 +476,7 @@ class Trial {
     // failure value), so that a trial whose every flight failed does not report f_l = 0.
     const bool ok = o.status == EvalStatus::kOk;
     flown_.push_back({!ok, o.objective.value, o.params});
+    every_flight_.push_back({Sample(o).failed, o.objective.value, o.params});
     const bool lower = summary_.flights == 1 || o.objective.value < summary_.best_value;
     if (have_best_ ? ok && lower : ok || lower) {
       have_best_ = have_best_ || ok;
@@ -891,10 +893,56 @@ class Trial {
     const int stage = first + std::max(0, first - static_cast<int>(incumbent_samples_.size()));
     if (summary_.flights + stage > FlightBudget()) return true;
     if (summary_.race_flights + stage > e_.race.share * (summary_.flights + stage)) return true;
+    std::vector<ParamValues> points;
     for (auto& p : RankedPoints()) {
-      if (!NearAny(raced_, Unit(p))) return RaceAgainst(std::move(p));
+      if (!NearAny(raced_, Unit(p))) points.push_back(std::move(p));
     }
-    return true;
+    if (points.empty()) return true;
+    if (e_.race.challenger == optimizers::ChallengerRule::kTwoPart) points = ByTwoPartModel(points);
+    return RaceAgainst(std::move(points.front()));
+  }
+
+  /// The space the challenger model works in: bo_pso's θ_l (its challengers share the best
+  /// θ_s), else the tuned space.
+  [[nodiscard]] const optimizers::ParameterSpace& ModelSpace() const {
+    return method_ == Method::kBoPso ? bo_pso_.long_space : e_.space;
+  }
+
+  /// `p` in the unit cube of ModelSpace().
+  [[nodiscard]] Eigen::VectorXd ModelUnit(const ParamValues& p) const {
+    const auto& space = ModelSpace();
+    const auto names = space.Names();
+    Eigen::VectorXd x(static_cast<Eigen::Index>(names.size()));
+    for (std::size_t i = 0; i < names.size(); ++i) x[static_cast<Eigen::Index>(i)] = p.at(names[i]);
+    return space.ToUnit(x);
+  }
+
+  /// `points` ordered by a ChallengerModel fit to every flight of the trial (race flights
+  /// included), highest score first, against the model's value at the incumbent; the first
+  /// one's estimate is kept for the race's stored outcome.
+  std::vector<ParamValues> ByTwoPartModel(const std::vector<ParamValues>& points) {
+    challenger_estimate_.reset();
+    optimizers::ChallengerModel model(ModelSpace().Dim(),
+                                      DeriveSeed(seed_, {0xc4, static_cast<std::uint64_t>(summary_.races)}),
+                                      e_.bo.gp);
+    std::vector<optimizers::ChallengerObservation> observations;
+    for (const Flown& f : every_flight_) observations.push_back({ModelUnit(f.params), f.value, f.failed});
+    model.Fit(observations);
+    double reference = std::numeric_limits<double>::infinity();
+    double sd = 0.0;
+    if (!model.PredictFinished(ModelUnit(incumbent_), &reference, &sd)) return points;
+    std::vector<std::pair<optimizers::ChallengerEstimate, std::size_t>> scored;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      scored.emplace_back(model.Estimate(ModelUnit(points[i]), reference, e_.race.max_maps,
+                                         e_.race.failures),
+                          i);
+    }
+    std::stable_sort(scored.begin(), scored.end(),
+                     [](const auto& a, const auto& b) { return a.first.score > b.first.score; });
+    std::vector<ParamValues> out;
+    for (const auto& [estimate, i] : scored) out.push_back(points[i]);
+    challenger_estimate_ = scored.front().first;
+    return out;
   }
 
   /// One flight of a race: who flies which race map.
@@ -939,6 +987,7 @@ class Trial {
       if (o.status != EvalStatus::kOk) ++summary_.failed;
       if (o.replayed) ++summary_.replayed;
       (flights[i].challenger ? challenger_samples : incumbent_samples_).push_back(Sample(o));
+      every_flight_.push_back({Sample(o).failed, o.objective.value, o.params});
       TellSurrogate(flights[i].challenger ? challenger : incumbent_, o.objective.value);
     }
     return true;
@@ -1000,6 +1049,12 @@ class Trial {
                          {"maps", d.maps},
                          {"incumbent_maps", static_cast<double>(incumbent_samples_.size())},
                          {"flight_no", summary_.flights}};
+    if (challenger_estimate_) {
+      o.objective.terms["challenger_p_fail"] = challenger_estimate_->failure_probability;
+      o.objective.terms["challenger_mean"] = challenger_estimate_->mean;
+      o.objective.terms["challenger_score"] = challenger_estimate_->score;
+      challenger_estimate_.reset();
+    }
     o.started = o.finished = Now();
     log_.Store(EvalKind::kIncumbent, race, 0, o);
   }
@@ -1120,6 +1175,8 @@ class Trial {
   ParamValues incumbent_;
   std::vector<optimizers::RaceSample> incumbent_samples_;
   std::vector<Eigen::VectorXd> raced_;  // unit-cube points raced (and the first incumbent)
+  std::vector<Flown> every_flight_;     // tuning and race flights, failed as a race counts it
+  std::optional<optimizers::ChallengerEstimate> challenger_estimate_;  // two_part: the last one
 };
 
 }  // namespace

@@ -86,7 +86,14 @@ const Fields<RaceOptions>& RaceFields() {
                   "`budget.flights`")
           .Flag("tell", &R::tell,
                 "race flights are told to the method's surrogate (`bo`, `bo_pso`: observations "
-                "of the points flown), so repeats correct what one lucky flight suggested");
+                "of the points flown), so repeats correct what one lucky flight suggested")
+          .Choice("challenger", &R::challenger,
+                  "which point not raced yet challenges the incumbent: `ranked`, the method's "
+                  "first (`bo`, `bo_pso`: lowest posterior mean; `pso`, `random`: lowest f_l); "
+                  "`two_part`, the highest chance of flying `max_maps` maps within `failures` "
+                  "failures times expected improvement on the incumbent, from a GP on the "
+                  "finished flights and a kernel failure rate fit to every flight, race flights "
+                  "included");
   return fields;
 }
 

@@ -189,6 +189,27 @@ TEST(Racing, SomeCutFallsInsideARace) {
 
 INSTANTIATE_TEST_SUITE_P(Tuner, RacingCancelResume, ::testing::Values(4, 6, 9));
 
+TEST(Racing, TwoPartChallengersAreScoredStoredAndResumedIdentically) {
+  const Experiment e =
+      RacingToy("[bo_pso, random]", "{enabled: true, first_maps: 2, max_maps: 8, challenger: two_part}");
+  const auto r = test::CutThenResume(e, test::TempDir("race_two_part"), 6);
+  ASSERT_EQ(r.resumed.status, RunStatus::kCompleted);
+  EXPECT_EQ(test::Deterministic(r.part), test::Deterministic(r.full));
+  RunOptions o;
+  (void)RunRacing("race_two_part_rows", e, &o);
+  int scored = 0;
+  for (const auto& [id, rows] : RowsByTrial(o.store_path)) {
+    for (const auto& row : rows.incumbent) {
+      const double p = TermOf(row, "challenger_p_fail");
+      EXPECT_GE(p, 0.0);
+      EXPECT_LE(p, 1.0);
+      EXPECT_GE(TermOf(row, "challenger_score"), 0.0);
+      ++scored;
+    }
+  }
+  EXPECT_GE(scored, 2);
+}
+
 TEST(Racing, ExperimentFileRulesAreChecked) {
   EXPECT_TRUE(quadtune::test::ThrowsConfigError(
       [] { (void)RacingToy("[bo]", "{enabled: true, first_maps: 8, max_maps: 4}"); },

@@ -33,6 +33,16 @@
 
 namespace quadtune::optimizers {
 
+/// Which point not raced yet challenges the incumbent next.
+enum class ChallengerRule {
+  kRanked,   ///< the method's own first: bo, bo_pso by posterior mean; pso, random by f_l
+  kTwoPart,  ///< the highest score of a ChallengerModel fit to every flight (challenger_model.hpp)
+};
+constexpr auto EnumNames(ChallengerRule) {
+  return std::array{EnumName{ChallengerRule::kRanked, "ranked"},
+                    EnumName{ChallengerRule::kTwoPart, "two_part"}};
+}
+
 /// YAML `race:` of an experiment.
 struct RaceOptions {
   bool enabled = false;  ///< off: no racing (the trial hands back by `recommend:`)
@@ -48,6 +58,7 @@ struct RaceOptions {
   /// Race flights are told to the method's surrogate (bo, bo_pso: observations of the points
   /// flown, so repeats show the GP what one lucky flight hides).
   bool tell = true;
+  ChallengerRule challenger = ChallengerRule::kRanked;  ///< how the next challenger is chosen
 
   friend bool operator==(const RaceOptions&, const RaceOptions&) = default;
 };

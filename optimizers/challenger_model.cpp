@@ -1,0 +1,140 @@
+#include "quadtune/optimizers/challenger_model.hpp"
+
+#include <algorithm>
+#include <array>
+#include <limits>
+#include <cmath>
+#include <numbers>
+
+#include "quadtune/common/error.hpp"
+#include "quadtune/common/random.hpp"
+
+namespace quadtune::optimizers {
+namespace {
+
+constexpr double kPriorWeight = 1.0;  // n₀
+constexpr int kFitRestarts = 2;
+constexpr double kMaxShape = 2.0;  // cap of a lengthscale that shapes the failure kernel
+constexpr std::array kFailureScales = {1.0 / 32, 1.0 / 16, 1.0 / 8, 1.0 / 4, 1.0 / 2, 1.0};
+
+}  // namespace
+
+double BinomialCdf(int k, int n, double p) {
+  if (k < 0) return 0.0;
+  if (k >= n) return 1.0;
+  p = std::clamp(p, 0.0, 1.0);
+  double sum = 0.0;
+  for (int i = 0; i <= k; ++i) {
+    const double log_choose = std::lgamma(n + 1.0) - std::lgamma(i + 1.0) - std::lgamma(n - i + 1.0);
+    const double term_p = i == 0 ? 0.0 : i * std::log(p);
+    const double term_q = n - i == 0 ? 0.0 : (n - i) * std::log1p(-p);
+    sum += std::exp(log_choose + term_p + term_q);
+  }
+  return std::min(sum, 1.0);
+}
+
+double ExpectedImprovementBelow(double reference, double mean, double sd) {
+  if (!(sd > 1e-12)) return std::max(0.0, reference - mean);
+  const double z = (reference - mean) / sd;
+  const double cdf = 0.5 * std::erfc(-z / std::numbers::sqrt2);
+  const double pdf = std::exp(-0.5 * z * z) / std::sqrt(2.0 * std::numbers::pi);
+  return std::max(0.0, sd * (z * cdf + pdf));
+}
+
+ChallengerModel::ChallengerModel(int dim, std::uint64_t seed, GaussianProcessOptions gp)
+    : dim_(dim),
+      seed_(seed),
+      gp_(dim, std::move(gp)),
+      failure_inv_l_(Eigen::VectorXd::Constant(dim, 1.0 / gp_.Options().initial_lengthscale)) {}
+
+void ChallengerModel::Fit(const std::vector<ChallengerObservation>& observations) {
+  observations_ = observations;
+  int failed = 0;
+  for (const auto& o : observations_) {
+    QT_DEMAND(o.u.size() == dim_, "ChallengerModel: an observation of the wrong dimension");
+    failed += o.failed ? 1 : 0;
+  }
+  const auto n = static_cast<double>(observations_.size());
+  failure_rate_ = (failed + 0.5) / (n + 1.0);
+  const auto finished = static_cast<Eigen::Index>(observations_.size()) - failed;
+  have_gp_ = finished > 0;
+  gp_ = GaussianProcess<Matern52Kernel>(dim_, gp_.Options());
+  if (have_gp_) FitFinished(finished);
+  ChooseFailureLengthscales();
+}
+
+void ChallengerModel::FitFinished(Eigen::Index finished) {
+  Eigen::MatrixXd x(finished, dim_);
+  Eigen::VectorXd y(finished);
+  Eigen::Index row = 0;
+  for (const auto& o : observations_) {
+    if (o.failed) continue;
+    x.row(row) = o.u.transpose();
+    y[row++] = o.value;
+  }
+  // A fresh process each fit (Fit): the estimates depend on the observations only, not on the
+  // sequence of earlier fits (a resumed trial refits the same observations to the same model).
+  gp_.SetData(x, y, Eigen::VectorXd::Zero(finished));
+  Rng rng(DeriveSeed(seed_, {static_cast<std::uint64_t>(observations_.size())}));
+  (void)gp_.Fit(rng, kFitRestarts);
+}
+
+double ChallengerModel::FailureAt(const Eigen::VectorXd& u, const Eigen::VectorXd& inv_l,
+                                  std::size_t skip) const {
+  double weight = kPriorWeight;
+  double failures = kPriorWeight * failure_rate_;
+  for (std::size_t j = 0; j < observations_.size(); ++j) {
+    if (j == skip) continue;
+    const auto& o = observations_[j];
+    const double k = Matern52Kernel::Value((u - o.u).cwiseProduct(inv_l).squaredNorm());
+    weight += k;
+    failures += o.failed ? k : 0.0;
+  }
+  return failures / weight;
+}
+
+void ChallengerModel::ChooseFailureLengthscales() {
+  // The finished part's lengthscales say which directions matter (capped: beyond twice the cube
+  // a direction is flat anyway); their common scale is chosen by the leave-one-out likelihood of
+  // the failures, since failures change over shorter distances than flight times do.
+  const Eigen::ArrayXd base = gp_.Hyperparameters().log_lengthscales.array().exp().min(kMaxShape);
+  double best = -std::numeric_limits<double>::infinity();
+  for (double scale : kFailureScales) {
+    const Eigen::VectorXd inv_l = (1.0 / (scale * base)).matrix();
+    double log_likelihood = 0.0;
+    for (std::size_t j = 0; j < observations_.size(); ++j) {
+      const double p = std::clamp(FailureAt(observations_[j].u, inv_l, j), 1e-6, 1.0 - 1e-6);
+      log_likelihood += std::log(observations_[j].failed ? p : 1.0 - p);
+    }
+    if (log_likelihood > best) {
+      best = log_likelihood;
+      failure_inv_l_ = inv_l;
+    }
+  }
+}
+
+double ChallengerModel::FailureProbability(const Eigen::VectorXd& u) const {
+  return FailureAt(u, failure_inv_l_, observations_.size());
+}
+
+bool ChallengerModel::PredictFinished(const Eigen::VectorXd& u, double* mean, double* sd) const {
+  if (!have_gp_) return false;
+  double variance = 0.0;
+  gp_.Predict(u, mean, &variance);
+  *sd = std::sqrt(std::max(variance, 0.0));
+  return true;
+}
+
+ChallengerEstimate ChallengerModel::Estimate(const Eigen::VectorXd& u, double reference, int maps,
+                                             int failures) const {
+  ChallengerEstimate e;
+  e.failure_probability = FailureProbability(u);
+  e.pass_probability = BinomialCdf(failures, maps, e.failure_probability);
+  if (PredictFinished(u, &e.mean, &e.sd)) {
+    e.improvement = ExpectedImprovementBelow(reference, e.mean, e.sd);
+  }
+  e.score = e.pass_probability * e.improvement;
+  return e;
+}
+
+}  // namespace quadtune::optimizers

@@ -1,0 +1,129 @@
+#!/usr/bin/python3
+"""A density study's tuned points beside an oracle grid flown on the same held-out maps.
+
+For a finished `quadtune study` over `planner.layout_file` (experiments/density_study*.yaml),
+each sweep point's oracle is the best v_des × h_pl grid point (the other parameters at their
+defaults) flown through `quadtune evaluate` on the study's held-out maps, with the map and flight
+seeds of its validation, so every flight pairs map by map with the study's. Writes, replacing
+the rows of this planner and these spacings, OUT/heldout.csv, OUT/summary.csv and
+OUT/summary.md (as scripts/peers/peers.py does: mean f_l, collision-free rate, share of the
+oracle's gain, trials handing back the defaults), OUT/heldout_<planner>_<spacing>.png and
+OUT/oracle_grid_<planner>_<spacing>.csv.
+
+    scripts/peers/density_oracle.py experiments/density_study.yaml --study results/density \
+        --planner ipopt --out docs/results/peers
+"""
+import argparse
+import csv
+import json
+import os
+import statistics
+import sys
+
+import yaml
+
+import peerlib
+import peers
+
+
+def flatten(prefix, value):
+    """`{a: {b: 1}}` under `planner` as ["planner.a.b=1"] (YAML scalars as written by yaml)."""
+    if isinstance(value, dict):
+        out = []
+        for k, v in value.items():
+            out += flatten("{}.{}".format(prefix, k), v)
+        return out
+    text = "true" if value is True else "false" if value is False else str(value)
+    return ["{}={}".format(prefix, text)]
+
+
+def study_points(study_file):
+    """(experiment file, the sets shared by every point, [(label, sets of the point)])."""
+    with open(study_file) as f:
+        doc = yaml.safe_load(f)
+    experiment = os.path.join(os.path.dirname(study_file), doc["experiment"])
+    shared = flatten("planner", doc.get("override", {}).get("planner", {}))
+    sweep = doc["sweep"]
+    labels = sweep.get("labels", [str(v) for v in sweep["values"]])
+    points = [(label, ["{}={}".format(sweep["key"], value)])
+              for label, value in zip(labels, sweep["values"])]
+    return experiment, shared, points
+
+
+def study_rows(study_dir, label, planner):
+    """The study's held-out flights of sweep point `label`, as peers.py rows."""
+    rows = []
+    with open(os.path.join(study_dir, "validation.csv")) as f:
+        for r in csv.DictReader(f):
+            if r["label"] != label:
+                continue
+            rows.append(dict(planner=planner, spacing=float(label), tuner=r["method"],
+                             repeat=int(r["repeat"]), map_index=int(r["flight"]),
+                             map_seed=int(r["map_seed"]), f_l=float(r["f_l"]),
+                             collisions=float(r["collisions"]),
+                             emergency_stops=float(r["emergency_stops"]),
+                             completed=float(r["completed"]), t_f=float(r["flight_time"]),
+                             params=r["params"]))
+    return rows
+
+
+def cached_oracle(a, experiment, maps, sets, label):
+    """peers.oracle, kept in WORK/<planner>_<label>/oracle.json and reused while the
+    experiment, sets, maps and grids are the same (the flights are deterministic)."""
+    work = os.path.join(a.work, "{}_{}".format(a.planner, label))
+    path = os.path.join(work, "oracle.json")
+    key = dict(experiment=experiment, sets=sets, maps=maps, v_grid=a.v_grid, h_grid=a.h_grid)
+    if os.path.exists(path):
+        with open(path) as f:
+            cached = json.load(f)
+        if cached["key"] == key:
+            return cached["best"], cached["rows"], [tuple(g) for g in cached["grid"]]
+    best, rows, grid = peers.oracle(experiment, maps, sets,
+                                    [float(v) for v in a.v_grid.split(",")],
+                                    [float(h) for h in a.h_grid.split(",")])
+    os.makedirs(work, exist_ok=True)
+    with open(path, "w") as f:
+        json.dump(dict(key=key, best=best, rows=rows, grid=grid), f)
+    return best, rows, grid
+
+
+def main(argv):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("study_file")
+    ap.add_argument("--study", required=True, help="the finished `quadtune study` directory")
+    ap.add_argument("--planner", required=True)
+    ap.add_argument("--v-grid", default="2,2.5,3,3.5,4,4.5,5")
+    ap.add_argument("--h-grid", default="6,7.5,9")
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--work", default="results/peers_oracle",
+                    help="where the oracle grids' flights are kept for reuse")
+    a = ap.parse_args(argv)
+    experiment, shared, points = study_points(a.study_file)
+    defaults = {p["name"]: p["default"] for p in peerlib.box(experiment)}
+    for label, sets in points:
+        rows = study_rows(a.study, label, a.planner)
+        maps = len({r["map_index"] for r in rows})
+        best, best_rows, grid = cached_oracle(a, experiment, maps, shared + sets, label)
+        spacing = float(label)
+        rows += [dict(r, planner=a.planner, spacing=spacing, tuner="oracle", repeat=0)
+                 for r in best_rows]
+        os.makedirs(a.out, exist_ok=True)
+        with open(os.path.join(a.out, "oracle_grid_{}_{}.csv".format(a.planner, label)), "w") as f:
+            f.write("v_des,h_pl,mean_f_l\n")
+            for v, h, m in grid:
+                f.write("{},{},{}\n".format(v, h, m))
+        summary = peers.summarise(rows, defaults)
+        peers.write(a.out, a.planner, spacing, rows, summary)
+        peers.figure(summary, os.path.join(a.out, "heldout_{}_{}.png".format(a.planner, label)),
+                     "{} planner, {} m forests: held-out mean f_l".format(a.planner, label))
+        print("{} m: oracle {} (mean f_l {:.2f})".format(
+            label, best, statistics.fmean(r["f_l"] for r in best_rows)), flush=True)
+        for s in summary:
+            print("  {tuner:>8}: mean f_l {mean_f_l:.2f}, collision-free {collision_free:.0%}, "
+                  "gain share {gain_share:.0%}, defaults handed back {defaults_handed_back}"
+                  .format(**s), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
