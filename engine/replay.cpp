@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <system_error>
 #include <type_traits>
 #include <utility>
 #include <variant>
@@ -142,16 +143,20 @@ StoredFlight LoadStoredFlight(const std::string& store, std::int64_t id) {
 
 FlightRecord FlyWithLog(const Planner& planner, FlightRequest request,
                         const std::string& directory, const nlohmann::json& extra) {
+  const bool existed = std::filesystem::exists(directory);
   std::filesystem::create_directories(directory);
   request.log_directory = directory;
   ParamValues params = planner.Defaults();
   for (const auto& [name, value] : request.params) params[name] = value;
   WorldPool pool;
   const FlightRecord record = FlyOnPool(planner, pool, request);
-  if (record.status != EvalStatus::kCancelled) {
-    std::ofstream(std::filesystem::path(directory) / "summary.json")
-        << Summary(record, params, extra).dump(1) << '\n';
+  if (record.status == EvalStatus::kCancelled) {
+    std::error_code ignored;  // a folder made here for nothing goes again (only when empty)
+    if (!existed) std::filesystem::remove(directory, ignored);
+    return record;
   }
+  std::ofstream(std::filesystem::path(directory) / "summary.json")
+      << Summary(record, params, extra).dump(1) << '\n';
   return record;
 }
 

@@ -40,7 +40,8 @@ struct StoredFlight {
 /// - the planner's facts (FlightRecord::log), in place of same-named ones;
 /// - `params`: the parameters flown (the planner's defaults, then request.params);
 /// - the keys of `extra` (an object).
-/// A cancelled flight writes nothing (the folder is still created). Returns the record.
+/// A cancelled flight writes nothing (a folder made for it is removed again when it is empty).
+/// Returns the record.
 FlightRecord FlyWithLog(const Planner& planner, FlightRequest request,
                         const std::string& directory,
                         const nlohmann::json& extra = nlohmann::json::object());
