@@ -235,12 +235,17 @@ struct IpoptMap {
   std::shared_ptr<const physics::ObstacleGeometry> geometry;
 };
 
-Opaque PrepareLayoutMap(const IpoptPlannerOptions& o, std::uint64_t map_seed) {
+Opaque LayoutMap(const IpoptPlannerOptions& o, layout::Layout layout) {
   IpoptMap map;
-  map.layout = layout::GenerateLayout(o.layout, map_seed);
+  map.layout = std::move(layout);
   map.geometry = physics::ObstacleGeometry::Make(map.layout.obstacles, o.world);
   return Opaque::Make(std::move(map));
 }
+
+/// The slot's state of a closed-loop planner: its World, kept between flights.
+struct ClosedLoopSlot {
+  std::shared_ptr<physics::World> world;
+};
 
 /// A flight's end as the stored state names it (kOk for a completed flight).
 EvalState FlightEnding(sim::FlightStatus status) {
@@ -261,48 +266,8 @@ EvalState FlightEnding(sim::FlightStatus status) {
   return EvalState::kError;
 }
 
-// One closed-loop flight of a planner built on sim::Fly with `backend`.
-FlightRecord FlyWithBackend(const IpoptPlannerOptions& o,
-                            const planning::TrajectoryBackend& backend,
-                            const FlightRequest& request, WorkerSlot& slot) {
-  const IpoptMap& map = request.map.As<IpoptMap>();
-  planning::PlannerParams params = o.base;
-  for (const auto& [name, value] : request.params) params.Set(name, value);
-  params.Validate("flight parameters");
-  const sim::Scenario scenario = sim::Scenario::OverLayout(map.layout, o.mission, o.drone, o.world,
-                                                           request.seed, map.geometry);
-  // World pool: the slot keeps its World; MakeWorld re-uses it (static objects rebuilt only when
-  // the geometry differs).
-  auto* world = std::any_cast<std::shared_ptr<physics::World>>(&slot.state);
-  if (world == nullptr) {
-    slot.state = std::shared_ptr<physics::World>();
-    world = std::any_cast<std::shared_ptr<physics::World>>(&slot.state);
-  }
-  sim::MakeWorld(scenario, *world);
-  ++slot.uses;
-
-  sim::FlightHooks hooks;
-  int queries = 0;
-  if (request.short_params_provider) {
-    hooks.params_provider = [&](double t, planning::PlannerParams& p) {
-      ParamValues theta_s;
-      for (const auto& n : planning::PlannerParams::ShortTermNames()) theta_s[n] = p.Get(n);
-      request.short_params_provider(t, theta_s);
-      for (const auto& [n, v] : theta_s) p.Set(n, v);
-    };
-  }
-  if (request.on_query) {
-    hooks.on_plan = [&](const planning::PlanningQuery& q, const planning::PlanOutcome&) {
-      ++queries;
-      request.on_query(Opaque::Make(q));
-    };
-  }
-  hooks.cancelled = request.cancelled;
-  sim::FlightOptions flight = o.flight;
-  flight.log_rate_hz = 0.0;
-  const sim::FlightResult result =
-      sim::Fly(**world, scenario.mission, params, flight, backend, hooks);
-  const auto& m = result.metrics;
+/// The record of a flight with these metrics and `queries` reported queries.
+FlightRecord RecordOf(const sim::FlightMetrics& m, int queries) {
   FlightRecord r;
   r.status =
       m.status == sim::FlightStatus::kError || m.status == sim::FlightStatus::kDiverged
@@ -323,6 +288,106 @@ FlightRecord FlyWithBackend(const IpoptPlannerOptions& o,
   r.min_clearance = m.min_clearance;
   r.wall_time = m.wall_time;
   r.queries = queries;
+  return r;
+}
+
+std::vector<double> Point(const Eigen::Vector3d& p) { return {p.x(), p.y(), p.z()}; }
+
+/// The achieved value of what the layout's spacing means: the mean free gap (zones weighted by
+/// their obstacle counts) under `free_gap`, else the mean nearest-neighbour centre distance.
+double AchievedSpacing(const layout::Layout& layout) {
+  if (layout.options.density != layout::DensityDefinition::kFreeGap) {
+    return layout.stats.overall.mean;
+  }
+  double sum = 0.0;
+  double count = 0.0;
+  for (const auto& z : layout.stats.zones) {
+    sum += z.gap.mean * static_cast<double>(z.gap.count);
+    count += static_cast<double>(z.gap.count);
+  }
+  return count > 0.0 ? sum / count : 0.0;
+}
+
+/// The closed loop's log: flight.csv, plans.csv, plan_steps.csv, obstacles.json and layout.yaml
+/// in `directory`, and the summary facts of the flight and its map.
+LogFacts WriteClosedLoopLog(const std::string& directory, const sim::FlightResult& result,
+                            const layout::Layout& layout, const sim::Mission& mission,
+                            const std::string& drone) {
+  sim::WriteFlightLog(directory, result, layout.obstacles);
+  layout.Save((std::filesystem::path(directory) / "layout.yaml").string());
+  const sim::FlightMetrics& m = result.metrics;
+  using I = std::int64_t;
+  return {{"status", std::string(sim::ToString(m.status))},
+          {"message", m.message},
+          {"max_tracking_error", m.max_tracking_error},
+          {"mean_tracking_error", m.mean_tracking_error},
+          {"mean_solve_time", m.mean_solve_time},
+          {"max_solve_time", m.max_solve_time},
+          {"distance", m.distance},
+          {"mean_speed", m.mean_speed},
+          {"max_speed", m.max_speed},
+          {"start", Point(mission.start_W)},
+          {"goal", Point(mission.waypoints_W.front())},
+          {"obstacles", static_cast<I>(layout.obstacles.size())},
+          {"drone", drone},
+          {"spacing_target", layout.options.spacing},
+          {"density_definition", std::string(quadtune::ToString(layout.options.density))},
+          {"spacing_achieved", AchievedSpacing(layout)}};
+}
+
+/// The flight's hooks into `request`: θ_s from its provider, each query counted into `queries`
+/// and handed to its on_query, its cancel test.
+sim::FlightHooks HooksOf(const FlightRequest& request, int& queries) {
+  sim::FlightHooks hooks;
+  if (request.short_params_provider) {
+    hooks.params_provider = [&request](double t, planning::PlannerParams& p) {
+      ParamValues theta_s;
+      for (const auto& n : planning::PlannerParams::ShortTermNames()) theta_s[n] = p.Get(n);
+      request.short_params_provider(t, theta_s);
+      for (const auto& [n, v] : theta_s) p.Set(n, v);
+    };
+  }
+  if (request.on_query) {
+    hooks.on_plan = [&request, &queries](const planning::PlanningQuery& q,
+                                         const planning::PlanOutcome&) {
+      ++queries;
+      request.on_query(Opaque::Make(q));
+    };
+  }
+  hooks.cancelled = request.cancelled;
+  return hooks;
+}
+
+// One closed-loop flight of a planner built on sim::Fly with `backend`.
+FlightRecord FlyWithBackend(const IpoptPlannerOptions& o,
+                            const planning::TrajectoryBackend& backend,
+                            const FlightRequest& request, WorkerSlot& slot) {
+  const IpoptMap& map = request.map.As<IpoptMap>();
+  planning::PlannerParams params = o.base;
+  for (const auto& [name, value] : request.params) params.Set(name, value);
+  params.Validate("flight parameters");
+  const sim::Scenario scenario = sim::Scenario::OverLayout(map.layout, o.mission, o.drone, o.world,
+                                                           request.seed, map.geometry);
+  // World pool: the slot keeps its World; MakeWorld re-uses it (static objects rebuilt only when
+  // the geometry differs).
+  std::shared_ptr<physics::World>& world = slot.State<ClosedLoopSlot>().world;
+  sim::MakeWorld(scenario, world);
+  ++slot.uses;
+
+  int queries = 0;
+  const sim::FlightHooks hooks = HooksOf(request, queries);
+  const bool log = !request.log_directory.empty();
+  sim::FlightOptions flight = o.flight;
+  // The state log is kept only for a flight's log; it does not change the flight.
+  flight.log_rate_hz = log ? sim::FlightOptions{}.log_rate_hz : 0.0;
+  const sim::FlightResult result =
+      sim::Fly(*world, scenario.mission, params, flight, backend, hooks);
+  FlightRecord r = RecordOf(result.metrics, queries);
+  if (log && result.metrics.status != sim::FlightStatus::kCancelled) {
+    r.log = WriteClosedLoopLog(request.log_directory, result, map.layout, scenario.mission,
+                               o.drone.name);
+    r.logged = true;
+  }
   return r;
 }
 
@@ -376,7 +441,11 @@ std::vector<ParameterInfo> BackendPlanner::LongTermParameters() const {
 }
 
 Opaque BackendPlanner::PrepareMap(std::uint64_t map_seed) const {
-  return PrepareLayoutMap(*options_, map_seed);
+  return LayoutMap(*options_, layout::GenerateLayout(options_->layout, map_seed));
+}
+
+Opaque BackendPlanner::MapOf(layout::Layout layout) const {
+  return LayoutMap(*options_, std::move(layout));
 }
 
 FlightRecord BackendPlanner::Fly(const FlightRequest& request, WorkerSlot& slot) const {

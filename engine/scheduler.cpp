@@ -160,7 +160,7 @@ FlightRecord FlyOnPool(const Planner& planner, WorldPool& pool, const FlightRequ
     rec = FlightRecord{};
     rec.status = EvalStatus::kFailed;
     rec.message = "exception: " + error;
-    slot->state.reset();  // rebuilt by the next flight in this slot
+    slot->ResetState();  // rebuilt by the next flight in this slot
   }
   if (threw != nullptr) *threw = failed;
   return rec;

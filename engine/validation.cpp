@@ -59,7 +59,7 @@ std::vector<FlightRecord> FlyJobs(const Planner& planner, const std::vector<Flig
         r = FlightRecord{};
         r.status = EvalStatus::kFailed;
         r.message = std::string("exception: ") + ex.what();
-        slot.state.reset();  // the world may be in any state: rebuild it next time
+        slot.ResetState();  // the world may be in any state: rebuild it next time
       }
     }
     if (progress) {

@@ -45,7 +45,8 @@ inline constexpr const char* kExitCodes =
     "Exit codes: 0 done; 1 failed while running (a file that cannot be written, a figure script "
     "that failed, an internal error); 2 refused before any work (bad command line, configuration "
     "file or result directory); 3 done, but the outcome is negative (fly: the flight did not "
-    "complete; bench --soak: memory not flat); 130 interrupted (SIGINT/SIGTERM; the store is "
+    "complete; bench --soak: memory not flat); 4 fly --from flew a flight other than the stored "
+    "one; 130 interrupted (SIGINT/SIGTERM; the store is "
     "consistent, continue with --resume).";
 
 /// Checks a --seed option: a decimal integer in [0, 2^64), refused with one line otherwise (CLI11

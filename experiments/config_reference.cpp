@@ -50,7 +50,8 @@ The command line spells a concept as the files do: `fly --mission go_and_return|
 `planner.mission`; `--layout-options FILE` (layout generator options) in `fly` and `layout`.
 Exit codes of every command: 0 done, 1 failed while running, 2 refused before any work (command
 line, file or result directory), 3 done with a negative outcome (`fly`: flight not completed;
-`bench --soak`: memory not flat), 130 interrupted (continue with `--resume`).
+`bench --soak`: memory not flat), 4 `fly --from` flew a flight other than the stored one, 130
+interrupted (continue with `--resume`).
 
 This page is generated from the field lists that the readers use (`common/fields.hpp`): each
 table is one list, with the defaults of the code. `quadtune config-reference --out

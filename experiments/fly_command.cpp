@@ -10,7 +10,9 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <stdexcept>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "commands.hpp"
@@ -18,33 +20,19 @@
 #include "quadtune/common/text_file.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/engine/planner_registry.hpp"
+#include "quadtune/engine/planners.hpp"
+#include "quadtune/engine/replay.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/physics/world.hpp"
 #include "quadtune/planning/parameters.hpp"
 #include "quadtune/planning/trajectory_backend.hpp"
 #include "quadtune/sim/flight.hpp"
-#include "quadtune/sim/scenario.hpp"
 #include "result_dir.hpp"
 #include "stored_flight.hpp"
 
 namespace quadtune::cli {
 namespace {
-
-// The achieved value of what the layout's spacing means: the mean free gap (zones weighted by
-// their obstacle counts) under `free_gap`, else the mean nearest-neighbour centre distance.
-double AchievedSpacing(const layout::Layout& layout) {
-  if (layout.options.density != layout::DensityDefinition::kFreeGap) {
-    return layout.stats.overall.mean;
-  }
-  double sum = 0.0;
-  double count = 0.0;
-  for (const auto& z : layout.stats.zones) {
-    sum += z.gap.mean * static_cast<double>(z.gap.count);
-    count += static_cast<double>(z.gap.count);
-  }
-  return count > 0.0 ? sum / count : 0.0;
-}
 
 struct FlyArgs {
   std::string drone = "drones/research_1kg.yaml";
@@ -63,9 +51,10 @@ struct FlyArgs {
   std::int64_t evaluation = -1;
 };
 
-/// Applies "name=value" overrides to the planner parameters.
-planning::PlannerParams ParseOverrides(const std::vector<std::string>& items) {
+/// The "name=value" overrides of the planner parameters, checked as the closed loop flies them.
+engine::ParamValues ParseOverrides(const std::vector<std::string>& items) {
   planning::PlannerParams params;
+  engine::ParamValues values;
   for (const auto& item : items) {
     const auto eq = item.find('=');
     if (eq == std::string::npos) {
@@ -85,104 +74,112 @@ planning::PlannerParams ParseOverrides(const std::vector<std::string>& items) {
     } catch (const ConfigError& e) {
       throw ConfigError("--set", "", e.what());  // "--set: NAME: unknown planner parameter; ..."
     }
+    values[name] = value;
   }
   params.Validate("--set");
-  return params;
+  return values;
+}
+
+/// The closed-loop planner `--planner` names, as the engine flies it: the registry's back end in
+/// a BackendPlanner over the flags' drone, layout generator, world, mission and time limit.
+engine::BackendPlanner FlyPlanner(const FlyArgs& a,
+                                  std::shared_ptr<const planning::TrajectoryBackend> backend) {
+  engine::IpoptPlannerOptions o;
+  o.drone = physics::LoadDroneDescription(AssetPath(a.drone));
+  if (!a.layout_options_file.empty()) {
+    o.layout = layout::LayoutOptions::LoadFile(a.layout_options_file);
+  } else if (a.layout_file.empty()) {
+    o.layout = ForestOptions(a.spacing);
+  }  // else the saved layout is flown (MapOf)
+  if (!a.world_file.empty()) {
+    o.world = physics::WorldOptions::FromYaml(YamlMap::LoadFile(a.world_file));
+  }
+  o.world.collision_response = physics::CollisionResponse::kPassThrough;
+  const std::optional<sim::MissionKind> mission = FromString<sim::MissionKind>(a.mission);
+  if (!mission) throw ConfigError("", "--mission", "unknown mission '" + a.mission + "'");
+  o.mission = *mission;
+  o.flight.max_time = a.max_time;
+  return engine::BackendPlanner(a.planner, std::move(o), std::move(backend));
+}
+
+/// A number among a flight's summary facts (0 when absent).
+double Fact(const engine::FlightRecord& r, const std::string& name) {
+  const auto it = r.log.find(name);
+  if (it == r.log.end()) return 0.0;
+  if (const auto* i = std::get_if<std::int64_t>(&it->second)) return static_cast<double>(*i);
+  const auto* d = std::get_if<double>(&it->second);
+  return d ? *d : 0.0;
 }
 
 std::atomic<bool> g_fly_interrupted{false};
 void OnFlySignal(int) { g_fly_interrupted.store(true); }
 
-int RunFly(const FlyArgs& a) {
-  if (!a.from.empty() || a.evaluation >= 0) {
-    if (a.from.empty() || a.evaluation < 0) {
-      throw ConfigError("", a.from.empty() ? "--from" : "--evaluation",
-                        "--from STORE and --evaluation ID go together");
-    }
-    const int status = FlyStored(a.from, a.evaluation, a.out);
-    if (a.plot && RunPlotScript("flight '" + a.out + "'") != 0) return 1;
-    return status;
+/// `fly --from STORE --evaluation ID`: exit 0 when the stored flight flies again the same, 4
+/// when it does not.
+int RunFlyStored(const FlyArgs& a) {
+  if (a.from.empty() || a.evaluation < 0) {
+    throw ConfigError("", a.from.empty() ? "--from" : "--evaluation",
+                      "--from STORE and --evaluation ID go together");
   }
-  const std::shared_ptr<const planning::TrajectoryBackend> backend =
-      engine::BuildClosedLoopBackend(a.planner, "", "--planner");
-  CheckOutputDir(a.out, "--out");
-  const planning::PlannerParams params = ParseOverrides(a.set);
-  const physics::DroneDescription drone = physics::LoadDroneDescription(AssetPath(a.drone));
-  layout::Layout layout;
-  if (!a.layout_file.empty()) {
-    layout = layout::Layout::Load(a.layout_file);
-  } else {
-    layout::LayoutOptions options;
-    if (!a.layout_options_file.empty()) {
-      options = layout::LayoutOptions::LoadFile(a.layout_options_file);
-    } else {
-      options = ForestOptions(a.spacing);
-    }
-    layout = layout::GenerateLayout(options, a.seed);
+  const engine::Replay replay = FlyStored(a.from, a.evaluation, a.out);
+  if (!replay.record.logged) {
+    spdlog::info("the planner keeps no flight log; wrote {}/summary.json", a.out);
+  } else if (a.plot && RunPlotScript("flight '" + a.out + "'") != 0) {
+    return 1;
   }
-  physics::WorldOptions world_options;
-  if (!a.world_file.empty()) {
-    world_options = physics::WorldOptions::FromYaml(YamlMap::LoadFile(a.world_file));
-  }
-  world_options.collision_response = physics::CollisionResponse::kPassThrough;
-  const std::optional<sim::MissionKind> mission_kind = FromString<sim::MissionKind>(a.mission);
-  if (!mission_kind) throw ConfigError("", "--mission", "unknown mission '" + a.mission + "'");
-  const sim::Scenario scenario =
-      sim::Scenario::OverLayout(layout, *mission_kind, drone, world_options, a.seed);
-  sim::FlightOptions options;
-  options.max_time = a.max_time;
+  return replay.same ? 0 : 4;
+}
 
-  spdlog::info("flying {} with {} obstacles (spacing {:.2f} m achieved {:.2f} m), drone {}",
-               a.mission, layout.obstacles.size(), layout.options.spacing,
-               AchievedSpacing(layout), drone.name);
-  std::shared_ptr<physics::World> world;
-  sim::MakeWorld(scenario, world);
-  const sim::Mission& mission = scenario.mission;
-  // SIGINT/SIGTERM end the flight at its next tick: nothing is written, exit 130.
-  std::signal(SIGINT, OnFlySignal);
-  std::signal(SIGTERM, OnFlySignal);
-  sim::FlightHooks hooks;
-  hooks.cancelled = [] { return g_fly_interrupted.load(); };
-  const sim::FlightResult result = sim::Fly(*world, mission, params, options, *backend, hooks);
-  if (g_fly_interrupted.load()) {
-    spdlog::error("fly interrupted; nothing written");
-    return 130;
-  }
-  const auto& m = result.metrics;
-
-  std::filesystem::create_directories(a.out);
-  sim::WriteFlightFiles(a.out, result, layout.obstacles, mission);
-  layout.Save((std::filesystem::path(a.out) / "layout.yaml").string());
-  {  // Record the layout's density beside the metrics, for summaries across densities.
-    const auto path = std::filesystem::path(a.out) / "summary.json";
-    nlohmann::json summary = nlohmann::json::parse(std::ifstream(path));
-    summary["spacing_target"] = layout.options.spacing;
-    summary["density_definition"] = quadtune::ToString(layout.options.density);
-    summary["spacing_achieved"] = AchievedSpacing(layout);
-    summary["obstacles"] = layout.obstacles.size();
-    summary["seed"] = a.seed;
-    summary["drone"] = drone.name;
-    std::ofstream(path) << summary.dump(1) << '\n';
-  }
-
-  spdlog::info(
-      "status {} ({}), flight time t_f {:.2f} s, collisions n_c {}, emergency stops n_e {}",
-      sim::ToString(m.status), m.message.empty() ? "ok" : m.message, m.flight_time, m.collisions,
-      m.emergency_stops);
+void LogFlight(const FlyArgs& a, const engine::FlightRecord& r) {
+  spdlog::info("{} with {} obstacles (spacing {:.2f} m achieved {:.2f} m), seed {}", a.mission,
+               Fact(r, "obstacles"), Fact(r, "spacing_target"), Fact(r, "spacing_achieved"),
+               a.seed);
+  spdlog::info("{}, flight time t_f {:.2f} s, collisions n_c {}, emergency stops n_e {}",
+               r.message, r.flight_time, r.collisions, r.emergency_stops);
   spdlog::info(
       "plans {} (failed {}, stop-and-go fallbacks {}, failed attempts n_s {}), solve time "
       "t_c mean {:.2f} ms max {:.2f} ms, max tracking error {:.3f} m, min clearance "
       "{:.2f} m, mean speed {:.2f} m/s",
-      m.plans, m.failed_plans, m.fallback_plans, m.failed_attempts, 1e3 * m.mean_solve_time,
-      1e3 * m.max_solve_time, m.max_tracking_error, m.min_clearance, m.mean_speed);
-  spdlog::info("simulated {:.1f} s in {:.2f} s wall time ({:.0f}x real time)", m.flight_time,
-               m.wall_time, m.wall_time > 0 ? m.flight_time / m.wall_time : 0.0);
+      r.plans, r.failed_plans, r.fallback_plans, r.failed_attempts,
+      1e3 * Fact(r, "mean_solve_time"), 1e3 * Fact(r, "max_solve_time"),
+      Fact(r, "max_tracking_error"), r.min_clearance, Fact(r, "mean_speed"));
+  spdlog::info("simulated {:.1f} s in {:.2f} s wall time ({:.0f}x real time)", r.flight_time,
+               r.wall_time, r.wall_time > 0 ? r.flight_time / r.wall_time : 0.0);
   spdlog::info("wrote {}/flight.csv, plans.csv, summary.json, obstacles.json, layout.yaml", a.out);
+}
+
+int RunFly(const FlyArgs& a) {
+  if (!a.from.empty() || a.evaluation >= 0) return RunFlyStored(a);
+  std::shared_ptr<const planning::TrajectoryBackend> backend =
+      engine::BuildClosedLoopBackend(a.planner, "", "--planner");
+  CheckOutputDir(a.out, "--out");
+  engine::FlightRequest request;
+  request.params = ParseOverrides(a.set);
+  request.seed = a.seed;
+  const engine::BackendPlanner planner = FlyPlanner(a, std::move(backend));
+  request.map = a.layout_file.empty() ? planner.PrepareMap(a.seed)
+                                      : planner.MapOf(layout::Layout::Load(a.layout_file));
+  spdlog::info("flying {} with the {} planner, drone {}", a.mission, a.planner,
+               planner.options().drone.name);
+  // SIGINT/SIGTERM end the flight at its next tick: nothing is written, exit 130.
+  std::signal(SIGINT, OnFlySignal);
+  std::signal(SIGTERM, OnFlySignal);
+  request.cancelled = [] { return g_fly_interrupted.load(); };
+  const engine::FlightRecord r =
+      engine::FlyWithLog(planner, std::move(request), a.out, {{"seed", a.seed}});
+  if (g_fly_interrupted.load()) {
+    spdlog::error("fly interrupted; nothing written");
+    return 130;
+  }
+  if (r.status == engine::EvalStatus::kFailed && !r.logged) {
+    throw std::runtime_error("fly: " + r.message);  // the planner threw (FlyOnPool)
+  }
+  LogFlight(a, r);
   if (a.plot) {
     if (RunPlotScript("flight '" + a.out + "'") != 0) return 1;
     spdlog::info("figure: {}/flight_topdown.png", a.out);
   }
-  return m.status == sim::FlightStatus::kCompleted ? 0 : 3;
+  return r.completed ? 0 : 3;
 }
 
 }  // namespace

@@ -76,11 +76,18 @@ int Report(const ReportArgs& a) {
     for (const auto& [store, id] : chosen) {
       const fs::path out = dir / "report_flights" / FlightFolder(dir, store, id);
       try {
-        if (FlyStored(store.string(), id, out.string()) != 0) {
+        const engine::Replay replay = FlyStored(store.string(), id, out.string());
+        if (!replay.record.logged) {  // e.g. a toy-planner store: charts only
+          spdlog::warn("no replay of {} evaluation {}: its planner keeps no flight log",
+                       store.string(), id);
+          fs::remove_all(out);
+          break;
+        }
+        if (!replay.same) {
           spdlog::warn("the replay of {} evaluation {} differs from the stored flight",
                        store.string(), id);
         }
-      } catch (const ConfigError& e) {  // e.g. a toy-planner store: charts only
+      } catch (const ConfigError& e) {  // e.g. a planner type this program has not registered
         spdlog::warn("no replay of {} evaluation {}: {}", store.string(), id, e.what());
         break;
       }

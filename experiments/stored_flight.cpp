@@ -12,12 +12,7 @@
 #include <set>
 
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/planners.hpp"
-#include "quadtune/layout/layout.hpp"
-#include "quadtune/physics/world.hpp"
-#include "quadtune/sim/flight.hpp"
-#include "quadtune/sim/scenario.hpp"
+#include "quadtune/engine/row_codec.hpp"
 
 namespace quadtune::cli {
 namespace {
@@ -107,35 +102,6 @@ engine::EvaluationRow RowOf(sqlite3_stmt* s, int first, const std::string& store
 
 }  // namespace
 
-StoredFlight LoadStoredFlight(const std::string& store, std::int64_t id) {
-  const ReadOnlyStore db(store);
-  StoredFlight f;
-  bool found = false;
-  db.Query("SELECT e.id, t.map_seed, (SELECT config FROM experiment ORDER BY id LIMIT 1), " +
-               engine::EvaluationSqlColumns("e.") +
-               " FROM evaluation e LEFT JOIN trial t ON t.id = e.trial_id WHERE e.id = " +
-               std::to_string(id),
-           [&](sqlite3_stmt* s) {
-             found = true;
-             f.id = sqlite3_column_int64(s, 0);
-             f.row = RowOf(s, 3, store, std::to_string(f.id));
-             if (f.row.map_seed == 0) f.row.map_seed = Seed(Text(s, 1));
-             f.config = Text(s, 2);
-           });
-  if (!found) {
-    throw ConfigError(store, "--evaluation",
-                      "no evaluation with id " + std::to_string(id) +
-                          " (ids are the evaluation table's id column; see `quadtune export "
-                          "--tidy`)");
-  }
-  if (f.row.kind == engine::EvalKind::kShort) {
-    throw ConfigError(store, "--evaluation",
-                      "evaluation " + std::to_string(id) +
-                          " is a short-term re-solve, not a flight; give a long-term row");
-  }
-  return f;
-}
-
 std::vector<std::int64_t> BestFlightIds(const std::string& store, int limit) {
   const ReadOnlyStore db(store);
   std::vector<std::int64_t> ids;
@@ -150,71 +116,18 @@ std::vector<std::int64_t> BestFlightIds(const std::string& store, int limit) {
   return ids;
 }
 
-int FlyStored(const std::string& store, std::int64_t id, const std::string& out) {
-  const StoredFlight f = LoadStoredFlight(store, id);
-  const engine::Experiment e =
-      engine::Experiment::FromString(f.config, store + " (stored configuration)");
-  const auto* planner = e.planner.Extract<engine::IpoptPlanner>();
-  if (planner == nullptr) {
-    throw ConfigError(store, "planner.type",
-                      "only flights of the ipopt planner can be flown again (this store's "
-                      "planner is '" +
-                          e.planner_type + "')");
-  }
-  const engine::IpoptPlannerOptions& o = planner->options();
-  // The map and world exactly as IpoptPlanner::PrepareMap and ::Fly build them.
-  const engine::EvaluationRow& row = f.row;
-  const layout::Layout layout = layout::GenerateLayout(o.layout, row.map_seed);
-  planning::PlannerParams params = o.base;
-  const nlohmann::json stored_params =
-      StoredObject(store, std::to_string(id), "params", row.params);
-  for (auto it = stored_params.begin(); it != stored_params.end(); ++it) {
-    params.Set(it.key(), it.value().get<double>());
-  }
-  params.Validate(store + " evaluation " + std::to_string(id));
-  const sim::Scenario scenario =
-      sim::Scenario::OverLayout(layout, o.mission, o.drone, o.world, row.flight_seed);
-  std::shared_ptr<physics::World> world;
-  sim::MakeWorld(scenario, world);
-  const sim::Mission& mission = scenario.mission;
-  sim::FlightOptions flight = o.flight;
-  flight.log_rate_hz = sim::FlightOptions{}.log_rate_hz;
-  const planning::TrajectoryOptimizer optimizer(o.flight.planner.optimizer);
-  spdlog::info("flying evaluation {} of {} again ({}, map seed {}, flight seed {})", id, store,
-               ToString(row.method), row.map_seed, row.flight_seed);
-  const sim::FlightResult result = sim::Fly(*world, mission, params, flight, optimizer);
-
-  std::filesystem::create_directories(out);
-  sim::WriteFlightFiles(out, result, layout.obstacles, mission);
-  layout.Save((std::filesystem::path(out) / "layout.yaml").string());
-  const auto path = std::filesystem::path(out) / "summary.json";
-  nlohmann::json summary = nlohmann::json::parse(std::ifstream(path));
-  const nlohmann::json terms = nlohmann::json::parse(row.terms);
-  summary["stored"] = {{"store", store},
-                       {"evaluation", id},
-                       {"method", ToString(row.method)},
-                       {"kind", ToString(row.kind)},
-                       {"iteration", row.iteration},
-                       {"index", row.index},
-                       {"value", row.value},
-                       {"state", ToString(row.state)},
-                       {"terms", terms},
-                       {"params", stored_params},
-                       {"map_seed", std::to_string(row.map_seed)},
-                       {"flight_seed", std::to_string(row.flight_seed)}};
-  summary["obstacles"] = layout.obstacles.size();
-  summary["drone"] = o.drone.name;
-  std::ofstream(path) << summary.dump(1) << '\n';
-
-  const auto& m = result.metrics;
-  const bool same = terms.value("t_f", -1.0) == m.flight_time &&
-                    terms.value("n_c", -1.0) == static_cast<double>(m.collisions) &&
-                    terms.value("n_e", -1.0) == static_cast<double>(m.emergency_stops);
-  spdlog::info("t_f {} s, n_c {}, n_e {} (stored: {}, {}, {}); wrote {}", m.flight_time,
-               m.collisions, m.emergency_stops, terms.value("t_f", -1.0), terms.value("n_c", -1.0),
-               terms.value("n_e", -1.0), out);
-  if (!same) spdlog::error("the flight flown again differs from the stored one");
-  return same ? 0 : 4;
+engine::Replay FlyStored(const std::string& store, std::int64_t id, const std::string& out) {
+  spdlog::info("flying evaluation {} of {} again", id, store);
+  engine::Replay replay = engine::FlyStoredAgain(store, id, out);
+  const engine::EvaluationRow& row = replay.stored.row;
+  const engine::FlightRecord& r = replay.record;
+  spdlog::info("{} (map seed {}, flight seed {}): t_f {} s, n_c {}, n_e {}, value {} (stored {}); "
+               "wrote {}",
+               ToString(row.method), row.map_seed, row.flight_seed, r.flight_time, r.collisions,
+               r.emergency_stops, replay.objective.value, row.value, out);
+  for (const auto& d : replay.differences) spdlog::error("flown again: {}", d);
+  if (!replay.same) spdlog::error("the flight flown again differs from the stored one");
+  return replay;
 }
 
 void WriteTidyCsv(const std::string& store, const std::string& directory) {

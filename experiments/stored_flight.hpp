@@ -1,9 +1,9 @@
 #pragma once
 /// \file
 /// Reading flights back out of a results store (results.sqlite, schema in
-/// quadtune/engine/result_store.hpp): one stored long-term row by its id, the best flight of
-/// each method, flying a stored flight again with full logs, and the tidy (one row per
-/// evaluation, one column per parameter and objective term) CSV export.
+/// quadtune/engine/result_store.hpp): the best flight of each method, flying a stored flight
+/// again with full logs (engine::FlyStoredAgain), and the tidy (one row per evaluation, one
+/// column per parameter and objective term) CSV export.
 ///
 /// Every function opens the store read-only and closes it before returning. Errors about the
 /// store or the asked row are ConfigErrors naming the file, the key and what is allowed.
@@ -13,32 +13,19 @@
 #include <string>
 #include <vector>
 
+#include "quadtune/engine/replay.hpp"
 #include "quadtune/engine/result_store.hpp"
 
 namespace quadtune::cli {
-
-/// One stored evaluation with what is needed to fly it again.
-struct StoredFlight {
-  std::int64_t id = 0;       ///< evaluation.id
-  engine::EvaluationRow row;  ///< its map_seed: the row's, the trial's when the row has none
-  std::string config;        ///< the experiment's configuration text
-};
-
-/// The flight stored as evaluation `id` in `store`. Throws ConfigError when the file is not a
-/// store, the id is absent, or the row is a short-term (re-solve) evaluation.
-StoredFlight LoadStoredFlight(const std::string& store, std::int64_t id);
 
 /// Ids of the best stored flight (lowest value among status "ok" long-term rows, ties: lowest
 /// id) of each method, methods in order of their best value; at most `limit` ids.
 std::vector<std::int64_t> BestFlightIds(const std::string& store, int limit);
 
-/// Flies stored evaluation `id` again exactly as the tuner flew it (same experiment planner
-/// options, map from the map seed, world seed = flight seed, parameters of the row) and writes
-/// the flight logs into `out` (flight.csv, plans.csv, plan_steps.csv, obstacles.json,
-/// summary.json with the stored row's method, id and terms added, layout.yaml). Returns 0 when
-/// the flight's t_f, n_c and n_e equal the stored terms, 4 when they differ (logged).
-/// Throws ConfigError for stores whose planner is not the Ipopt planner.
-int FlyStored(const std::string& store, std::int64_t id, const std::string& out);
+/// Flies stored evaluation `id` of `store` again (engine::FlyStoredAgain: any planner type
+/// registered in this program, through its plug-in) with its log in `out`, and logs how the new
+/// flight compares with the stored one. Throws ConfigError as FlyStoredAgain does.
+engine::Replay FlyStored(const std::string& store, std::int64_t id, const std::string& out);
 
 /// Writes `directory`/long_term.csv, short_term.csv (and validation.csv, recheck.csv,
 /// race.csv, incumbent.csv when the store holds such rows): one row per evaluation with the

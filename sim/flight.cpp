@@ -293,8 +293,8 @@ namespace {
 nlohmann::json ToJson(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 }  // namespace
 
-void WriteFlightFiles(const std::string& directory, const FlightResult& result,
-                      const physics::ObstacleSet& obstacles, const Mission& mission) {
+void WriteFlightLog(const std::string& directory, const FlightResult& result,
+                    const physics::ObstacleSet& obstacles) {
   namespace fs = std::filesystem;
   fs::create_directories(directory);
   const fs::path dir(directory);
@@ -363,6 +363,11 @@ void WriteFlightFiles(const std::string& directory, const FlightResult& result,
     j["ground"] = obstacles.ground;
     std::ofstream(dir / "obstacles.json") << j.dump(1) << '\n';
   }
+}
+
+void WriteFlightFiles(const std::string& directory, const FlightResult& result,
+                      const physics::ObstacleSet& obstacles, const Mission& mission) {
+  WriteFlightLog(directory, result, obstacles);
   {
     const FlightMetrics& m = result.metrics;
     nlohmann::json j = {
@@ -389,7 +394,7 @@ void WriteFlightFiles(const std::string& directory, const FlightResult& result,
         {"start", ToJson(mission.start_W)},
         {"goal", ToJson(mission.waypoints_W.front())},
     };
-    std::ofstream(dir / "summary.json") << j.dump(1) << '\n';
+    std::ofstream(std::filesystem::path(directory) / "summary.json") << j.dump(1) << '\n';
   }
 }
 

@@ -1,65 +1,69 @@
-// own_planner: registers the waypoint planner (waypoint_backend.hpp) as `planner.type: waypoint`
-// and tunes it with quadtune's engine.
+// own_planner: registers the waypoint planner (waypoint_planner.hpp) as `planner.type: waypoint`
+// and tunes it with quadtune's engine, or flies one of its stored flights again.
 //
 //   own_planner EXPERIMENT.yaml RESULTS.sqlite
+//   own_planner --fly RESULTS.sqlite ID OUT
 //
-// Loads the experiment (any registered planner type, this program's included), runs it with
-// engine::RunExperiment into the SQLite store and prints the best value of every trial.
+// The first loads the experiment (any registered planner type, this program's included), runs it
+// with engine::RunExperiment into the SQLite store and prints the best value of every trial. The
+// second flies stored evaluation ID again with engine::FlyStoredAgain (the planner the stored
+// configuration builds, through the registry), writes its log into the folder OUT and exits 0
+// when the flight is the stored one, 4 when it differs (as `quadtune fly --from`).
 
+#include <cstdint>
 #include <exception>
 #include <iostream>
-#include <memory>
 #include <string>
 
 #include "quadtune/common/error.hpp"
-#include "quadtune/common/yaml.hpp"
 #include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/planner_registry.hpp"
-#include "quadtune/engine/planners.hpp"
+#include "quadtune/engine/replay.hpp"
 #include "quadtune/engine/tuner.hpp"
-#include "waypoint_backend.hpp"
+#include "waypoint_planner.hpp"
 
 namespace {
 
 namespace engine = quadtune::engine;
 
-// `planner.type: waypoint`: the closed-loop keys of the ipopt planner (drone, layout, mission,
-// ...) and an optional `waypoint:` map of WaypointOptions.
-engine::Planner BuildWaypoint(const quadtune::YamlMap& planner, const std::string& base_dir) {
-  engine::IpoptPlannerOptions loop = engine::IpoptPlannerOptions::FromYaml(planner, base_dir,
-                                                                           {"waypoint"});
-  const quadtune::YamlMap w = planner.Map("waypoint", true);
-  w.RejectUnknownKeys({"check_dt", "limit_tolerance", "min_piece_time"});
-  own_planner::WaypointOptions o;
-  o.check_dt = w.Number("check_dt", o.check_dt);
-  o.limit_tolerance = w.Number("limit_tolerance", o.limit_tolerance);
-  o.min_piece_time = w.Number("min_piece_time", o.min_piece_time);
-  auto backend = std::make_shared<const own_planner::WaypointBackend>(o, planner.file());
-  return engine::Planner{engine::BackendPlanner{"waypoint", std::move(loop), std::move(backend)}};
+int Tune(const std::string& experiment_file, const std::string& store) {
+  const engine::Experiment experiment = engine::Experiment::LoadFile(experiment_file);
+  engine::RunOptions options;
+  options.store_path = store;
+  const engine::RunSummary summary = engine::RunExperiment(experiment, options);
+  for (const auto& trial : summary.trials) {
+    std::cout << trial.method << " repeat " << trial.repeat << ": best f_l " << trial.best_value
+              << "\n";
+  }
+  return 0;
+}
+
+int FlyAgain(const std::string& store, const std::string& id, const std::string& out) {
+  const engine::Replay replay = engine::FlyStoredAgain(store, std::stoll(id), out);
+  std::cout << "evaluation " << id << ": f_l " << replay.objective.value << " (stored "
+            << replay.stored.row.value << "), t_f " << replay.record.flight_time << " s\n";
+  for (const auto& d : replay.differences) std::cout << "differs: " << d << "\n";
+  return replay.same ? 0 : 4;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 3) {
-    std::cerr << "usage: own_planner EXPERIMENT.yaml RESULTS.sqlite\n";
+  const bool fly = argc == 5 && std::string(argv[1]) == "--fly";
+  if (argc != 3 && !fly) {
+    std::cerr << "usage: own_planner EXPERIMENT.yaml RESULTS.sqlite\n"
+                 "       own_planner --fly RESULTS.sqlite ID OUT\n";
     return 2;
   }
   // Drone and layout files named in the experiment are found in the installed package's assets.
   engine::SetAssetDirs({OWN_PLANNER_ASSETS});
   try {
-    engine::RegisterPlanner("waypoint", BuildWaypoint, engine::BackendPlanner::Schema());
-    const engine::Experiment experiment = engine::Experiment::LoadFile(argv[1]);
-    engine::RunOptions options;
-    options.store_path = argv[2];
-    const engine::RunSummary summary = engine::RunExperiment(experiment, options);
-    for (const auto& trial : summary.trials) {
-      std::cout << trial.method << " repeat " << trial.repeat << ": best f_l "
-                << trial.best_value << "\n";
-    }
+    own_planner::RegisterWaypointPlanner();
+    return fly ? FlyAgain(argv[2], argv[3], argv[4]) : Tune(argv[1], argv[2]);
   } catch (const quadtune::ConfigError& e) {
     std::cerr << "own_planner: " << e.what() << "\n";
     return 1;
+  } catch (const std::exception& e) {  // e.g. an ID that is not a number
+    std::cerr << "own_planner: " << e.what() << "\n";
+    return 1;
   }
-  return 0;
 }

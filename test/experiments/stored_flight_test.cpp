@@ -5,6 +5,8 @@
 //   quadtune export STORE --tidy DIR                      one row per evaluation, exact values
 //   experiments/python/quadtune load()                    the same rows as pandas DataFrames
 //   quadtune report DIR                                   a page holding the run's data
+// and a stored flight of the EGO planner (experiments/tiny_ego.yaml) flown again the same, and a
+// flight's parameters (`fly --set`) in its summary.json.
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
@@ -170,6 +172,72 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
   EXPECT_EQ(data["runs"]["flights"].size(), flights.size());
   EXPECT_EQ(data["replays"].size(), 1u);
   EXPECT_EQ(data["runs"]["series"][0]["name"], "bo_pso");
+}
+
+// Flights of the EGO planner fly again through its plug-in: exit 0 says the same value and every
+// term (but the recorded query count); the summary holds them and the stored parameters.
+TEST(StoredFlights, EgoFlightsFlyAgainExactly) {
+  const fs::path dir = fs::temp_directory_path() / "quadtune_stored_ego_flights";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path run = dir / "run";
+  ASSERT_EQ(RunQuadtune("--log-level warn run --no-plot " + std::string(QUADTUNE_SOURCE_DIR) +
+                            "/experiments/tiny_ego.yaml --out " + run.string(),
+                        dir / "run.log"),
+            0)
+      << ReadText(dir / "run.log");
+  const fs::path store = run / "results.sqlite";
+  const auto flights = Query(store,
+                             "SELECT id, terms, value, params FROM evaluation WHERE kind = 'long' "
+                             "ORDER BY id");
+  ASSERT_EQ(flights.size(), 3u);  // tiny_ego.yaml: bo_pso, 3 flights
+  for (const auto& f : flights) {
+    SCOPED_TRACE("evaluation " + f[0]);
+    const fs::path out = dir / ("fly_" + f[0]);
+    ASSERT_EQ(RunQuadtune("--log-level warn fly --from " + store.string() + " --evaluation " +
+                              f[0] + " --no-plot --out " + out.string(),
+                          dir / "fly.log"),
+              0)
+        << ReadText(dir / "fly.log");
+    const auto terms = nlohmann::json::parse(f[1]);
+    const auto summary = nlohmann::json::parse(ReadText(out / "summary.json"));
+    EXPECT_EQ(summary["flight_time"].get<double>(), terms["t_f"].get<double>());
+    EXPECT_EQ(summary["collisions"].get<double>(), terms["n_c"].get<double>());
+    EXPECT_EQ(summary["emergency_stops"].get<double>(), terms["n_e"].get<double>());
+    for (const char* same : {"plans", "failed_attempts", "fallback_plans", "compute_units",
+                             "jerk_integral", "min_clearance"}) {
+      EXPECT_EQ(summary[same].get<double>(), terms[same].get<double>()) << same;
+    }
+    EXPECT_EQ(summary["stored"]["evaluation"].get<int>(), std::stoi(f[0]));
+    const auto params = nlohmann::json::parse(f[3]);
+    ASSERT_FALSE(params.empty());
+    for (const auto& [name, value] : params.items()) {
+      EXPECT_EQ(summary["params"][name], value) << name;  // the stored parameters were flown
+    }
+    EXPECT_GT(ReadCsv(out / "flight.csv").size(), 20u);
+  }
+}
+
+// fly writes summary.json once, with the parameters flown: the planner's defaults and --set.
+TEST(StoredFlights, FlySummaryHoldsTheParametersFlown) {
+  const fs::path dir = fs::temp_directory_path() / "quadtune_fly_params";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  ASSERT_EQ(RunQuadtune("--log-level warn fly --planner ego --spacing 3.0 --seed 2 --max-time 3 "
+                            "--set v_des=3 --set n_pol=6 --no-plot --out " +
+                            (dir / "f").string(),
+                        dir / "fly.log"),
+            3)  // cut by --max-time
+      << ReadText(dir / "fly.log");
+  const auto summary = nlohmann::json::parse(ReadText(dir / "f" / "summary.json"));
+  EXPECT_EQ(summary["params"]["v_des"].get<double>(), 3.0);
+  EXPECT_EQ(summary["params"]["n_pol"].get<double>(), 6.0);
+  for (const char* name : {"w_col", "w_dyn", "h_pl", "t_pl"}) {
+    EXPECT_TRUE(summary["params"].contains(name)) << name;
+  }
+  EXPECT_EQ(summary["status"], "timeout");
+  EXPECT_EQ(summary["seed"], 2);
+  EXPECT_EQ(summary["drone"], "research_1kg");
 }
 
 }  // namespace

@@ -4,7 +4,8 @@
 # examples/own_planner against that prefix only (find_package(quadtune CONFIG)), runs its
 # waypoint.yaml into WORK/results.sqlite and checks the stored evaluations: the budget's 3 flights,
 # 3 × 2 short-term evaluations, and the held-out validation of the defaults and of the one trial
-# on 1 map, all recorded without an error, and at least one tuning flight completed.
+# on 1 map, all recorded without an error, and at least one tuning flight completed; then flies
+# the first stored flight again (own_planner --fly), which must be the stored one (exit 0).
 set -euo pipefail
 build=$1 src=$2 work=$3 generator=$4 cc=$5 cxx=$6 launcher=${7:-}
 
@@ -37,6 +38,11 @@ expect 2 "kind = 'validation'"
 expect 0 "status != 'ok'"
 if [[ $(count "kind = 'long' AND message = 'completed'") -lt 1 ]]; then
   echo "install_example: no tuning flight of the waypoint planner completed" >&2
+  fail=1
+fi
+first=$(sqlite3 "$work/results.sqlite" "SELECT min(id) FROM evaluation WHERE kind = 'long'")
+if ! "$work/build/own_planner" --fly "$work/results.sqlite" "$first" "$work/flight"; then
+  echo "install_example: evaluation $first of the waypoint planner did not fly again the same" >&2
   fail=1
 fi
 exit $fail

@@ -15,13 +15,14 @@
 /// Fly() runs one closed-loop mission in the map of `request.map`, reports every planning problem
 /// it met through `request.on_query` (an Opaque the same planner can later Resolve()), and asks
 /// `request.short_params_provider` for the current θ_s at every plan. `slot` is a world-pool
-/// slot: mutable per-task state (e.g. a Bullet world) that the engine hands to one task at a time
-/// and reuses across flights.
+/// slot: mutable per-task state (e.g. a Bullet world, slot.State<T>()) that the engine hands to
+/// one task at a time and reuses across flights. When `request.log_directory` is set, Fly() also
+/// keeps the flight's full log for people (`quadtune fly`, `fly --from`): it writes its own log
+/// files there and returns its summary facts in FlightRecord::log (see FlightRequest).
 ///
 /// Thread safety: every member of a plug-in must be callable concurrently from many threads
 /// (distinct slots); the engine never calls a plug-in's members on the same slot concurrently.
 
-#include <any>
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -29,8 +30,10 @@
 #include <memory>
 #include <string>
 #include <type_traits>
+#include <typeindex>
 #include <typeinfo>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include "quadtune/common/enum_names.hpp"
@@ -78,10 +81,25 @@ class Opaque {
 };
 
 /// Per-task mutable state of the world pool (e.g. a Bullet world). Owned by one task at a time.
-struct WorkerSlot {
-  int index = 0;   ///< slot number in the pool
-  std::any state;  ///< whatever the planner keeps between flights (empty at first)
-  int uses = 0;    ///< flights flown in this slot
+class WorkerSlot {
+ public:
+  int index = 0;  ///< slot number in the pool
+  int uses = 0;   ///< flights flown in this slot
+
+  /// The slot's state of type T (what a planner keeps between flights, e.g. a struct holding
+  /// its physics::World), value-initialised on first use and kept until ResetState(). Each type
+  /// has its own state, so plug-ins sharing a pool never see each other's.
+  template <class T>
+  [[nodiscard]] T& State() {
+    std::shared_ptr<void>& held = states_[std::type_index(typeid(T))];
+    if (held == nullptr) held = std::make_shared<T>();
+    return *static_cast<T*>(held.get());
+  }
+  /// Drops every state (the next flight rebuilds what it needs), e.g. after an exception.
+  void ResetState() { states_.clear(); }
+
+ private:
+  std::map<std::type_index, std::shared_ptr<void>> states_;
 };
 
 /// What a flight is asked to do.
@@ -96,7 +114,18 @@ struct FlightRequest {
   std::function<void(const Opaque& query)> on_query;
   /// Polled by the flight; true stops it. May be empty.
   std::function<bool()> cancelled;
+  /// Empty (the tuner's flights): no log. Otherwise an existing folder: the flight keeps its full
+  /// log for people there (the planner's own files, e.g. flight.csv, never summary.json, which
+  /// the caller writes), returns its summary facts in FlightRecord::log and sets
+  /// FlightRecord::logged. A cancelled flight writes nothing. A planner that keeps no log
+  /// ignores it. The flight itself must not depend on it.
+  std::string log_directory;
 };
+
+/// One fact of a flight's log summary: an integer, a number, a text or a list of numbers.
+using LogFact = std::variant<std::int64_t, double, std::string, std::vector<double>>;
+/// A flight's summary facts by name (keys of `quadtune fly`'s summary.json).
+using LogFacts = std::map<std::string, LogFact>;
 
 /// Outcome status of one evaluation (flight, re-solve or objective).
 enum class EvalStatus { kOk, kFailed, kCancelled };
@@ -151,6 +180,11 @@ struct FlightRecord {
   double min_clearance = 0.0;    ///< (m)
   double wall_time = 0.0;        ///< wall-clock duration (s); not deterministic
   int queries = 0;               ///< planning queries reported through on_query
+  /// With FlightRequest::log_directory: true when the planner wrote its log there, and the
+  /// flight's and its map's facts beyond the fields above, by the planner's names (e.g. the
+  /// closed loop's status, max_tracking_error, start, goal, obstacles). Empty otherwise.
+  bool logged = false;
+  LogFacts log;
 };
 
 /// What one re-solve of a recorded query produced — the short-term objective's inputs.

@@ -24,6 +24,7 @@
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/engine/planner.hpp"
 #include "quadtune/engine/planner_registry.hpp"
+#include "quadtune/layout/layout.hpp"
 #include "quadtune/layout/options.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/physics/world.hpp"
@@ -77,7 +78,12 @@ std::vector<ParameterInfo> PlannerParamsInfo(const planning::PlannerParams& valu
 /// the layout with the map seed and builds its shared obstacle geometry; each WorkerSlot holds one
 /// physics::World that is Reset() onto the requested map's geometry; Fly() flies sim::Fly with the back
 /// end in the slot's physics::World, and Resolve() re-solves a recorded planning::PlanningQuery
-/// with TrajectoryBackend::Solve. θ_s = {w_col, w_dyn, n_pol}, θ_l = {v_des, h_pl, t_pl}
+/// with TrajectoryBackend::Solve. A flight asked for its log (FlightRequest::log_directory)
+/// writes flight.csv, plans.csv, plan_steps.csv, obstacles.json (sim::WriteFlightLog) and
+/// layout.yaml, and gives the facts status, message, max_tracking_error, mean_tracking_error,
+/// mean_solve_time, max_solve_time, distance, mean_speed, max_speed, start, goal (the mission's
+/// first waypoint), obstacles (their count), drone, spacing_target, density_definition and
+/// spacing_achieved (the layout's achieved spacing as its density definition measures it). θ_s = {w_col, w_dyn, n_pol}, θ_l = {v_des, h_pl, t_pl}
 /// (PlannerParams), defaults from `options.base`. The back end must follow the rules of
 /// trajectory_backend.hpp (deterministic, thread-safe, queries hold all a re-solve reads).
 class BackendPlanner {
@@ -92,6 +98,10 @@ class BackendPlanner {
   Opaque PrepareMap(std::uint64_t map_seed) const;
   FlightRecord Fly(const FlightRequest& request, WorkerSlot& slot) const;
   ResolveRecord Resolve(const Opaque& query, const ParamValues& theta_s) const;
+
+  /// The map of a given layout (e.g. a saved one, `quadtune fly --layout`), as PrepareMap makes
+  /// the map of a generated one.
+  [[nodiscard]] Opaque MapOf(layout::Layout layout) const;
 
   [[nodiscard]] const IpoptPlannerOptions& options() const { return *options_; }
   [[nodiscard]] const planning::TrajectoryBackend& backend() const { return *backend_; }

@@ -176,10 +176,14 @@ class StallDetector {
                                const planning::TrajectoryBackend& backend,
                                const FlightHooks& hooks = {});
 
-/// Writes a flight for people and plots into `directory` (created): flight.csv (state log),
-/// plans.csv (planned trajectories sampled at 0.05 s), plan_steps.csv (every planning step:
-/// outcome, failed attempts, status, t_c, failure message), obstacles.json, summary.json
-/// (metrics, start and goal). The figure script reads these.
+/// Writes a flight's log for people and plots into `directory` (created): flight.csv (state
+/// log), plans.csv (planned trajectories sampled at 0.05 s), plan_steps.csv (every planning step:
+/// outcome, failed attempts, status, t_c, failure message), obstacles.json. The figure script
+/// reads these.
+void WriteFlightLog(const std::string& directory, const FlightResult& result,
+                    const physics::ObstacleSet& obstacles);
+
+/// WriteFlightLog and summary.json (metrics, start and goal).
 void WriteFlightFiles(const std::string& directory, const FlightResult& result,
                       const physics::ObstacleSet& obstacles, const Mission& mission);
 
