@@ -233,10 +233,11 @@ planning::LocalPlannerOptions WithSnapshot(planning::LocalPlannerOptions options
 }  // namespace
 
 OnlineAdapter::OnlineAdapter(const planning::TrajectoryBackend& backend,
-                             const planning::LocalPlannerOptions& planner_options,
+                             const sim::FlightPlannerOptions& planner_options,
                              AdaptationOptions options)
     : backend_(backend),
       planner_(WithSnapshot(planner_options, backend)),
+      limits_(planner_options.optimizer),
       options_(std::move(options)) {
   options_.Validate();
 }
@@ -325,7 +326,7 @@ void OnlineAdapter::RunTrial(double t, const planning::LocalMap& map,
     trial.status = planning::ToString(r.status);
     if (!accepted && r.status == planning::PlanStatus::kDynamicsViolated &&
         trial.v_des < p.segment.speed_s) {
-      const planning::TrajectoryOptimizerOptions& limits = planner_.options().optimizer;
+      const planning::TrajectoryOptimizerOptions& limits = limits_;
       const std::string why =
           CheckBrakingEnvelope(r.trajectory, p.segment.speed_s, trial.v_des, params.a_max,
                                options_.braking_fraction, limits.limit_tolerance, limits.check_dt);

@@ -16,11 +16,11 @@ namespace {
 // ---- the built-in planner types ----
 
 Planner BuildIpopt(const YamlMap& p, const std::string& base_dir) {
-  return Planner{IpoptPlanner{IpoptPlannerOptions::FromYaml(p, base_dir)}};
+  return Planner{IpoptPlanner{ClosedLoopOptions::FromYaml(p, base_dir)}};
 }
 
 Planner BuildEgo(const YamlMap& p, const std::string& base_dir) {
-  return Planner{EgoPlanner{{IpoptPlannerOptions::FromYaml(p, base_dir), planning::EgoOptions{}}}};
+  return Planner{EgoPlanner{{ClosedLoopOptions::FromYaml(p, base_dir), planning::EgoOptions{}}}};
 }
 
 bool ValidName(const std::string& name) {

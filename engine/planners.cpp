@@ -55,7 +55,7 @@ void WriteText(YAML::Emitter& out, const char* key, const std::string& value) {
 }
 
 /// `planner.layout`: exactly one of `layout` and `layout_file` is given.
-void ReadLayout(const YamlMap& p, IpoptPlannerSection& s) {
+void ReadLayout(const YamlMap& p, ClosedLoopSection& s) {
   if (p.Has("layout") && p.Has("layout_file")) {
     p.Fail("layout_file", "give either layout or layout_file");
   }
@@ -68,15 +68,15 @@ void ReadLayout(const YamlMap& p, IpoptPlannerSection& s) {
   }
 }
 
-void WriteLayout(YAML::Emitter& out, const IpoptPlannerSection& s) {
+void WriteLayout(YAML::Emitter& out, const ClosedLoopSection& s) {
   if (!s.layout_file.empty()) return;
   out << YAML::Key << "layout" << YAML::Value;
   s.options.layout.ToYaml(out);
 }
 
 // The closed loop's sensor and goal rule (keys of the planner section).
-Fields<IpoptPlannerSection> AddClosedLoopKeys(Fields<IpoptPlannerSection> f) {
-  using S = IpoptPlannerSection;
+Fields<ClosedLoopSection> AddClosedLoopKeys(Fields<ClosedLoopSection> f) {
+  using S = ClosedLoopSection;
   const auto unwritten = [](YAML::Emitter&, const S&) {};
   f.Custom(
        {"sensor", "map", "48 x 32 pixels, 87° x 58°, 15 Hz, 5 m",
@@ -116,8 +116,8 @@ Fields<IpoptPlannerSection> AddClosedLoopKeys(Fields<IpoptPlannerSection> f) {
 
 }  // namespace
 
-const Fields<IpoptPlannerSection>& IpoptPlannerFields() {
-  using S = IpoptPlannerSection;
+const Fields<ClosedLoopSection>& ClosedLoopFields() {
+  using S = ClosedLoopSection;
   // world and fixed are written by nothing here: WorldOptions and PlannerParams have no writer.
   const auto unwritten = [](YAML::Emitter&, const S&) {};
   static const Fields<S> fields =
@@ -210,9 +210,9 @@ const Fields<IpoptPlannerSection>& IpoptPlannerFields() {
   return fields;
 }
 
-IpoptPlannerOptions IpoptPlannerOptions::FromYaml(const YamlMap& p, const std::string& base_dir,
+ClosedLoopOptions ClosedLoopOptions::FromYaml(const YamlMap& p, const std::string& base_dir,
                                                   const std::vector<std::string>& extra_keys) {
-  std::vector<std::string> allowed = IpoptPlannerFields().Keys();
+  std::vector<std::string> allowed = ClosedLoopFields().Keys();
   allowed.insert(allowed.end(), extra_keys.begin(), extra_keys.end());
   p.RejectUnknownKeys(allowed);
   // The caller's own keys, removed from a copy, so that the field list sees only its keys.
@@ -220,9 +220,9 @@ IpoptPlannerOptions IpoptPlannerOptions::FromYaml(const YamlMap& p, const std::s
   if (own.IsMap()) {
     for (const auto& key : extra_keys) own.remove(key);
   }
-  IpoptPlannerSection s;
+  ClosedLoopSection s;
   s.base_dir = base_dir;
-  IpoptPlannerFields().Read(YamlMap(own, p.file(), p.path()), s);
+  ClosedLoopFields().Read(YamlMap(own, p.file(), p.path()), s);
   s.options.base.Validate(p.file());
   s.options.flight.planner.CheckParams(s.options.base, p.file());
   return s.options;
@@ -235,7 +235,7 @@ struct IpoptMap {
   std::shared_ptr<const physics::ObstacleGeometry> geometry;
 };
 
-Opaque PrepareLayoutMap(const IpoptPlannerOptions& o, std::uint64_t map_seed) {
+Opaque PrepareLayoutMap(const ClosedLoopOptions& o, std::uint64_t map_seed) {
   IpoptMap map;
   map.layout = layout::GenerateLayout(o.layout, map_seed);
   map.geometry = physics::ObstacleGeometry::Make(map.layout.obstacles, o.world);
@@ -262,7 +262,7 @@ EvalState FlightEnding(sim::FlightStatus status) {
 }
 
 // One closed-loop flight of a planner built on sim::Fly with `backend`.
-FlightRecord FlyWithBackend(const IpoptPlannerOptions& o,
+FlightRecord FlyWithBackend(const ClosedLoopOptions& o,
                             const planning::TrajectoryBackend& backend,
                             const FlightRequest& request, WorkerSlot& slot) {
   const IpoptMap& map = request.map.As<IpoptMap>();
@@ -353,10 +353,10 @@ ResolveRecord ResolveWithBackend(const planning::TrajectoryBackend& backend,
 // ---------------------------------------------------------------------------------------------
 // BackendPlanner, EgoPlanner
 
-BackendPlanner::BackendPlanner(std::string name, IpoptPlannerOptions options,
+BackendPlanner::BackendPlanner(std::string name, ClosedLoopOptions options,
                                std::shared_ptr<const planning::TrajectoryBackend> backend)
     : name_(std::move(name)),
-      options_(std::make_shared<const IpoptPlannerOptions>(std::move(options))),
+      options_(std::make_shared<const ClosedLoopOptions>(std::move(options))),
       backend_(std::move(backend)) {
   QT_DEMAND(backend_ != nullptr, "BackendPlanner: null back end");
 }
@@ -420,7 +420,7 @@ std::shared_ptr<const planning::TrajectoryBackend> MakeIpoptBackend(
   return std::make_shared<const OwningIpoptBackend>(options);
 }
 
-IpoptPlanner::IpoptPlanner(IpoptPlannerOptions options)
+IpoptPlanner::IpoptPlanner(ClosedLoopOptions options)
     : BackendPlanner("ipopt", options, MakeIpoptBackend(options.flight.planner.optimizer)) {}
 
 EgoPlanner::EgoPlanner(EgoPlannerOptions options)

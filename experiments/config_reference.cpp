@@ -126,7 +126,7 @@ std::string ExperimentPart() {
   out += Section("### `validation`", "", ValidationFields().Docs());
   out += Section("### `recommend`", kRecommendProse, RecommendFields().Docs());
   out += Section("### `race`", kRaceProse, optimizers::RaceFields().Docs());
-  out += Section("### `planner`", "", IpoptPlannerFields().Docs());
+  out += Section("### `planner`", "", ClosedLoopFields().Docs());
   out += Section("### `objective`", kObjectiveProse,
                  Join(Join(ObjectiveFields().Docs(),
                            Prefixed(ObjectiveShortTermFields().Docs(), "short_term.")),

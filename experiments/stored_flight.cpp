@@ -161,7 +161,7 @@ int FlyStored(const std::string& store, std::int64_t id, const std::string& out)
                       "planner is '" +
                           e.planner_type + "')");
   }
-  const engine::IpoptPlannerOptions& o = planner->options();
+  const engine::ClosedLoopOptions& o = planner->options();
   // The map and world exactly as IpoptPlanner::PrepareMap and ::Fly build them.
   const engine::EvaluationRow& row = f.row;
   const layout::Layout layout = layout::GenerateLayout(o.layout, row.map_seed);

@@ -26,7 +26,7 @@ namespace engine = quadtune::engine;
 // `planner.type: waypoint`: the closed-loop keys of the ipopt planner (drone, layout, mission,
 // ...) and an optional `waypoint:` map of WaypointOptions.
 engine::Planner BuildWaypoint(const quadtune::YamlMap& planner, const std::string& base_dir) {
-  engine::IpoptPlannerOptions loop = engine::IpoptPlannerOptions::FromYaml(planner, base_dir,
+  engine::ClosedLoopOptions loop = engine::ClosedLoopOptions::FromYaml(planner, base_dir,
                                                                            {"waypoint"});
   const quadtune::YamlMap w = planner.Map("waypoint", true);
   w.RejectUnknownKeys({"check_dt", "limit_tolerance", "min_piece_time"});

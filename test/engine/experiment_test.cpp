@@ -230,7 +230,7 @@ TEST(ExperimentFields, EveryKeyHasATypeAndAMeaning) {
   check(ValidationFields().Docs(), "validation");
   check(RecommendFields().Docs(), "recommend");
   check(BudgetFields().Docs(), "budget");
-  check(IpoptPlannerFields().Docs(), "planner");
+  check(ClosedLoopFields().Docs(), "planner");
   check(ObjectiveFields().Docs(), "objective");
   check(ObjectiveShortTermFields().Docs(), "objective.short_term");
   check(ObjectiveLongTermFields().Docs(), "objective.long_term");

@@ -33,7 +33,7 @@
 /// penalty follow a braking at that rate from |v_s| down to v_des), and its plan is accepted when
 /// it stays within the acceleration limit, never exceeds |v_s| and is down to v_des by the time
 /// that braking would be, τ_b = (|v_s| − v_des) / (braking_fraction · a_max) (each with the
-/// limit_tolerance and check_dt of LocalPlannerOptions::optimizer), so the drone can slow down on
+/// limit_tolerance and check_dt of sim::FlightPlannerOptions::optimizer), so the drone can slow down on
 /// entering a dense zone. The Ipopt back end plans the braking; the EGO back end ignores
 /// braking_deceleration, and its plans are judged by the same envelope.
 ///
@@ -174,9 +174,10 @@ constexpr auto EnumNames(AdaptationSegment::Outcome) {
 class OnlineAdapter final : public sim::PlanAdapter {
  public:
   /// Plans its trials with `backend` (the flight's; it must outlive the adapter), recording the
-  /// snapshot the back end reads. Validates `options`.
+  /// snapshot the back end reads; the braking check takes its tolerance and sampling from
+  /// planner_options.optimizer. Validates `options`.
   OnlineAdapter(const planning::TrajectoryBackend& backend,
-                const planning::LocalPlannerOptions& planner_options, AdaptationOptions options);
+                const sim::FlightPlannerOptions& planner_options, AdaptationOptions options);
   ~OnlineAdapter() override;
   OnlineAdapter(const OnlineAdapter&) = delete;
   OnlineAdapter& operator=(const OnlineAdapter&) = delete;
@@ -205,6 +206,7 @@ class OnlineAdapter final : public sim::PlanAdapter {
 
   const planning::TrajectoryBackend& backend_;
   planning::LocalPlanner planner_;
+  planning::TrajectoryOptimizerOptions limits_;  // the braking check's tolerance and sampling
   AdaptationOptions options_;
   std::unique_ptr<Pending> pending_;
   std::vector<AdaptationTrial> trials_;

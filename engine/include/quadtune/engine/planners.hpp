@@ -27,17 +27,19 @@
 #include "quadtune/layout/options.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/physics/world.hpp"
-#include "quadtune/planning/ego_optimizer.hpp"
+#include "quadtune/planning/ego/ego_optimizer.hpp"
 #include "quadtune/planning/parameters.hpp"
 #include "quadtune/planning/trajectory_backend.hpp"
-#include "quadtune/planning/trajectory_optimizer.hpp"
+#include "quadtune/planning/ipopt/ipopt_backend.hpp"
 #include "quadtune/sim/flight.hpp"
 #include "quadtune/sim/scenario.hpp"
 
 namespace quadtune::engine {
 
-/// Settings of IpoptPlanner.
-struct IpoptPlannerOptions {
+/// Settings of the closed loop every BackendPlanner flies (drone, world, layout, mission, flight,
+/// fixed parameters), whatever its back end: IpoptPlanner, EgoPlanner and a back end of one's own
+/// (docs/own-planner.md) read them from the `planner:` map alike.
+struct ClosedLoopOptions {
   physics::DroneDescription drone;       ///< the drone flown
   physics::WorldOptions world;           ///< world options (seed replaced per flight)
   layout::LayoutOptions layout;          ///< layout generator options; one map per map seed
@@ -45,28 +47,28 @@ struct IpoptPlannerOptions {
   sim::FlightOptions flight;        ///< flight settings (max_time, …)
   planning::PlannerParams base;          ///< fixed parameters and defaults of the tunables
 
-  /// Reads an experiment's `planner:` map (IpoptPlannerFields); relative file names resolve as
+  /// Reads an experiment's `planner:` map (ClosedLoopFields); relative file names resolve as
   /// ResolvePath does against `base_dir`. `extra_keys` are further keys the caller reads itself
   /// (a back end's own options); any other key throws ConfigError naming it.
-  static IpoptPlannerOptions FromYaml(const YamlMap& planner, const std::string& base_dir,
+  static ClosedLoopOptions FromYaml(const YamlMap& planner, const std::string& base_dir,
                                       const std::vector<std::string>& extra_keys = {});
 };
 
-/// The `planner:` map of a planner flown in the closed loop (ipopt, ego) as IpoptPlannerFields
+/// The `planner:` map of a planner flown in the closed loop (ipopt, ego) as ClosedLoopFields
 /// reads it: the options, and the values they do not keep as written.
-struct IpoptPlannerSection {
+struct ClosedLoopSection {
   std::string base_dir = ".";  ///< folder relative file names resolve against (not a key)
   std::string type = "ipopt";  ///< `type` (the registry dispatches on it)
   std::string drone = "drones/research_1kg.yaml";  ///< `drone` as written
   std::string layout_file;  ///< `layout_file` as written; "" when `layout` gives the options
   bool safety_nets = true;
-  IpoptPlannerOptions options;
+  ClosedLoopOptions options;
 };
 
 /// The keys of the `planner:` map: type, drone, layout | layout_file, world, mission, max_time,
 /// fixed, safety_nets. Reading checks the fixed parameters only key by key; FromYaml then checks
 /// them together (PlannerParams::Validate, CheckParams).
-const Fields<IpoptPlannerSection>& IpoptPlannerFields();
+const Fields<ClosedLoopSection>& ClosedLoopFields();
 
 /// ParameterInfo of the PlannerParams `names`: default from `values`, range and integer flag
 /// from planning::ParameterRange and planning::ParameterIsInteger.
@@ -83,7 +85,7 @@ std::vector<ParameterInfo> PlannerParamsInfo(const planning::PlannerParams& valu
 class BackendPlanner {
  public:
   /// `name` is what Name() returns; `backend` must not be null.
-  BackendPlanner(std::string name, IpoptPlannerOptions options,
+  BackendPlanner(std::string name, ClosedLoopOptions options,
                  std::shared_ptr<const planning::TrajectoryBackend> backend);
 
   std::string Name() const { return name_; }
@@ -93,7 +95,7 @@ class BackendPlanner {
   FlightRecord Fly(const FlightRequest& request, WorkerSlot& slot) const;
   ResolveRecord Resolve(const Opaque& query, const ParamValues& theta_s) const;
 
-  [[nodiscard]] const IpoptPlannerOptions& options() const { return *options_; }
+  [[nodiscard]] const ClosedLoopOptions& options() const { return *options_; }
   [[nodiscard]] const planning::TrajectoryBackend& backend() const { return *backend_; }
 
   /// The parameter schema of every BackendPlanner: θ_s and θ_l with
@@ -102,7 +104,7 @@ class BackendPlanner {
 
  private:
   std::string name_;
-  std::shared_ptr<const IpoptPlannerOptions> options_;
+  std::shared_ptr<const ClosedLoopOptions> options_;
   std::shared_ptr<const planning::TrajectoryBackend> backend_;
 };
 
@@ -111,7 +113,7 @@ class BackendPlanner {
 /// TrajectoryOptimizer, built from `options.flight.planner.optimizer`.
 class IpoptPlanner : public BackendPlanner {
  public:
-  explicit IpoptPlanner(IpoptPlannerOptions options);
+  explicit IpoptPlanner(ClosedLoopOptions options);
 };
 
 /// A planning::IpoptBackend that owns its TrajectoryOptimizer, built from `options` (the default:
@@ -119,10 +121,10 @@ class IpoptPlanner : public BackendPlanner {
 [[nodiscard]] std::shared_ptr<const planning::TrajectoryBackend> MakeIpoptBackend(
     const planning::TrajectoryOptimizerOptions& options = sim::FlightOptions{}.planner.optimizer);
 
-/// Settings of EgoPlanner: the flight setting of IpoptPlanner (its `flight.planner.optimizer` is
-/// unused) and the EGO back end's.
+/// Settings of EgoPlanner: the closed loop's (its `flight.planner.optimizer`, the Ipopt back end's
+/// solver settings, is unused) and the EGO back end's.
 struct EgoPlannerOptions {
-  IpoptPlannerOptions common;
+  ClosedLoopOptions common;
   planning::EgoOptions ego;
 };
 

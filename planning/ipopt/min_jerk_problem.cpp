@@ -1,4 +1,4 @@
-#include "quadtune/planning/min_jerk_problem.hpp"
+#include "quadtune/planning/ipopt/min_jerk_problem.hpp"
 
 #include <Eigen/LU>
 #include <algorithm>
@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "quadtune/common/error.hpp"
-#include "quadtune/planning/transposed_product.hpp"
+#include "quadtune/planning/ipopt/transposed_product.hpp"
 
 namespace quadtune::planning {
 namespace {
@@ -380,8 +380,8 @@ void MinJerkProblem::EvaluateValue(const Eigen::VectorXd& z, ValueCache* vc) con
   const Eigen::Vector3d& origin = boundary_.p0_W;
   BoundaryVectors(z, &vc->b_);
   const Eigen::MatrixXd& b = vc->b_;
-  MinJerkCostTerms& terms = vc->terms_;
-  terms = MinJerkCostTerms{};
+  PlanCostTerms& terms = vc->terms_;
+  terms = PlanCostTerms{};
 
   // ---- jerk energy: τ^-5 Σ_a b_aᵀ H̄ b_a ----
   if (!jerk_hess_rows_.empty()) {  // H̄ b = lᵀ b with the bits of Eigen's product
@@ -684,8 +684,8 @@ class MinJerkProblem::GradientPass {
   std::array<int, 4> rate_rows_;
 };
 
-MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::VectorXd* grad,
-                                          Eigen::MatrixXd* hess, ValueCache* cache) const {
+PlanCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::VectorXd* grad,
+                                       Eigen::MatrixXd* hess, ValueCache* cache) const {
   const int n = NumVariables();
   QT_DEMAND(z.size() == n, "wrong number of variables");
   const bool want_grad = grad != nullptr || hess != nullptr;
@@ -694,7 +694,7 @@ MinJerkCostTerms MinJerkProblem::Evaluate(const Eigen::VectorXd& z, Eigen::Vecto
   // the cache, or into scratch).
   ValueCache& vc = cache != nullptr ? *cache : ws.value;
   if (cache == nullptr || !vc.Holds(this, z)) EvaluateValue(z, &vc);
-  const MinJerkCostTerms terms = vc.terms_;
+  const PlanCostTerms terms = vc.terms_;
   if (!want_grad) return terms;
 
   Eigen::VectorXd g_local;

@@ -27,6 +27,11 @@
 /// thread-safe dense solver of dense_ma27.hpp, and deterministic options only (iteration
 /// limit, no CPU/wall-time limit). Same inputs give bit-identical results on any thread.
 ///
+/// Compute units (PlanResult::compute_units) count Ipopt's fixed costs of a solve and of an
+/// iteration plus the evaluation work: 2 + 1.3·iterations + 0.4·(function + gradient
+/// evaluations) + 0.002·distance_queries + 1e-4·(n³/3)·hessian_evaluations (n = num_variables);
+/// solver_status is Ipopt's ApplicationReturnStatus.
+///
 /// Thread safety: TrajectoryOptimizer is immutable; Solve() may run concurrently from many threads
 /// (each thread uses its own Ipopt application). A failed solve is reported in PlanResult, never
 /// thrown; only invalid Options throw (in the constructor).
@@ -39,8 +44,9 @@
 
 #include "quadtune/common/enum_names.hpp"
 #include "quadtune/planning/distance_field.hpp"
-#include "quadtune/planning/min_jerk_problem.hpp"
+#include "quadtune/planning/ipopt/min_jerk_problem.hpp"
 #include "quadtune/planning/parameters.hpp"
+#include "quadtune/planning/plan_result.hpp"
 #include "quadtune/planning/trajectory.hpp"
 
 namespace quadtune::planning {
@@ -114,61 +120,6 @@ struct TrajectoryOptimizerOptions {
 
   /// Throws ConfigError(origin, key, allowed range) for the first bad field.
   void Validate(const std::string& origin = "") const;
-};
-
-/// Outcome of a solve.
-enum class PlanStatus {
-  kSuccess,           ///< converged, collision-free on the check samples, within the limits
-  kCollision,         ///< converged but a check sample is closer than inflation + collision_margin
-  kDynamicsViolated,  ///< converged, collision-free, but over the v/a limits (with tolerance)
-  kMaxIterations,     ///< Ipopt's iteration limit (the last iterate is returned)
-  kSolverFailure,     ///< Ipopt failed (restoration, step computation, ...)
-  kNumericalError,    ///< NaN/Inf in the cost, derivatives or result
-  kInvalidInput,      ///< the request or parameters are invalid (nothing solved)
-};
-
-/// Short names ("success", "collision", ...), as stored with the results.
-constexpr auto EnumNames(PlanStatus) {
-  return std::array{EnumName{PlanStatus::kSuccess, "success"},
-                    EnumName{PlanStatus::kCollision, "collision"},
-                    EnumName{PlanStatus::kDynamicsViolated, "dynamics_violated"},
-                    EnumName{PlanStatus::kMaxIterations, "max_iterations"},
-                    EnumName{PlanStatus::kSolverFailure, "solver_failure"},
-                    EnumName{PlanStatus::kNumericalError, "numerical_error"},
-                    EnumName{PlanStatus::kInvalidInput, "invalid_input"}};
-}
-using quadtune::ToString;
-
-/// Summary of one solve.
-struct PlanResult {
-  Trajectory trajectory;  ///< the optimised trajectory (empty when nothing was solved)
-  PlanStatus status = PlanStatus::kInvalidInput;
-  std::string message;            ///< human-readable detail (Ipopt status, reason of failure)
-  MinJerkCostTerms cost;          ///< cost terms at the solution
-  double max_speed = 0.0;         ///< max |v_W| on the check samples (m/s)
-  double max_acceleration = 0.0;  ///< max |a_W| on the check samples (m/s^2)
-  double min_clearance = 0.0;     ///< min distance-field value on the check samples (m)
-  double duration = 0.0;          ///< trajectory duration (s)
-  double solve_time_s = 0.0;      ///< wall-clock time t_c of the whole Solve() call (s)
-  int iterations = 0;             ///< Ipopt iterations
-  int function_evaluations = 0;   ///< Ipopt objective evaluations
-  int gradient_evaluations = 0;   ///< Ipopt gradient evaluations
-  int hessian_evaluations = 0;    ///< Ipopt Hessian evaluations
-  /// Distance-field samples of the cost evaluations Ipopt requested (samples × requests; a
-  /// request served from the evaluation cache counts too, so caching never changes it)
-  long distance_queries = 0;
-  int num_variables = 0;          ///< decision variables
-  /// Deterministic cost measure (same inputs → same value on any machine/thread): a weighted
-  /// count of the work done in nominal units of 0.1 ms, Ipopt's fixed costs of a solve and of an
-  /// iteration plus evaluation work (docs/design.md, "Compute units"):
-  /// 2 + 1.3·iterations + 0.4·(function + gradient evaluations) + 0.002·distance_queries +
-  /// 1e-4·(n³/3)·hessian_evaluations (n = num_variables). Use it, not solve_time_s, where an
-  /// experiment must be exactly reproducible; it is not a wall-clock prediction.
-  double compute_units = 0.0;
-  int ipopt_status = 0;  ///< Ipopt's ApplicationReturnStatus (raw)
-
-  /// True for kSuccess.
-  [[nodiscard]] bool Ok() const { return status == PlanStatus::kSuccess; }
 };
 
 /// The Ipopt minimum-jerk back-end. See the file comment.

@@ -48,9 +48,9 @@
 #include "quadtune/planning/local_planner.hpp"
 #include "quadtune/planning/parameters.hpp"
 #include "quadtune/planning/path_search.hpp"
+#include "quadtune/planning/plan_result.hpp"
 #include "quadtune/planning/trajectory.hpp"
 #include "quadtune/planning/trajectory_backend.hpp"
-#include "quadtune/planning/trajectory_optimizer.hpp"
 
 namespace quadtune::planning {
 

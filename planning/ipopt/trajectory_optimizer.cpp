@@ -1,4 +1,4 @@
-#include "quadtune/planning/trajectory_optimizer.hpp"
+#include "quadtune/planning/ipopt/trajectory_optimizer.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -14,8 +14,8 @@
 
 #include "ipopt_timers.hpp"
 #include "quadtune/common/error.hpp"
-#include "quadtune/planning/dense_ma27.hpp"
-#include "quadtune/planning/ipopt_application.hpp"
+#include "quadtune/planning/ipopt/dense_ma27.hpp"
+#include "quadtune/planning/ipopt/ipopt_application.hpp"
 
 namespace quadtune::planning {
 namespace {
@@ -109,7 +109,7 @@ class MinJerkTnlp final : public UnconstrainedDenseTnlp {
   [[nodiscard]] long DistanceQueries() const { return distance_queries_; }
   /// The cost terms at z when the last evaluation was at exactly z (the final iterate usually
   /// is), else null.
-  [[nodiscard]] const MinJerkCostTerms* TermsAt(const Eigen::VectorXd& z) const {
+  [[nodiscard]] const PlanCostTerms* TermsAt(const Eigen::VectorXd& z) const {
     return EvaluatedAt(z.data(), static_cast<Index>(z.size())) ? &terms_ : nullptr;
   }
 
@@ -156,7 +156,7 @@ class MinJerkTnlp final : public UnconstrainedDenseTnlp {
   Eigen::VectorXd z_;
   int cached_level_ = 0;   // evaluated at z_: 0 nothing, 1 value, 2 also the derivatives
   int counted_level_ = 0;  // the same, as Ipopt has requested it since it last flagged new_x
-  MinJerkCostTerms terms_;
+  PlanCostTerms terms_;
   double value_ = 0.0;
   Eigen::VectorXd grad_;
   Eigen::MatrixXd hess_;
@@ -481,11 +481,11 @@ PlanResult TrajectoryOptimizer::SolveValidated(const PlanRequest& request,
     const Ipopt::ApplicationReturnStatus ipopt_status = app.OptimizeTNLP(tnlp);
 
     PlanResult result;
-    result.ipopt_status = static_cast<int>(ipopt_status);
+    result.solver_status = static_cast<int>(ipopt_status);
     RecordEffort(problem, *tnlp, app, &result);
     const Eigen::VectorXd& z = tnlp->Final();
     if (tnlp->HasFinal() && z.allFinite()) {
-      const MinJerkCostTerms* final_terms = tnlp->TermsAt(z);
+      const PlanCostTerms* final_terms = tnlp->TermsAt(z);
       result.cost = final_terms != nullptr ? *final_terms : problem.Evaluate(z, nullptr, nullptr);
     }
     if (auto unusable = UnusableIterate(*tnlp, ipopt_status)) {

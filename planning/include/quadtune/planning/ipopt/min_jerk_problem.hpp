@@ -63,6 +63,7 @@
 
 #include "quadtune/planning/distance_field.hpp"
 #include "quadtune/planning/parameters.hpp"
+#include "quadtune/planning/plan_result.hpp"
 #include "quadtune/planning/trajectory.hpp"
 
 namespace quadtune::planning {
@@ -96,15 +97,6 @@ struct MinJerkCostParams {
 
   /// The planner's weights and limits (w_smooth, w_col, w_dyn, w_time, clearance, v_des, a_max).
   static MinJerkCostParams FromPlannerParams(const PlannerParams& params);
-};
-
-/// The cost split into its terms (unweighted) and the weighted total.
-struct MinJerkCostTerms {
-  double jerk = 0.0;         ///< J_jerk, ∫|jerk|² dt (m^2/s^5)
-  double collision = 0.0;    ///< J_col (dimensionless)
-  double feasibility = 0.0;  ///< J_dyn (dimensionless)
-  double time = 0.0;   ///< J_time = ΣT̄ (ln τ)², time stretch (s); the duration is τ ΣT̄
-  double total = 0.0;  ///< weighted sum f
 };
 
 /// The unconstrained problem min_z f(z); see the file comment.
@@ -154,7 +146,7 @@ class MinJerkProblem {
     bool valid_ = false;
     const MinJerkProblem* owner_ = nullptr;
     Eigen::VectorXd z_;
-    MinJerkCostTerms terms_;
+    PlanCostTerms terms_;
     Eigen::MatrixXd b_;           // boundary vectors at z_
     Eigen::MatrixXd hb_;          // H̄ b
     double g0_ = 0.0;             // Σ_a b_aᵀ H̄ b_a
@@ -166,8 +158,8 @@ class MinJerkProblem {
   /// *hess (resized) when non-null. The collision term uses DistanceField::EvaluateWithHessian
   /// (value and derivatives of the same C² function). `cache` (optional): reused when it holds
   /// this problem at this z, else refilled (see ValueCache).
-  MinJerkCostTerms Evaluate(const Eigen::VectorXd& z, Eigen::VectorXd* grad, Eigen::MatrixXd* hess,
-                            ValueCache* cache = nullptr) const;
+  PlanCostTerms Evaluate(const Eigen::VectorXd& z, Eigen::VectorXd* grad, Eigen::MatrixXd* hess,
+                         ValueCache* cache = nullptr) const;
 
   /// The trajectory (real time) for z.
   [[nodiscard]] Trajectory ToTrajectory(const Eigen::VectorXd& z) const;
