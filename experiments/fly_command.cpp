@@ -17,7 +17,7 @@
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/text_file.hpp"
 #include "quadtune/common/yaml.hpp"
-#include "quadtune/engine/planner_registry.hpp"
+#include "quadtune/engine/api/planner_registry.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/physics/world.hpp"

@@ -12,8 +12,8 @@
 #include <set>
 
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/planners.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
+#include "quadtune/engine/planners/planners.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/world.hpp"
 #include "quadtune/sim/flight.hpp"

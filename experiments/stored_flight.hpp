@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// Reading flights back out of a results store (results.sqlite, schema in
-/// quadtune/engine/result_store.hpp): one stored long-term row by its id, the best flight of
+/// quadtune/engine/store/result_store.hpp): one stored long-term row by its id, the best flight of
 /// each method, flying a stored flight again with full logs, and the tidy (one row per
 /// evaluation, one column per parameter and objective term) CSV export.
 ///
@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "quadtune/engine/result_store.hpp"
+#include "quadtune/engine/store/result_store.hpp"
 
 namespace quadtune::cli {
 

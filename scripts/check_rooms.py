@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Checks the include rules of the rooms of planning/; fails on a broken one.
+"""Checks the include rules of the rooms of planning/ and engine/; fails on a broken one.
 
 Usage: scripts/check_rooms.py [ROOT]
 
@@ -12,6 +12,9 @@ planning/  The core (every file outside ipopt/ and ego/: map, ESDF, A*, trajecto
            no Ipopt header (coin/..., Ip*.hpp, HSL*) and no L-BFGS header (lbfgs.h). ipopt/ and
            ego/ include the core and their own room only: ipopt/ no L-BFGS header, ego/ no Ipopt
            header.
+engine/    Every file lies in a room of ENGINE_ROOMS and includes engine headers of its own room
+           and of the rooms ENGINE_ROOMS lets it reach only. The table is acyclic (checked), so
+           no two rooms include each other.
 
 An include is a line `#include "..."` or `#include <...>`; a quoted path is found next to the
 including file first, then under the module's include/ folder. Exit status: 0 when every rule
@@ -33,6 +36,42 @@ PLANNING_ROOMS = {"core": ("core",), "ipopt": ("core", "ipopt"), "ego": ("core",
 IPOPT_RE = re.compile(r"^(coin/|coin-or/|Ip[A-Z]\w*\.hpp$|HSL\w*\.h$)")
 LBFGS_RE = re.compile(r"(^|/)lbfgs\.h$")
 SOLVER_HEADERS = {"core": ("Ipopt", "L-BFGS"), "ipopt": ("L-BFGS",), "ego": ("Ipopt",)}
+
+# engine/: room -> the other rooms it may include (arrows point down; no cycle).
+ENGINE_ROOMS = {
+    "api": (),                                              # the plug-in interface, the registry
+    "planners": ("api",),                                   # built-in planners, the registry table
+    "experiment": ("api", "planners"),                      # experiment files, objectives
+    "store": ("api", "experiment"),                         # SQLite store, row codec
+    "tuning": ("api", "experiment", "store"),               # tuner, racing, validation, sweep
+    "adaptation": ("api", "experiment"),                    # online v_des adaptation, studies
+    "distributed": ("api", "experiment", "store", "tuning"),  # runs over MPI
+}
+
+
+def Acyclic(table):
+  """The rooms of a cycle in `table` (room -> rooms it may include), or [] when there is none."""
+  state = {}
+
+  def Visit(room, path):
+    if state.get(room) == "done":
+      return []
+    if state.get(room) == "open":
+      return path[path.index(room):] + [room]
+    state[room] = "open"
+    for target in table.get(room, ()):
+      cycle = Visit(target, path + [room])
+      if cycle:
+        return cycle
+    state[room] = "done"
+    return []
+
+  for room in table:
+    cycle = Visit(room, [])
+    if cycle:
+      return cycle
+  return []
+
 
 def Includes(path):
   """(line, delimiter, included path) of every #include of the file at `path`."""
@@ -85,6 +124,24 @@ def CheckPlanning(root, path, relative, report):
                f"{solver} header")
 
 
+def CheckEngine(root, path, relative, report):
+  room = RoomOf("engine", relative)
+  if room not in ENGINE_ROOMS:
+    report(path, 1, f"lies outside the engine's rooms ({', '.join(ENGINE_ROOMS)})")
+    return
+  allowed = (room,) + ENGINE_ROOMS[room]
+  for line, delimiter, included in Includes(path):
+    target, ours = Target(root, "engine", path, delimiter, included)
+    if not ours:
+      continue
+    if target not in ENGINE_ROOMS:
+      report(path, line, f"includes {included}, which lies outside the engine's rooms")
+    elif target not in allowed:
+      reach = ", ".join(ENGINE_ROOMS[room]) or "no other room"
+      report(path, line, f"includes {included}: the engine room '{room}' may include {reach}, "
+             f"not '{target}'")
+
+
 def main():
   parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
   parser.add_argument("root", nargs="?", default=str(pathlib.Path(__file__).resolve().parents[1]))
@@ -95,8 +152,11 @@ def main():
   def Report(path, line, what):
     broken.append(f"{path.relative_to(root).as_posix()}:{line}: {what}")
 
+  cycle = Acyclic(ENGINE_ROOMS)
+  if cycle:
+    broken.append(f"scripts/check_rooms.py: ENGINE_ROOMS has a cycle: {' -> '.join(cycle)}")
   files = 0
-  for module, check in (("planning", CheckPlanning),):
+  for module, check in (("planning", CheckPlanning), ("engine", CheckEngine)):
     folder = root / module
     if not folder.is_dir():
       continue
@@ -109,7 +169,7 @@ def main():
   if broken:
     print(f"{len(broken)} broken room rule(s)", file=sys.stderr)
     return 1
-  print(f"the room rules hold in {files} files of planning/", file=sys.stderr)
+  print(f"the room rules hold in {files} files of planning/ and engine/", file=sys.stderr)
   return 0
 
 

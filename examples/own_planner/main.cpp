@@ -13,10 +13,10 @@
 
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/yaml.hpp"
-#include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/planner_registry.hpp"
-#include "quadtune/engine/planners.hpp"
-#include "quadtune/engine/tuner.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
+#include "quadtune/engine/api/planner_registry.hpp"
+#include "quadtune/engine/planners/planners.hpp"
+#include "quadtune/engine/tuning/tuner.hpp"
 #include "waypoint_backend.hpp"
 
 namespace {

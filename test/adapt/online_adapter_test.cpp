@@ -1,6 +1,6 @@
 // Tests of the online v_des adaptation (engine::OnlineAdapter) in kinematic flights (the drone is
 // where the reference says, the map holds a small forest), and of the experiment file.
-#include "quadtune/engine/online_adaptation.hpp"
+#include "quadtune/engine/adaptation/online_adaptation.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,8 +12,8 @@
 #include <string>
 
 #include "../config_error_util.hpp"
-#include "quadtune/engine/planner_registry.hpp"
-#include "quadtune/engine/planners.hpp"
+#include "quadtune/engine/api/planner_registry.hpp"
+#include "quadtune/engine/planners/planners.hpp"
 #include "quadtune/planning/ego/ego_optimizer.hpp"
 #include "../planning/scene_util.hpp"
 

@@ -12,6 +12,7 @@ import lint_util
 CORE_H = "planning/include/quadtune/planning/a.hpp"
 IPOPT_H = "planning/include/quadtune/planning/ipopt/b.hpp"
 EGO_H = "planning/include/quadtune/planning/ego/c.hpp"
+ENGINE_H = "engine/include/quadtune/engine"
 
 
 def Check(tree):
@@ -61,10 +62,42 @@ def PlanningCases():
   Expect("comment", rc == 0 and out == "", out)
 
 
+def EngineCases():
+  api = {f"{ENGINE_H}/api/p.hpp": "", "engine/api/p.cpp": Include("quadtune/engine/api/p.hpp")}
+  rc, out = Check(dict(api, **{"engine/planners/q.cpp": Include("quadtune/engine/api/p.hpp")}))
+  Expect("arrow down", rc == 0 and out == "", out)
+  rc, out = Check(dict(api, **{f"{ENGINE_H}/planners/q.hpp": "",
+                               "engine/api/r.cpp": Include("quadtune/engine/planners/q.hpp")}))
+  Expect("arrow up", rc == 1 and "engine/api/r.cpp:1: " in out and "'planners'" in out, out)
+  # Two rooms that include each other: the one whose arrow the table lacks fails.
+  rc, out = Check({f"{ENGINE_H}/store/s.hpp": Include("quadtune/engine/tuning/t.hpp"),
+                   f"{ENGINE_H}/tuning/t.hpp": Include("quadtune/engine/store/s.hpp")})
+  Expect("mutual include", rc == 1 and out.startswith(f"{ENGINE_H}/store/s.hpp:1:") and
+         len(out.splitlines()) == 1, out)
+  # A relative include into another room, a file or a header outside every room.
+  rc, out = Check({"engine/experiment/u.hpp": "",
+                   "engine/store/v.cpp": Include("../experiment/u.hpp"),
+                   "engine/api/w.cpp": Include("../experiment/u.hpp")})
+  Expect("relative include", rc == 1 and "engine/api/w.cpp:1:" in out and "store" not in out, out)
+  rc, out = Check({"engine/loose.cpp": ""})
+  Expect("file outside the rooms", rc == 1 and "engine/loose.cpp:1: lies outside" in out, out)
+  rc, out = Check({f"{ENGINE_H}/loose.hpp": "", "engine/api/x.cpp":
+                   Include("quadtune/engine/loose.hpp")})
+  Expect("header outside the rooms", rc == 1 and "engine/api/x.cpp:1: includes" in out, out)
+  rc, out = Check({"engine/nursery/y.cpp": ""})
+  Expect("unknown room", rc == 1 and "engine/nursery/y.cpp:1: lies outside" in out, out)
+
+
 def main():
   PlanningCases()
+  EngineCases()
   rc, out = Check({})
   Expect("empty tree", rc == 0 and out == "", out)
+  # The real table has no cycle.
+  sys.path.insert(0, str(CHECKER.parent))
+  import check_rooms  # noqa: E402
+  Expect("table acyclic", check_rooms.Acyclic(check_rooms.ENGINE_ROOMS) == [])
+  Expect("cycle found", check_rooms.Acyclic({"a": ("b",), "b": ("a",)}) != [])
 
   for line in FAILURES:
     print(line)
