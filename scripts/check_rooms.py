@@ -15,6 +15,8 @@ planning/  The core (every file outside ipopt/ and ego/: map, ESDF, A*, trajecto
 engine/    Every file lies in a room of ENGINE_ROOMS and includes engine headers of its own room
            and of the rooms ENGINE_ROOMS lets it reach only. The table is acyclic (checked), so
            no two rooms include each other.
+Both       No two units of a module include each other, a unit being a header and its source
+           (one file name without its suffix, wherever the two lie).
 
 An include is a line `#include "..."` or `#include <...>`; a quoted path is found next to the
 including file first, then under the module's include/ folder. Exit status: 0 when every rule
@@ -142,6 +144,21 @@ def CheckEngine(root, path, relative, report):
              f"not '{target}'")
 
 
+def Mutual(root, module):
+  """'path:line: ...' for each pair of units of `module` that include each other."""
+  edges = {}  # (unit, included unit) -> first 'path:line'
+  for path in sorted((root / module).rglob("*")):
+    if not path.is_file() or path.suffix not in SUFFIXES:
+      continue
+    for line, delimiter, included in Includes(path):
+      _, ours = Target(root, module, path, delimiter, included)
+      target = pathlib.PurePosixPath(included).stem
+      if ours and target != path.stem:
+        edges.setdefault((path.stem, target), f"{path.relative_to(root).as_posix()}:{line}")
+  return [f"{where}: units '{a}' and '{b}' include each other (also {edges[(b, a)]})"
+          for (a, b), where in sorted(edges.items()) if a < b and (b, a) in edges]
+
+
 def main():
   parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
   parser.add_argument("root", nargs="?", default=str(pathlib.Path(__file__).resolve().parents[1]))
@@ -164,6 +181,7 @@ def main():
       if path.is_file() and path.suffix in SUFFIXES:
         files += 1
         check(root, path, path.relative_to(folder).parts, Report)
+    broken.extend(Mutual(root, module))
   for line in broken:
     print(line)
   if broken:

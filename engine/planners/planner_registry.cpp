@@ -107,10 +107,6 @@ void DemandSameSide(const std::string& type, const char* side,
 
 }  // namespace
 
-PlannerSchema PlannerSchema::Of(const Planner& planner) {
-  return {planner.ShortTermParameters(), planner.LongTermParameters()};
-}
-
 void RegisterPlanner(const std::string& name, PlannerFactory factory, PlannerSchema schema,
                      BackendFactory backend) {
   TheRegistry().Add(name, std::move(factory), std::move(schema), std::move(backend));

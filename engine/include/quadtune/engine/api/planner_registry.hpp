@@ -29,22 +29,10 @@
 
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/engine/api/planner.hpp"
+#include "quadtune/engine/api/planner_schema.hpp"
 #include "quadtune/planning/trajectory_backend.hpp"
 
 namespace quadtune::engine {
-
-/// The tunable parameters of a planner type: θ_s and θ_l, each with the values the planner can
-/// fly (ParameterInfo::range), whether it is an integer, and its default when the `planner:` map
-/// fixes nothing. An experiment's tuning box must lie inside these ranges (checked on load), and
-/// the plug-in a factory builds must report exactly these names, ranges and integer flags (its
-/// defaults may differ: the `planner:` map may set them).
-struct PlannerSchema {
-  std::vector<ParameterInfo> short_term;  ///< θ_s
-  std::vector<ParameterInfo> long_term;   ///< θ_l
-
-  /// The schema a plug-in reports (its ShortTermParameters and LongTermParameters).
-  static PlannerSchema Of(const Planner& planner);
-};
 
 /// Builds a plug-in from an experiment's `planner:` map (the YamlMap names the file and key path
 /// for errors). `base_dir` is the experiment file's folder (for ResolvePath). A factory reads

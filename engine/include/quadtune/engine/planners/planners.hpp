@@ -26,7 +26,7 @@
 #include "quadtune/common/fields.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/engine/api/planner.hpp"
-#include "quadtune/engine/api/planner_registry.hpp"
+#include "quadtune/engine/api/planner_schema.hpp"
 #include "quadtune/layout/options.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/physics/world.hpp"

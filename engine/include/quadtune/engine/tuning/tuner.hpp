@@ -191,6 +191,19 @@ class TrialRunner {
   std::unique_ptr<Impl> impl_;
 };
 
+/// Flies the defaults and every trial's recommended point (`trials`, with the trial ids the
+/// store gave them, 0 when there is no store) on experiment.validation.maps held-out maps, all
+/// on the same maps and flight seeds. Rows already in `store` (kind 'validation') are replayed,
+/// new ones stored; the defaults' rows have trial id 0. The defaults are flown once even when
+/// the experiment has a `default` method (its trials recommend the defaults and reuse them).
+/// Returns one summary per parameter set, the defaults first; an empty vector when cancelled.
+/// `flown` (may be null) receives the number of flights flown (not replayed).
+std::vector<ValidationSummary> RunValidation(const Experiment& experiment,
+                                             const std::vector<TrialSummary>& trials,
+                                             const std::vector<std::int64_t>& trial_ids,
+                                             EvaluationStore* store, int threads,
+                                             const RunOptions& options, long* flown = nullptr);
+
 /// Runs `experiment`. Configuration problems (e.g. resuming another run) throw ConfigError
 /// before any work starts; failures inside evaluations are recorded, never thrown.
 RunSummary RunExperiment(const Experiment& experiment, const RunOptions& options = {});

@@ -22,11 +22,6 @@
 
 namespace quadtune::engine {
 
-struct Experiment;
-struct TrialSummary;
-struct RunOptions;
-class EvaluationStore;
-
 /// One flight of a parameter set on one map.
 struct FlightJob {
   ParamValues params;            ///< merged over the planner's defaults by the planner
@@ -54,18 +49,5 @@ struct ValidationSummary {
   int collision_free = 0;  ///< completed flights without a collision
   int emergency_stops = 0; ///< Σ n_e
 };
-
-/// Flies the defaults and every trial's recommended point (`trials`, with the trial ids the
-/// store gave them, 0 when there is no store) on experiment.validation.maps held-out maps, all
-/// on the same maps and flight seeds. Rows already in `store` (kind 'validation') are replayed,
-/// new ones stored; the defaults' rows have trial id 0. The defaults are flown once even when
-/// the experiment has a `default` method (its trials recommend the defaults and reuse them).
-/// Returns one summary per parameter set, the defaults first; an empty vector when cancelled.
-/// `flown` (may be null) receives the number of flights flown (not replayed).
-std::vector<ValidationSummary> RunValidation(const Experiment& experiment,
-                                             const std::vector<TrialSummary>& trials,
-                                             const std::vector<std::int64_t>& trial_ids,
-                                             EvaluationStore* store, int threads,
-                                             const RunOptions& options, long* flown = nullptr);
 
 }  // namespace quadtune::engine
