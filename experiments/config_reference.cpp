@@ -5,20 +5,20 @@
 
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/fields.hpp"
-#include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/objectives.hpp"
-#include "quadtune/engine/online_adaptation.hpp"
-#include "quadtune/engine/planners.hpp"
-#include "quadtune/engine/study.hpp"
+#include "quadtune/engine/adaptation/online_adaptation.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
+#include "quadtune/engine/experiment/objectives.hpp"
+#include "quadtune/engine/planners/planners.hpp"
+#include "quadtune/engine/tuning/study.hpp"
 #include "quadtune/layout/options.hpp"
 #include "quadtune/optimizers/bayes_opt.hpp"
 #include "quadtune/optimizers/gaussian_process.hpp"
 #include "quadtune/optimizers/parameter_space.hpp"
-#include "quadtune/optimizers/racing.hpp"
-#include "quadtune/planning/parameters.hpp"
 #include "quadtune/optimizers/pso.hpp"
+#include "quadtune/optimizers/racing.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/physics/world.hpp"
+#include "quadtune/planning/parameters.hpp"
 
 namespace quadtune::cli {
 namespace {
@@ -117,8 +117,8 @@ w_p ∫‖jerk‖² + w_c J_c, J_c = (C − c_obs)² when c_obs < C. f_l (Sec. I
 std::string ExperimentPart() {
   using namespace engine;
   std::string out = Section("## Experiment",
-                            "Source: `engine/include/quadtune/engine/experiment.hpp`, "
-                            "`objectives.hpp`, `planners.hpp`.",
+                            "Source: `engine/include/quadtune/engine/experiment/experiment.hpp`, "
+                            "`experiment/objectives.hpp`, `planners/planners.hpp`.",
                             {});
   out += Section("### Top level", "", ExperimentFields().Docs());
   out += Section("### `parameters` (one item per tuned parameter)", "",
@@ -127,7 +127,7 @@ std::string ExperimentPart() {
   out += Section("### `validation`", "", ValidationFields().Docs());
   out += Section("### `recommend`", kRecommendProse, RecommendFields().Docs());
   out += Section("### `race`", kRaceProse, optimizers::RaceFields().Docs());
-  out += Section("### `planner`", "", IpoptPlannerFields().Docs());
+  out += Section("### `planner`", "", ClosedLoopFields().Docs());
   out += Section("### `objective`", kObjectiveProse,
                  Join(Join(ObjectiveFields().Docs(),
                            Prefixed(ObjectiveShortTermFields().Docs(), "short_term.")),
@@ -140,7 +140,7 @@ std::string StudyPart() {
   using namespace engine;
   std::string out = Section(
       "## Study",
-      "Source: `engine/include/quadtune/engine/study.hpp`. One experiment run at several "
+      "Source: `engine/include/quadtune/engine/tuning/study.hpp`. One experiment run at several "
       "settings (a sweep) and/or in stages, then validation flights of the tuned parameters on "
       "held-out maps. Outputs: `study.json`, `OUT/<label>/<stage>/results.sqlite` (a `quadtune "
       "run` store, so `--resume` works per stage), `validation.csv`.",
@@ -150,9 +150,9 @@ std::string StudyPart() {
                  StudyStageFields().Docs());
   out += Section("### `validation`", "", StudyValidationFields().Docs());
   out += Section("## Adaptation experiment",
-                 "Source: `engine/include/quadtune/engine/online_adaptation.hpp`. Read by "
-                 "`quadtune adapt` (paper Sec. IV-B: v_des adapted online through zones of "
-                 "changing density).",
+                 "Source: `engine/include/quadtune/engine/adaptation/online_adaptation.hpp`. "
+                 "Read by `quadtune adapt` (paper Sec. IV-B: v_des adapted online through zones "
+                 "of changing density).",
                  AdaptExperimentFields().Docs());
   out += Section("### `adaptation`", "", AdaptationFields().Docs());
   return out;

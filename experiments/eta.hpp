@@ -47,9 +47,9 @@
 #include <utility>
 #include <vector>
 
-#include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/study.hpp"
-#include "quadtune/engine/tuner.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
+#include "quadtune/engine/tuning/study.hpp"
+#include "quadtune/engine/tuning/tuner.hpp"
 
 namespace quadtune::cli {
 

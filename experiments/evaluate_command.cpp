@@ -20,9 +20,9 @@
 #include "commands.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/random.hpp"
-#include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/objectives.hpp"
-#include "quadtune/engine/validation.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
+#include "quadtune/engine/experiment/objectives.hpp"
+#include "quadtune/engine/tuning/validation.hpp"
 
 namespace quadtune::cli {
 namespace {

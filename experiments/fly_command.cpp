@@ -19,9 +19,9 @@
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/text_file.hpp"
 #include "quadtune/common/yaml.hpp"
-#include "quadtune/engine/planner_registry.hpp"
-#include "quadtune/engine/planners.hpp"
-#include "quadtune/engine/replay.hpp"
+#include "quadtune/engine/api/planner_registry.hpp"
+#include "quadtune/engine/planners/planners.hpp"
+#include "quadtune/engine/tuning/replay.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
 #include "quadtune/physics/world.hpp"
@@ -84,7 +84,7 @@ engine::ParamValues ParseOverrides(const std::vector<std::string>& items) {
 /// a BackendPlanner over the flags' drone, layout generator, world, mission and time limit.
 engine::BackendPlanner FlyPlanner(const FlyArgs& a,
                                   std::shared_ptr<const planning::TrajectoryBackend> backend) {
-  engine::IpoptPlannerOptions o;
+  engine::ClosedLoopOptions o;
   o.drone = physics::LoadDroneDescription(AssetPath(a.drone));
   if (!a.layout_options_file.empty()) {
     o.layout = layout::LayoutOptions::LoadFile(a.layout_options_file);

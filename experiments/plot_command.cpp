@@ -13,7 +13,7 @@
 #include "commands.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/text_file.hpp"
-#include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
 
 namespace quadtune::cli {
 

@@ -18,8 +18,8 @@
 #include "limits.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/text_file.hpp"
-#include "quadtune/engine/corridor_study.hpp"
-#include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/adaptation/corridor_study.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
 
 namespace quadtune::cli {
 namespace {

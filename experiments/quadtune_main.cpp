@@ -14,7 +14,7 @@
 #include "config_reference.hpp"
 #include "limits_reference.hpp"
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
 
 namespace {
 

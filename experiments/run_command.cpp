@@ -1,6 +1,6 @@
 // `quadtune run`, `quadtune export` and `quadtune bench`: the engine's command-line front end.
 // Under an MPI launcher with more than one process, `run` spreads the trials over the ranks
-// (engine/distributed.hpp); only rank 0 prints progress and writes OUT.
+// (engine/distributed/distributed.hpp); only rank 0 prints progress and writes OUT.
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
@@ -27,12 +27,12 @@
 #include "limits.hpp"
 #include "quadtune/common/cancel.hpp"
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/column_json.hpp"
-#include "quadtune/engine/distributed.hpp"
-#include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/result_store.hpp"
-#include "quadtune/engine/scheduler.hpp"
-#include "quadtune/engine/tuner.hpp"
+#include "quadtune/engine/distributed/distributed.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
+#include "quadtune/engine/store/column_json.hpp"
+#include "quadtune/engine/store/result_store.hpp"
+#include "quadtune/engine/tuning/scheduler.hpp"
+#include "quadtune/engine/tuning/tuner.hpp"
 #include "result_dir.hpp"
 #include "soak.hpp"
 #include "stored_flight.hpp"

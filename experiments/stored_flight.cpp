@@ -12,7 +12,7 @@
 #include <set>
 
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/row_codec.hpp"
+#include "quadtune/engine/store/row_codec.hpp"
 
 namespace quadtune::cli {
 namespace {

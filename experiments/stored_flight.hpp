@@ -1,9 +1,9 @@
 #pragma once
 /// \file
 /// Reading flights back out of a results store (results.sqlite, schema in
-/// quadtune/engine/result_store.hpp): the best flight of each method, flying a stored flight
-/// again with full logs (engine::FlyStoredAgain), and the tidy (one row per evaluation, one
-/// column per parameter and objective term) CSV export.
+/// quadtune/engine/store/result_store.hpp): one stored long-term row by its id, the best flight of
+/// each method, flying a stored flight again with full logs, and the tidy (one row per
+/// evaluation, one column per parameter and objective term) CSV export.
 ///
 /// Every function opens the store read-only and closes it before returning. Errors about the
 /// store or the asked row are ConfigErrors naming the file, the key and what is allowed.
@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "quadtune/engine/replay.hpp"
-#include "quadtune/engine/result_store.hpp"
+#include "quadtune/engine/tuning/replay.hpp"
+#include "quadtune/engine/store/result_store.hpp"
 
 namespace quadtune::cli {
 

@@ -1,5 +1,5 @@
 // `quadtune study`: an experiment swept over a setting and/or run in stages, then validation
-// flights of the tuned parameters (engine/study.hpp), with the study's figures and tables.
+// flights of the tuned parameters (engine/tuning/study.hpp), with the study's figures and tables.
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
@@ -19,8 +19,8 @@
 #include "eta.hpp"
 #include "quadtune/common/cancel.hpp"
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/distributed.hpp"
-#include "quadtune/engine/study.hpp"
+#include "quadtune/engine/distributed/distributed.hpp"
+#include "quadtune/engine/tuning/study.hpp"
 #include "result_dir.hpp"
 
 namespace quadtune::cli {

@@ -1,5 +1,5 @@
 // `quadtune sweep`: variance-based parameter importance (Sobol' indices) of an experiment's f_l,
-// its terms and f_s over the parameter box (engine/sweep.hpp), optionally at several layouts
+// its terms and f_s over the parameter box (engine/tuning/sweep.hpp), optionally at several layouts
 // (obstacle densities), with tables and a figure.
 #include <spdlog/spdlog.h>
 #include <unistd.h>
@@ -21,9 +21,9 @@
 #include "file_kind.hpp"
 #include "result_dir.hpp"
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/distributed.hpp"
-#include "quadtune/engine/planners.hpp"
-#include "quadtune/engine/sweep.hpp"
+#include "quadtune/engine/distributed/distributed.hpp"
+#include "quadtune/engine/planners/planners.hpp"
+#include "quadtune/engine/tuning/sweep.hpp"
 
 namespace quadtune::cli {
 namespace {

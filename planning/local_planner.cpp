@@ -7,22 +7,6 @@
 
 namespace quadtune::planning {
 
-PlanRequest PlanningQuery::ToRequest(bool use_warm_start) const {
-  PlanRequest r;
-  r.p0_W = p0_W;
-  r.v0_W = v0_W;
-  r.a0_W = a0_W;
-  r.goal_W = goal_W;
-  r.goal_v_W = goal_v_W;
-  r.initial_path_W = initial_path_W;
-  r.braking_deceleration = braking_deceleration;
-  if (use_warm_start && previous.has_value() && !previous->Empty()) {
-    r.warm_start = &*previous;
-    r.warm_start_time = previous_time;
-  }
-  return r;
-}
-
 std::size_t PlanningQuery::MemoryBytes() const {
   std::size_t bytes = sizeof(PlanningQuery) + field.MemoryBytes() - sizeof(Esdf);
   bytes += initial_path_W.capacity() * sizeof(Eigen::Vector3d);
@@ -33,44 +17,11 @@ std::size_t PlanningQuery::MemoryBytes() const {
 }
 
 void LocalPlannerOptions::Validate(const std::string& origin) const {
-  optimizer.Validate(origin);
   search.Validate(origin);
   esdf.Validate(origin);
   CheckInRange(field_margin, Range::NonNegative(), origin, "field_margin");
   CheckInRange(retry_slowdown, {0.0, 1.0, true, false}, origin, "retry_slowdown");
   CheckInRange(retry_collision_gain, Range::Closed(1.0, 1e6), origin, "retry_collision_gain");
-}
-
-PlanOutcome SolveQuery(const TrajectoryOptimizer& optimizer, const PlanningQuery& query,
-                       const PlannerParams& params, const LocalPlannerOptions& options) {
-  PlanOutcome out;
-  const int attempts = std::max(1, params.max_attempts);
-  // The parameters are checked once here; invalid ones take Solve()'s path, which reports them.
-  bool valid = true;
-  try {
-    params.Validate();
-  } catch (const ConfigError&) {
-    valid = false;
-  }
-  PlannerParams attempt_params = params;
-  for (int k = 0; k < attempts; ++k) {
-    PlanRequest request = query.ToRequest(/*use_warm_start=*/k == 0);
-    if (k >= 2) request.speed_scale = std::pow(options.retry_slowdown, k - 1);
-    PlanResult r = valid ? optimizer.SolveValidated(request, query.field, attempt_params)
-                         : optimizer.Solve(request, query.field, attempt_params);
-    if (r.status == PlanStatus::kCollision) attempt_params.w_col *= options.retry_collision_gain;
-    out.attempts = k + 1;
-    out.solve_time_s += r.solve_time_s;
-    out.compute_units += r.compute_units;
-    const bool ok = r.Ok();
-    out.result = std::move(r);
-    if (ok) {
-      out.failed_attempts = k;
-      return out;
-    }
-    out.failed_attempts = k + 1;
-  }
-  return out;
 }
 
 void LocalPlannerOptions::CheckParams(const PlannerParams& params,
@@ -135,11 +86,6 @@ std::optional<PlanningQuery> LocalPlanner::MakeQuery(
   }
   q.field = builder_.Build(map, box, options_.esdf);
   return q;
-}
-
-PlanOutcome LocalPlanner::Plan(const TrajectoryOptimizer& optimizer, const PlanningQuery& query,
-                               const PlannerParams& params) const {
-  return SolveQuery(optimizer, query, params, options_);
 }
 
 }  // namespace quadtune::planning

@@ -12,6 +12,7 @@
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/random.hpp"
 #include "quadtune/common/yaml.hpp"
+#include "quadtune/planning/ipopt/ipopt_backend.hpp"
 
 namespace quadtune::sim {
 
@@ -44,6 +45,11 @@ physics::DepthSensorOptions FlightOptions::DefaultSensor() {
   s.rate_hz = 15.0;
   s.max_range = 5.0;
   return s;
+}
+
+void FlightPlannerOptions::Validate(const std::string& origin) const {
+  optimizer.Validate(origin);
+  planning::LocalPlannerOptions::Validate(origin);
 }
 
 void FlightOptions::Validate(const std::string& origin) const {

@@ -7,7 +7,8 @@
 
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/yaml.hpp"
-#include "quadtune/planning/stop_and_go.hpp"
+#include "quadtune/planning/ipopt/ipopt_backend.hpp"
+#include "quadtune/planning/quintic.hpp"
 
 namespace quadtune::sim {
 

@@ -16,9 +16,9 @@
 #include <string>
 
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/replay.hpp"
-#include "quadtune/engine/tuner.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
+#include "quadtune/engine/tuning/replay.hpp"
+#include "quadtune/engine/tuning/tuner.hpp"
 #include "waypoint_planner.hpp"
 
 namespace {

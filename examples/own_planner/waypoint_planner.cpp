@@ -3,8 +3,8 @@
 #include <memory>
 #include <utility>
 
-#include "quadtune/engine/planner_registry.hpp"
-#include "quadtune/engine/planners.hpp"
+#include "quadtune/engine/api/planner_registry.hpp"
+#include "quadtune/engine/planners/planners.hpp"
 #include "waypoint_backend.hpp"
 
 namespace own_planner {
@@ -13,8 +13,8 @@ namespace engine = quadtune::engine;
 
 engine::Planner BuildWaypointPlanner(const quadtune::YamlMap& planner,
                                      const std::string& base_dir) {
-  engine::IpoptPlannerOptions loop =
-      engine::IpoptPlannerOptions::FromYaml(planner, base_dir, {"waypoint"});
+  engine::ClosedLoopOptions loop =
+      engine::ClosedLoopOptions::FromYaml(planner, base_dir, {"waypoint"});
   const quadtune::YamlMap w = planner.Map("waypoint", true);
   w.RejectUnknownKeys({"check_dt", "limit_tolerance", "min_piece_time"});
   WaypointOptions o;

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "quadtune/common/yaml.hpp"
-#include "quadtune/engine/planner.hpp"
+#include "quadtune/engine/api/planner.hpp"
 
 namespace own_planner {
 

@@ -7,8 +7,8 @@ defaults) flown through `quadtune evaluate` on the study's held-out maps, with t
 seeds of its validation, so every flight pairs map by map with the study's. Writes, replacing
 the rows of this planner and these spacings, OUT/heldout.csv, OUT/summary.csv and
 OUT/summary.md (as scripts/peers/peers.py does: mean f_l, collision-free rate, share of the
-oracle's gain, trials handing back the defaults), OUT/heldout_<planner>_<spacing>.png and
-OUT/oracle_grid_<planner>_<spacing>.csv.
+oracle's gain, trials handing back the defaults), OUT/heldout_<planner>_free_gap_<spacing>.png and
+OUT/oracle_grid_<planner>_free_gap_<spacing>.csv, all under the forest label `free_gap`.
 
     scripts/peers/density_oracle.py experiments/density_study.yaml --study results/density \
         --planner ipopt --out docs/results/peers
@@ -108,13 +108,14 @@ def main(argv):
         rows += [dict(r, planner=a.planner, spacing=spacing, tuner="oracle", repeat=0)
                  for r in best_rows]
         os.makedirs(a.out, exist_ok=True)
-        with open(os.path.join(a.out, "oracle_grid_{}_{}.csv".format(a.planner, label)), "w") as f:
+        with open(os.path.join(a.out, "oracle_grid_{}_free_gap_{}.csv".format(a.planner, label)),
+                  "w") as f:
             f.write("v_des,h_pl,mean_f_l\n")
             for v, h, m in grid:
                 f.write("{},{},{}\n".format(v, h, m))
         summary = peers.summarise(rows, defaults)
-        peers.write(a.out, a.planner, spacing, rows, summary)
-        peers.figure(summary, os.path.join(a.out, "heldout_{}_{}.png".format(a.planner, label)),
+        peers.write(a.out, a.planner, "free_gap", spacing, rows, summary)
+        peers.figure(summary, os.path.join(a.out, "heldout_{}_free_gap_{}.png".format(a.planner, label)),
                      "{} planner, {} m forests: held-out mean f_l".format(a.planner, label))
         print("{} m: oracle {} (mean f_l {:.2f})".format(
             label, best, statistics.fmean(r["f_l"] for r in best_rows)), flush=True)

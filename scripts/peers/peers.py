@@ -13,7 +13,7 @@ For one experiment (a planner at one density) and its finished `quadtune run` st
 Writes (appending rows for this planner and spacing) OUT/heldout.csv, one row per held-out flight,
 OUT/summary.csv and OUT/summary.md (mean f_l, collision-free rate, share of the oracle's gain
 captured, trials handing back the defaults, paired Wilcoxon test against bo_pso), and
-OUT/heldout_<planner>_<spacing>.png.
+OUT/heldout_<planner>_<forest>_<spacing>.png.
 
     scripts/peers/peers.py experiments/benchmark.yaml --store results/benchmark \
         --planner ipopt --spacing 1.3 --repeats 5 --out docs/results/peers
@@ -32,7 +32,7 @@ from concurrent.futures import ThreadPoolExecutor
 import peerlib
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-COLUMNS = ["planner", "spacing", "tuner", "repeat", "map_index", "map_seed", "f_l", "collisions",
+COLUMNS = ["planner", "forest", "spacing", "tuner", "repeat", "map_index", "map_seed", "f_l", "collisions",
            "emergency_stops", "completed", "t_f", "params"]
 TUNERS = ["default", "oracle", "bo_pso", "bo", "pso", "random", "irace", "optuna_tpe"]
 
@@ -196,13 +196,14 @@ def figure(summary, path, title):
     plt.close(fig)
 
 
-def replace_rows(path, fields, planner, spacing, rows):
-    """Rewrites the CSV at `path`: its rows of other planners or spacings, then `rows`."""
+def replace_rows(path, fields, planner, forest, spacing, rows):
+    """Rewrites the CSV at `path`: its rows of other planners, forests or spacings, then `rows`."""
     kept = []
     if os.path.exists(path):
         with open(path) as f:
             kept = [r for r in csv.DictReader(f)
-                    if not (r["planner"] == planner and float(r["spacing"]) == spacing)]
+                    if not (r["planner"] == planner and r["forest"] == forest and
+                            float(r["spacing"]) == spacing)]
     with open(path, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
         w.writeheader()
@@ -210,20 +211,23 @@ def replace_rows(path, fields, planner, spacing, rows):
             w.writerow(r)
 
 
-def write(out_dir, planner, spacing, rows, summary):
+def write(out_dir, planner, forest, spacing, rows, summary):
+    """Rows of one planner, forest family (`thin`: forest_thin_*.yaml; `free_gap`: the density
+    study's forest_*.yaml) and spacing into OUT/heldout.csv, summary.csv and summary.md."""
     os.makedirs(out_dir, exist_ok=True)
-    replace_rows(os.path.join(out_dir, "heldout.csv"), COLUMNS, planner, spacing, rows)
+    rows = [dict(r, forest=forest) for r in rows]
+    replace_rows(os.path.join(out_dir, "heldout.csv"), COLUMNS, planner, forest, spacing, rows)
     spath = os.path.join(out_dir, "summary.csv")
-    fields = ["planner", "spacing", "tuner", "repeats", "flights", "mean_f_l", "collision_free",
+    fields = ["planner", "forest", "spacing", "tuner", "repeats", "flights", "mean_f_l", "collision_free",
               "completed", "gain_share", "defaults_handed_back", "p_vs_bo_pso"]
-    replace_rows(spath, fields, planner, spacing,
-                 [dict(s, planner=planner, spacing=spacing) for s in summary])
+    replace_rows(spath, fields, planner, forest, spacing,
+                 [dict(s, planner=planner, forest=forest, spacing=spacing) for s in summary])
     with open(spath) as f:
         everything = list(csv.DictReader(f))
     with open(os.path.join(out_dir, "summary.md"), "w") as f:
-        f.write("| planner | spacing (m) | tuner | repeats | held-out flights | mean f_l | "
+        f.write("| planner | forest | spacing (m) | tuner | repeats | held-out flights | mean f_l | "
                 "collision-free | completed | share of the oracle's gain | defaults handed back "
-                "| p vs bo_pso |\n|---|---|---|---|---|---|---|---|---|---|---|\n")
+                "| p vs bo_pso |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n")
         for s in everything:
             def num(key, fmt):
                 v = s[key]
@@ -232,8 +236,8 @@ def write(out_dir, planner, spacing, rows, summary):
                     return "–" if math.isnan(x) else fmt.format(x)
                 except ValueError:
                     return v or "–"
-            f.write("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n".format(
-                s["planner"], s["spacing"], s["tuner"], s["repeats"], s["flights"],
+            f.write("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n".format(
+                s["planner"], s["forest"], s["spacing"], s["tuner"], s["repeats"], s["flights"],
                 num("mean_f_l", "{:.2f}"), num("collision_free", "{:.0%}"),
                 num("completed", "{:.0%}"), num("gain_share", "{:.0%}"),
                 s["defaults_handed_back"] or "–", num("p_vs_bo_pso", "{:.3f}")))
@@ -246,6 +250,8 @@ def main(argv):
                     "directory (or results.sqlite): its trials' held-out rows")
     ap.add_argument("--planner", required=True)
     ap.add_argument("--spacing", type=float, required=True)
+    ap.add_argument("--forest", default="thin", help="forest family label of the rows: thin "
+                    "(forest_thin_*.yaml, the benchmark's) or free_gap (forest_*.yaml)")
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--budget", type=int, default=None, help="flights (default: the experiment's)")
     ap.add_argument("--maps", type=int, default=None,
@@ -288,8 +294,8 @@ def main(argv):
             add(tuner, repeat, held_out(a.experiment, point, maps, a.set))
             print("{} repeat {}: {}".format(tuner, repeat, point), flush=True)
     summary = summarise(rows, defaults)
-    write(a.out, a.planner, a.spacing, rows, summary)
-    figure(summary, os.path.join(a.out, "heldout_{}_{}.png".format(a.planner, a.spacing)),
+    write(a.out, a.planner, a.forest, a.spacing, rows, summary)
+    figure(summary, os.path.join(a.out, "heldout_{}_{}_{}.png".format(a.planner, a.forest, a.spacing)),
            "{} planner, {} m forests: held-out mean f_l per tuner".format(a.planner, a.spacing))
     for s in summary:
         print("{tuner:>11}: mean f_l {mean_f_l:.2f}, collision-free {collision_free:.0%}, "

@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "../cli_util.hpp"
-#include "quadtune/engine/corridor_study.hpp"
-#include "quadtune/engine/online_adaptation.hpp"
+#include "quadtune/engine/adaptation/corridor_study.hpp"
+#include "quadtune/engine/adaptation/online_adaptation.hpp"
 
 namespace quadtune::engine {
 namespace {

@@ -1,6 +1,6 @@
 // The context policy (interpolation, refusal outside its range, YAML), the free-range
 // measurement and the stopping risk, on hand-built maps.
-#include "quadtune/engine/context_policy.hpp"
+#include "quadtune/engine/adaptation/context_policy.hpp"
 
 #include <gtest/gtest.h>
 

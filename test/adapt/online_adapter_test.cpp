@@ -1,6 +1,6 @@
 // Tests of the online v_des adaptation (engine::OnlineAdapter) in kinematic flights (the drone is
 // where the reference says, the map holds a small forest), and of the experiment file.
-#include "quadtune/engine/online_adaptation.hpp"
+#include "quadtune/engine/adaptation/online_adaptation.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,9 +12,9 @@
 #include <string>
 
 #include "../config_error_util.hpp"
-#include "quadtune/engine/planner_registry.hpp"
-#include "quadtune/engine/planners.hpp"
-#include "quadtune/planning/ego_optimizer.hpp"
+#include "quadtune/engine/api/planner_registry.hpp"
+#include "quadtune/engine/planners/planners.hpp"
+#include "quadtune/planning/ego/ego_optimizer.hpp"
 #include "../planning/scene_util.hpp"
 
 namespace quadtune::engine {
@@ -39,7 +39,7 @@ struct AdaptedKinematicFlight {
       std::shared_ptr<const planning::TrajectoryBackend> flight_backend = MakeIpoptBackend())
       : backend(std::move(flight_backend)),
         replanner(*backend, PlannerParams{}),
-        adapter(*backend, planning::LocalPlannerOptions{}, options),
+        adapter(*backend, sim::FlightPlannerOptions{}, options),
         map(planning::LocalMapOptions::FromPlannerParams(PlannerParams{}),
             Eigen::Vector3d(3, 0, 1.2)) {
     replanner.SetAdapter(&adapter);

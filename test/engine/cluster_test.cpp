@@ -12,11 +12,11 @@
 #include <vector>
 
 #include "../config_error_util.hpp"
-#include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/planners.hpp"
-#include "quadtune/engine/result_store.hpp"
-#include "quadtune/engine/row_codec.hpp"
-#include "quadtune/engine/tuner.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
+#include "quadtune/engine/planners/planners.hpp"
+#include "quadtune/engine/store/result_store.hpp"
+#include "quadtune/engine/store/row_codec.hpp"
+#include "quadtune/engine/tuning/tuner.hpp"
 #include "test_util.hpp"
 #include "toy_planners.hpp"
 

@@ -5,9 +5,9 @@
 #include <thread>
 #include <vector>
 
-#include "quadtune/engine/planners.hpp"
-#include "quadtune/engine/result_store.hpp"
-#include "quadtune/engine/tuner.hpp"
+#include "quadtune/engine/planners/planners.hpp"
+#include "quadtune/engine/store/result_store.hpp"
+#include "quadtune/engine/tuning/tuner.hpp"
 #include "quadtune/planning/local_planner.hpp"
 #include "test_util.hpp"
 

@@ -1,4 +1,4 @@
-#include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -10,9 +10,9 @@
 #include <string>
 
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/online_adaptation.hpp"
-#include "quadtune/engine/study.hpp"
-#include "quadtune/engine/tuner.hpp"
+#include "quadtune/engine/adaptation/online_adaptation.hpp"
+#include "quadtune/engine/tuning/study.hpp"
+#include "quadtune/engine/tuning/tuner.hpp"
 #include "test_util.hpp"
 
 namespace quadtune::engine {
@@ -230,7 +230,7 @@ TEST(ExperimentFields, EveryKeyHasATypeAndAMeaning) {
   check(ValidationFields().Docs(), "validation");
   check(RecommendFields().Docs(), "recommend");
   check(BudgetFields().Docs(), "budget");
-  check(IpoptPlannerFields().Docs(), "planner");
+  check(ClosedLoopFields().Docs(), "planner");
   check(ObjectiveFields().Docs(), "objective");
   check(ObjectiveShortTermFields().Docs(), "objective.short_term");
   check(ObjectiveLongTermFields().Docs(), "objective.long_term");

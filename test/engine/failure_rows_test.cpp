@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
-#include "quadtune/engine/planners.hpp"
-#include "quadtune/engine/result_store.hpp"
-#include "quadtune/engine/tuner.hpp"
+#include "quadtune/engine/planners/planners.hpp"
+#include "quadtune/engine/store/result_store.hpp"
+#include "quadtune/engine/tuning/tuner.hpp"
 #include "test_util.hpp"
 
 namespace quadtune::engine {

@@ -6,9 +6,9 @@
 
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/yaml.hpp"
-#include "quadtune/engine/planners.hpp"
-#include "quadtune/engine/result_store.hpp"
-#include "quadtune/engine/tuner.hpp"
+#include "quadtune/engine/planners/planners.hpp"
+#include "quadtune/engine/store/result_store.hpp"
+#include "quadtune/engine/tuning/tuner.hpp"
 #include "test_util.hpp"
 
 namespace quadtune::engine {
@@ -30,12 +30,12 @@ Experiment Tiny(const std::string& methods, int flights) {
 
 // `sensor` changes only the keys it names (the rest keep the closed loop's camera), a bad value is
 // refused naming the key; `goal_braking` reaches the local planner's options.
-TEST(IpoptPlannerOptions, SensorAndGoalBrakingKeys) {
+TEST(ClosedLoopOptions, SensorAndGoalBrakingKeys) {
   const std::string base = "layout: {spacing: 3.0}\n";
-  const IpoptPlannerOptions plain =
-      IpoptPlannerOptions::FromYaml(YamlMap::FromString(base, "p.yaml"), ".");
+  const ClosedLoopOptions plain =
+      ClosedLoopOptions::FromYaml(YamlMap::FromString(base, "p.yaml"), ".");
   EXPECT_FALSE(plain.flight.planner.goal_braking);
-  const IpoptPlannerOptions o = IpoptPlannerOptions::FromYaml(
+  const ClosedLoopOptions o = ClosedLoopOptions::FromYaml(
       YamlMap::FromString(base + "sensor: {horizontal_fov_deg: 120, rate_hz: 12}\n"
                                  "goal_braking: true\n",
                           "p.yaml"),
@@ -46,7 +46,7 @@ TEST(IpoptPlannerOptions, SensorAndGoalBrakingKeys) {
   EXPECT_DOUBLE_EQ(o.flight.sensor.max_range, plain.flight.sensor.max_range);
   EXPECT_TRUE(o.flight.planner.goal_braking);
   try {
-    (void)IpoptPlannerOptions::FromYaml(
+    (void)ClosedLoopOptions::FromYaml(
         YamlMap::FromString(base + "sensor: {horizontal_fov_deg: 200}\n", "p.yaml"), ".");
     ADD_FAILURE() << "a 200° camera was accepted";
   } catch (const ConfigError& e) {

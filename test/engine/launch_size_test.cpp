@@ -6,7 +6,7 @@
 #include <cstdlib>
 
 #include "../config_error_util.hpp"
-#include "quadtune/engine/distributed.hpp"
+#include "quadtune/engine/distributed/distributed.hpp"
 
 namespace quadtune::engine {
 namespace {

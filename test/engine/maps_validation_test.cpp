@@ -1,5 +1,5 @@
 // Maps per flight with common random numbers, the held-out validation, the recommended points
-// and the discount count n_d (engine/tuner.cpp, engine/validation.cpp).
+// and the discount count n_d (engine/tuning/tuner.cpp, engine/tuning/validation.cpp).
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -13,8 +13,8 @@
 #include <thread>
 #include <vector>
 
-#include "quadtune/engine/result_store.hpp"
-#include "quadtune/engine/tuner.hpp"
+#include "quadtune/engine/store/result_store.hpp"
+#include "quadtune/engine/tuning/tuner.hpp"
 #include "test_util.hpp"
 
 namespace quadtune::engine {

@@ -1,6 +1,6 @@
 #include <gtest/gtest.h>
 
-#include "quadtune/engine/objectives.hpp"
+#include "quadtune/engine/experiment/objectives.hpp"
 
 namespace quadtune::engine {
 namespace {

@@ -11,10 +11,10 @@
 #include <string>
 #include <vector>
 
-#include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/planner_registry.hpp"
-#include "quadtune/engine/replay.hpp"
-#include "quadtune/engine/tuner.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
+#include "quadtune/engine/api/planner_registry.hpp"
+#include "quadtune/engine/tuning/replay.hpp"
+#include "quadtune/engine/tuning/tuner.hpp"
 #include "waypoint_planner.hpp"
 
 namespace quadtune::engine {

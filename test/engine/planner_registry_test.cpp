@@ -1,4 +1,4 @@
-#include "quadtune/engine/planner_registry.hpp"
+#include "quadtune/engine/api/planner_registry.hpp"
 
 #include <gtest/gtest.h>
 
@@ -9,9 +9,9 @@
 
 #include "../config_error_util.hpp"
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/planners.hpp"
-#include "quadtune/engine/tuner.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
+#include "quadtune/engine/planners/planners.hpp"
+#include "quadtune/engine/tuning/tuner.hpp"
 #include "test_util.hpp"
 #include "toy_planners.hpp"
 

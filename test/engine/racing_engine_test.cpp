@@ -8,8 +8,8 @@
 #include <set>
 
 #include "../config_error_util.hpp"
-#include "quadtune/engine/result_store.hpp"
-#include "quadtune/engine/tuner.hpp"
+#include "quadtune/engine/store/result_store.hpp"
+#include "quadtune/engine/tuning/tuner.hpp"
 #include "test_util.hpp"
 
 namespace quadtune::engine {

@@ -9,7 +9,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "quadtune/engine/scheduler.hpp"
+#include "quadtune/engine/tuning/scheduler.hpp"
 
 namespace quadtune::engine {
 namespace {

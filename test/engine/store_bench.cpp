@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
-#include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/result_store.hpp"
-#include "quadtune/engine/row_codec.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
+#include "quadtune/engine/store/result_store.hpp"
+#include "quadtune/engine/store/row_codec.hpp"
 
 namespace quadtune::engine {
 namespace {

@@ -11,10 +11,10 @@
 #include <vector>
 
 #include "../sqlite_util.hpp"
-#include "quadtune/engine/column_json.hpp"
-#include "quadtune/engine/result_store.hpp"
-#include "quadtune/engine/row_codec.hpp"
-#include "quadtune/engine/tuner.hpp"
+#include "quadtune/engine/store/column_json.hpp"
+#include "quadtune/engine/store/result_store.hpp"
+#include "quadtune/engine/store/row_codec.hpp"
+#include "quadtune/engine/tuning/tuner.hpp"
 #include "test_util.hpp"
 
 namespace quadtune::engine {

@@ -11,9 +11,9 @@
 
 #include "../config_error_util.hpp"
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/result_store.hpp"
-#include "quadtune/engine/study.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
+#include "quadtune/engine/store/result_store.hpp"
+#include "quadtune/engine/tuning/study.hpp"
 #include "test_util.hpp"
 
 namespace quadtune::engine {

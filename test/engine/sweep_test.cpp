@@ -1,7 +1,7 @@
 // The sweep experiment: the Saltelli design, the Sobol' index estimators on functions with known
 // indices, Spearman's correlation, and sweeps of the toy planner (determinism across thread
 // counts, common maps, failures recorded, f_s's θ_l indices).
-#include "quadtune/engine/sweep.hpp"
+#include "quadtune/engine/tuning/sweep.hpp"
 
 #include <gtest/gtest.h>
 

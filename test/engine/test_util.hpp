@@ -5,9 +5,9 @@
 #include <string>
 #include <vector>
 
-#include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/result_store.hpp"
-#include "quadtune/engine/tuner.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
+#include "quadtune/engine/store/result_store.hpp"
+#include "quadtune/engine/tuning/tuner.hpp"
 
 namespace quadtune::engine::test {
 

@@ -12,9 +12,9 @@
 #include <thread>
 
 #include "../process_util.hpp"
-#include "quadtune/engine/planners.hpp"
-#include "quadtune/engine/result_store.hpp"
-#include "quadtune/engine/tuner.hpp"
+#include "quadtune/engine/planners/planners.hpp"
+#include "quadtune/engine/store/result_store.hpp"
+#include "quadtune/engine/tuning/tuner.hpp"
 #include "test_util.hpp"
 #include "toy_planners.hpp"
 

@@ -1,7 +1,7 @@
 // Fuzz target: the experiment reader (quadtune run) (see fuzz_util.hpp).
 #include "fuzz_util.hpp"
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string path = quadtune::fuzz::WriteInput(data, size, "experiment.yaml");

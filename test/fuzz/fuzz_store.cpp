@@ -4,8 +4,8 @@
 
 #include "fuzz_util.hpp"
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/result_store.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
+#include "quadtune/engine/store/result_store.hpp"
 
 namespace {
 const quadtune::engine::Experiment& Toy() {

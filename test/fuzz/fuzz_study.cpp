@@ -1,8 +1,8 @@
 // Fuzz target: the study reader (quadtune study) (see fuzz_util.hpp).
 #include "fuzz_util.hpp"
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/experiment.hpp"
-#include "quadtune/engine/study.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
+#include "quadtune/engine/tuning/study.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   // The corpus names the toy experiment (test/support/toy.yaml) by its file name.

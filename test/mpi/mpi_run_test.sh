@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Distributed runs over MPI, through the `quadtune` program (see engine/distributed.hpp).
+# Distributed runs over MPI, through the `quadtune` program (see engine/distributed/distributed.hpp).
 #
 #   mpi_run_test.sh equal QUADTUNE MPIEXEC WORKDIR
 #       the toy experiment (10 trials) with 1 process and with 2 ranks: identical stores

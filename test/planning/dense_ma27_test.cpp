@@ -1,4 +1,4 @@
-#include "quadtune/planning/dense_ma27.hpp"
+#include "quadtune/planning/ipopt/dense_ma27.hpp"
 
 #include <gtest/gtest.h>
 

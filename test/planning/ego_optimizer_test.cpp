@@ -1,4 +1,4 @@
-#include "quadtune/planning/ego_optimizer.hpp"
+#include "quadtune/planning/ego/ego_optimizer.hpp"
 
 #include <gtest/gtest.h>
 

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "analytic_fields.hpp"
-#include "quadtune/planning/trajectory_optimizer.hpp"
+#include "quadtune/planning/ipopt/trajectory_optimizer.hpp"
 
 namespace quadtune::planning::testing {
 

@@ -19,7 +19,7 @@
 #include <coin/IpSolveStatistics.hpp>
 #include <coin/IpTNLP.hpp>
 
-#include "quadtune/planning/ipopt_application.hpp"
+#include "quadtune/planning/ipopt/ipopt_application.hpp"
 
 namespace {
 

@@ -7,6 +7,7 @@
 
 #include "../config_error_util.hpp"
 #include "quadtune/common/parallel_for.hpp"
+#include "quadtune/planning/ipopt/ipopt_backend.hpp"
 #include "resampled_figures.hpp"
 #include "scene_util.hpp"
 

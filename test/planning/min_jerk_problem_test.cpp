@@ -1,4 +1,4 @@
-#include "quadtune/planning/min_jerk_problem.hpp"
+#include "quadtune/planning/ipopt/min_jerk_problem.hpp"
 
 #include <gtest/gtest.h>
 
@@ -136,7 +136,7 @@ TEST(MinJerkProblem, GradientMatchesFiniteDifferences) {
     const Eigen::VectorXd z = PointNear(problem, 1.0);
     Eigen::VectorXd grad;
     Eigen::MatrixXd hess;
-    const MinJerkCostTerms terms = problem.Evaluate(z, &grad, &hess);
+    const PlanCostTerms terms = problem.Evaluate(z, &grad, &hess);
     ASSERT_GT(terms.collision, 0.0) << "collision term must be active";
     ASSERT_GT(terms.feasibility, 0.0) << "feasibility term must be active";
     const Eigen::VectorXd fd = FdGradient(problem, z, 1e-6);
@@ -171,8 +171,8 @@ TEST(MinJerkProblem, CostAndDerivativesDoNotDependOnWhereTheWorldOriginIs) {
     for (int a = 0; a < 3; ++a) z_far.segment(a * m, m).array() += shift(a);
     Eigen::VectorXd g_near, g_far;
     Eigen::MatrixXd h_near, h_far;
-    const MinJerkCostTerms t_near = near_problem.Evaluate(z_near, &g_near, &h_near);
-    const MinJerkCostTerms t_far = far_problem.Evaluate(z_far, &g_far, &h_far);
+    const PlanCostTerms t_near = near_problem.Evaluate(z_near, &g_near, &h_near);
+    const PlanCostTerms t_far = far_problem.Evaluate(z_far, &g_far, &h_far);
     ASSERT_GT(t_near.collision, 0.0);
     ASSERT_GT(t_near.feasibility, 0.0);
     EXPECT_LT(std::abs(t_far.total - t_near.total), 1e-12 * t_near.total) << pieces;
@@ -201,7 +201,7 @@ TEST(MinJerkProblem, HessianMatchesFiniteDifferencesForAffineField) {
     const Eigen::VectorXd z = PointNear(problem, 2.0);
     Eigen::VectorXd grad;
     Eigen::MatrixXd hess;
-    const MinJerkCostTerms terms = problem.Evaluate(z, &grad, &hess);
+    const PlanCostTerms terms = problem.Evaluate(z, &grad, &hess);
     ASSERT_GT(terms.collision, 0.0);
     ASSERT_GT(terms.feasibility, 0.0);
     const Eigen::MatrixXd fd = FdHessian(problem, z, 1e-6);
@@ -233,7 +233,7 @@ TEST(MinJerkProblem, HessianMatchesFiniteDifferencesForCylinderField) {
     const Eigen::VectorXd z = PointNear(problem, 1.0);
     Eigen::VectorXd grad;
     Eigen::MatrixXd hess;
-    const MinJerkCostTerms terms = problem.Evaluate(z, &grad, &hess);
+    const PlanCostTerms terms = problem.Evaluate(z, &grad, &hess);
     ASSERT_GT(terms.collision, 0.0);
     ASSERT_GT(terms.feasibility, 0.0);
     const Eigen::MatrixXd fd = FdHessian(problem, z, 1e-6);
@@ -261,7 +261,7 @@ TEST(MinJerkProblem, BrakingEnvelopeDerivativesMatchFiniteDifferences) {
     const Eigen::VectorXd z = PointNear(problem, 2.0);
     Eigen::VectorXd grad;
     Eigen::MatrixXd hess;
-    const MinJerkCostTerms terms = problem.Evaluate(z, &grad, &hess);
+    const PlanCostTerms terms = problem.Evaluate(z, &grad, &hess);
     ASSERT_GT(terms.feasibility, 0.0);
     EXPECT_LT((grad - FdGradient(problem, z, 1e-6)).norm(), 1e-5 * (1.0 + grad.norm()));
     const Eigen::MatrixXd fd = FdHessian(problem, z, 1e-6);
@@ -396,12 +396,12 @@ TEST(MinJerkProblem, ValueCacheGivesTheSameBitsAndIsUsedOnlyForItsProblemAndPoin
     z2(1) += 0.05;
     Eigen::VectorXd g_ref, g;
     Eigen::MatrixXd h_ref, h;
-    const MinJerkCostTerms ref = a.Evaluate(z, &g_ref, &h_ref);
+    const PlanCostTerms ref = a.Evaluate(z, &g_ref, &h_ref);
     ASSERT_GT(ref.collision, 0.0) << "wiggle " << wiggle;
     // Value first, then derivatives at the same z from the cache, as Ipopt asks for them.
     MinJerkProblem::ValueCache cache;
-    const MinJerkCostTerms value = a.Evaluate(z, nullptr, nullptr, &cache);
-    const MinJerkCostTerms with_derivatives = a.Evaluate(z, &g, &h, &cache);
+    const PlanCostTerms value = a.Evaluate(z, nullptr, nullptr, &cache);
+    const PlanCostTerms with_derivatives = a.Evaluate(z, &g, &h, &cache);
     EXPECT_EQ(std::memcmp(&value, &ref, sizeof ref), 0) << "wiggle " << wiggle;
     EXPECT_EQ(std::memcmp(&with_derivatives, &ref, sizeof ref), 0) << "wiggle " << wiggle;
     EXPECT_TRUE(SameBits(g, g_ref) && SameBits(h, h_ref)) << "wiggle " << wiggle;
@@ -414,15 +414,15 @@ TEST(MinJerkProblem, ValueCacheGivesTheSameBitsAndIsUsedOnlyForItsProblemAndPoin
     // afresh (and refills the cache).
     Eigen::VectorXd g2_ref, g2;
     Eigen::MatrixXd h2_ref, h2;
-    const MinJerkCostTerms ref2 = a.Evaluate(z2, &g2_ref, &h2_ref);
-    const MinJerkCostTerms at_z2 = a.Evaluate(z2, &g2, &h2, &cache);
+    const PlanCostTerms ref2 = a.Evaluate(z2, &g2_ref, &h2_ref);
+    const PlanCostTerms at_z2 = a.Evaluate(z2, &g2, &h2, &cache);
     EXPECT_EQ(std::memcmp(&at_z2, &ref2, sizeof ref2), 0) << "wiggle " << wiggle;
     EXPECT_TRUE(SameBits(g2, g2_ref) && SameBits(h2, h2_ref)) << "wiggle " << wiggle;
     a.Evaluate(z, nullptr, nullptr, &cache);
     Eigen::VectorXd gb_ref, gb;
     Eigen::MatrixXd hb_ref, hb;
-    const MinJerkCostTerms ref_b = b.Evaluate(z, &gb_ref, &hb_ref);
-    const MinJerkCostTerms at_b = b.Evaluate(z, &gb, &hb, &cache);
+    const PlanCostTerms ref_b = b.Evaluate(z, &gb_ref, &hb_ref);
+    const PlanCostTerms at_b = b.Evaluate(z, &gb, &hb, &cache);
     EXPECT_NE(ref_b.total, ref.total);
     EXPECT_EQ(std::memcmp(&at_b, &ref_b, sizeof ref_b), 0) << "wiggle " << wiggle;
     EXPECT_TRUE(SameBits(gb, gb_ref) && SameBits(hb, hb_ref)) << "wiggle " << wiggle;

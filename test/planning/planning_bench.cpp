@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "forest_scene.hpp"
-#include "quadtune/planning/trajectory_optimizer.hpp"
+#include "quadtune/planning/ipopt/trajectory_optimizer.hpp"
 
 namespace {
 
@@ -61,7 +61,7 @@ struct SolveTally {
     cost += r.cost.total;
     min_clearance = std::min(min_clearance, r.min_clearance);
     successes += r.Ok() ? 1 : 0;
-    stalled += r.ipopt_status == 1 ? 1 : 0;
+    stalled += r.solver_status == 1 ? 1 : 0;
   }
   [[nodiscard]] double Count() const { return static_cast<double>(times_ms.size()); }
   void Report(benchmark::State& state) const {

@@ -24,6 +24,7 @@
 #include "quadtune/common/random.hpp"
 #include "quadtune/layout/layout.hpp"
 #include "quadtune/physics/drone.hpp"
+#include "quadtune/planning/ipopt/ipopt_backend.hpp"
 #include "quadtune/planning/local_planner.hpp"
 #include "quadtune/sim/flight.hpp"
 #include "bench_util.hpp"
@@ -120,7 +121,7 @@ void SolveEach(benchmark::State& state, bool warm) {
       PlannerParams p = q.params;  // θ_l and fixed parameters in force in flight
       p.n_pol = params.n_pol;
       const auto t0 = std::chrono::steady_clock::now();
-      const PlanResult r = Optimizer().Solve(q.ToRequest(warm), q.field, p);
+      const PlanResult r = Optimizer().Solve(quadtune::planning::ToRequest(q, warm), q.field, p);
       const auto t1 = std::chrono::steady_clock::now();
       benchmark::DoNotOptimize(r);
       tally.Add(r, std::chrono::duration<double, std::milli>(t1 - t0).count(), p);

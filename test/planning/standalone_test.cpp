@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "quadtune/planning/stop_and_go.hpp"
+#include "quadtune/planning/quintic.hpp"
 
 namespace quadtune::planning {
 namespace {

@@ -1,4 +1,4 @@
-#include "quadtune/planning/trajectory_optimizer.hpp"
+#include "quadtune/planning/ipopt/trajectory_optimizer.hpp"
 
 #include <gtest/gtest.h>
 
@@ -119,12 +119,12 @@ TEST(TrajectoryOptimizer, SmoothFieldConvergesToToleranceOrItsRoundingFloor) {
       const std::string what = "n_pol " + std::to_string(n_pol) + " seed " +
                                std::to_string(seed) + ": " + r.message;
       EXPECT_LT(r.iterations, 60) << what;
-      if (r.ipopt_status == 0) continue;
-      EXPECT_EQ(r.ipopt_status, 1) << what;  // Solved_To_Acceptable_Level
+      if (r.solver_status == 0) continue;
+      EXPECT_EQ(r.solver_status, 1) << what;  // Solved_To_Acceptable_Level
       EXPECT_EQ(r.message, "stalled at the objective's rounding floor") << what;
       ++at_floor;
       const PlanResult full = patient.Solve(q.request, *q.field, params);
-      EXPECT_EQ(full.ipopt_status, 0) << what;
+      EXPECT_EQ(full.solver_status, 0) << what;
       EXPECT_GE(full.function_evaluations, r.function_evaluations) << what;
       EXPECT_NEAR(r.cost.total, full.cost.total, 1e-9 * full.cost.total) << what;
       EXPECT_LT((r.trajectory.Position(0.5 * r.duration) -
@@ -145,7 +145,7 @@ TEST(TrajectoryOptimizer, EsdfWithCurvatureConvergesToTolerance) {
     const testing::ForestQuery q = testing::MakeForestQuery(seed);
     const Esdf esdf = testing::ForestEsdf(q);
     const PlanResult r = optimizer.Solve(q.request, esdf, params);
-    EXPECT_EQ(r.ipopt_status, 0) << "seed " << seed << ": " << r.message;
+    EXPECT_EQ(r.solver_status, 0) << "seed " << seed << ": " << r.message;
     EXPECT_EQ(r.status, PlanStatus::kSuccess) << "seed " << seed << ": " << r.message;
     EXPECT_GT(r.min_clearance, 0.0);
   }

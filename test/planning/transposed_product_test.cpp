@@ -1,4 +1,4 @@
-#include "quadtune/planning/transposed_product.hpp"
+#include "quadtune/planning/ipopt/transposed_product.hpp"
 
 #include <gtest/gtest.h>
 

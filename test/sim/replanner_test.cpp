@@ -4,7 +4,8 @@
 
 #include "../config_error_util.hpp"
 #include "../planning/scene_util.hpp"
-#include "quadtune/planning/stop_and_go.hpp"
+#include "quadtune/planning/ipopt/stop_and_go.hpp"
+#include "quadtune/planning/quintic.hpp"
 
 namespace quadtune::sim {
 namespace {

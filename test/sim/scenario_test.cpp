@@ -7,8 +7,8 @@
 
 #include "../config_error_util.hpp"
 #include "quadtune/common/fields.hpp"
-#include "quadtune/planning/trajectory_backend.hpp"
-#include "quadtune/planning/trajectory_optimizer.hpp"
+#include "quadtune/planning/ipopt/ipopt_backend.hpp"
+#include "quadtune/planning/ipopt/trajectory_optimizer.hpp"
 
 namespace quadtune::sim {
 namespace {

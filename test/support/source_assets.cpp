@@ -2,7 +2,7 @@
 // source tree: the source tree's assets/ is their asset folder (engine::SetAssetDirs), set while
 // the program starts. Linked as an object (quadtune_test_assets) into every test program that
 // links quadtune::engine.
-#include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
 
 namespace {
 

@@ -11,7 +11,7 @@
 
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/random.hpp"
-#include "quadtune/engine/planner_registry.hpp"
+#include "quadtune/engine/api/planner_registry.hpp"
 
 namespace quadtune::engine::test {
 

@@ -23,7 +23,7 @@
 #include <vector>
 
 #include "quadtune/common/yaml.hpp"
-#include "quadtune/engine/planner.hpp"
+#include "quadtune/engine/api/planner.hpp"
 
 namespace quadtune::engine::test {
 

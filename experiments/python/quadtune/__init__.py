@@ -10,7 +10,7 @@
 
 The tables have the columns of `quadtune export STORE --tidy DIR`: id, repeat, then the
 evaluation table's columns as the store lists them in its `stored_column` table (written from
-the C++ column list, EvaluationColumns in engine/result_store.cpp): trial_id, method, kind,
+the C++ column list, EvaluationColumns in engine/store/result_store.cpp): trial_id, method, kind,
 iteration, index, value, status, state (what became of the evaluation: ok, collision, timeout,
 stalled, diverged, solver_failure, error, ...), message (the reason), wall_s, started, finished,
 map_seed, flight_seed, then one column per parameter and one per objective term (a name clashing

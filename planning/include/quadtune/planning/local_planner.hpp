@@ -5,10 +5,10 @@
 ///  1. LocalPlanner::MakeQuery — the front end (local goal at the horizon h_pl, A* on the inflated
 ///     local map, pruning) and a distance-field snapshot of the region around the path, packed into
 ///     a self-contained PlanningQuery;
-///  2. SolveQuery — the Ipopt back end on that query with a given θ_s, retried up to
-///     PlannerParams::max_attempts times (without warm start, then with a slower time allocation;
-///     a stronger collision weight after a plan that cut into the clearance) before the plan
-///     counts as failed.
+///  2. TrajectoryBackend::Solve (trajectory_backend.hpp) — a back end on that query with a given
+///     θ_s, retried up to PlannerParams::max_attempts times before the plan counts as failed
+///     (the Ipopt back end's SolveQuery, ipopt/ipopt_backend.hpp; the EGO back end's
+///     EgoBackend::Solve, ego/ego_optimizer.hpp).
 ///
 /// A PlanningQuery is a value: any thread can re-solve it later with other short-term parameters
 /// θ_s = {w_col, w_dyn, n_pol}; that is exactly what a short-term evaluation does (paper Sec.
@@ -27,8 +27,8 @@
 #include "quadtune/planning/local_map.hpp"
 #include "quadtune/planning/parameters.hpp"
 #include "quadtune/planning/path_search.hpp"
+#include "quadtune/planning/plan_result.hpp"
 #include "quadtune/planning/trajectory.hpp"
-#include "quadtune/planning/trajectory_optimizer.hpp"
 
 namespace quadtune::planning {
 
@@ -71,8 +71,6 @@ struct PlanningQuery {
   /// re-plan with a v_des below the start speed (the online adaptation's slower trials).
   double braking_deceleration = 0.0;
 
-  /// The optimiser request for this query (warm start optional; it points into *this).
-  [[nodiscard]] PlanRequest ToRequest(bool use_warm_start = true) const;
   /// Approximate bytes held (distance field and paths).
   [[nodiscard]] std::size_t MemoryBytes() const;
 };
@@ -91,7 +89,6 @@ struct PlanOutcome {
 
 /// Settings of the planning step (not tuned by the experiments).
 struct LocalPlannerOptions {
-  TrajectoryOptimizerOptions optimizer;
   PathSearchOptions search;
   EsdfOptions esdf;
   /// The distance-field box is the path's bounding box widened by clearance + this (m), >= 0.
@@ -120,19 +117,6 @@ struct LocalPlannerOptions {
   void CheckParams(const PlannerParams& params, const std::string& origin = "") const;
 };
 
-/// Solves a recorded query with short-term parameters θ_s (the rest of `params` is used as
-/// given). Attempt 0 warm-starts from the previous trajectory when there is one; attempt 1 starts
-/// cold; attempt k ≥ 2 also slows the allocation (PlanRequest::speed_scale =
-/// options.retry_slowdown^(k−1), the limits stay v_des and a_max); after an attempt that failed
-/// the clearance check, the next ones weight the collision cost options.retry_collision_gain
-/// times more (cumulatively). Only those two fields of `options` are read. Stops at the first
-/// success or after params.max_attempts. Never throws for solver failures.
-///
-/// Thread safety: safe to call concurrently (TrajectoryOptimizer::Solve is).
-[[nodiscard]] PlanOutcome SolveQuery(const TrajectoryOptimizer& optimizer,
-                                     const PlanningQuery& query, const PlannerParams& params,
-                                     const LocalPlannerOptions& options = {});
-
 /// The front end and snapshot maker, with reusable scratch memory.
 ///
 /// Thread safety: one LocalPlanner per thread or flight.
@@ -148,10 +132,6 @@ class LocalPlanner {
       const Eigen::Vector3d& a0_W, const Eigen::Vector3d& mission_goal_W,
       const PlannerParams& params, const Trajectory* previous, double previous_time,
       PathSearchResult* front_end = nullptr);
-
-  /// MakeQuery then SolveQuery.
-  [[nodiscard]] PlanOutcome Plan(const TrajectoryOptimizer& optimizer, const PlanningQuery& query,
-                                 const PlannerParams& params) const;
 
   [[nodiscard]] const LocalPlannerOptions& options() const { return options_; }
 

@@ -5,11 +5,14 @@
 /// and the closed-loop flight (sim::Replanner, sim::Fly) and the engine's planner plug-ins take
 /// any TrajectoryBackend; the project ships two:
 ///
-/// - IpoptBackend: the minimum-jerk Ipopt optimiser on the query's distance-field snapshot
-///   (SolveQuery, with its retries), and the stop-and-go fallback (StopAndGoAlongPath,
-///   stop_and_go.hpp);
-/// - EgoBackend (ego_optimizer.hpp): EGO-Planner's B-spline optimiser on the query's occupancy
-///   snapshot, solved by L-BFGS; no fallback.
+/// - IpoptBackend (ipopt/ipopt_backend.hpp): the minimum-jerk Ipopt optimiser on the query's
+///   distance-field snapshot (SolveQuery, with its retries), and the stop-and-go fallback
+///   (StopAndGoAlongPath, ipopt/stop_and_go.hpp);
+/// - EgoBackend (ego/ego_optimizer.hpp): EGO-Planner's B-spline optimiser on the query's
+///   occupancy snapshot, solved by L-BFGS; no fallback.
+///
+/// This header and the rest of the planning core name no back end's types: the back ends live in
+/// their own folders beside the core and include it, never the other way round.
 ///
 /// A back end states which map snapshot its queries need (QuerySnapshot); LocalPlanner::MakeQuery
 /// records that one, so a recorded query holds everything a later re-solve reads.
@@ -22,7 +25,7 @@
 
 #include "quadtune/planning/local_planner.hpp"
 #include "quadtune/planning/parameters.hpp"
-#include "quadtune/planning/trajectory_optimizer.hpp"
+#include "quadtune/planning/plan_result.hpp"
 
 namespace quadtune::planning {
 
@@ -45,25 +48,6 @@ class TrajectoryBackend {
   [[nodiscard]] virtual std::optional<PlanResult> Fallback(const PlanningQuery& query,
                                                            const PlannerParams& params,
                                                            double speed) const = 0;
-};
-
-/// The Ipopt minimum-jerk back end: Solve() is SolveQuery(optimizer, ...), Fallback() is
-/// StopAndGoAlongPath(optimizer, ...). Holds a reference: `optimizer` must outlive it.
-class IpoptBackend final : public TrajectoryBackend {
- public:
-  explicit IpoptBackend(const TrajectoryOptimizer& optimizer) : optimizer_(optimizer) {}
-
-  [[nodiscard]] std::string Name() const override { return "ipopt"; }
-  [[nodiscard]] QuerySnapshot Snapshot() const override { return QuerySnapshot::kDistanceField; }
-  [[nodiscard]] PlanOutcome Solve(const PlanningQuery& query, const PlannerParams& params,
-                                  const LocalPlannerOptions& options) const override;
-  [[nodiscard]] std::optional<PlanResult> Fallback(const PlanningQuery& query,
-                                                   const PlannerParams& params,
-                                                   double speed) const override;
-  [[nodiscard]] const TrajectoryOptimizer& optimizer() const { return optimizer_; }
-
- private:
-  const TrajectoryOptimizer& optimizer_;
 };
 
 }  // namespace quadtune::planning

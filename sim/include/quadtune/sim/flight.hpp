@@ -24,6 +24,7 @@
 #include "quadtune/common/enum_names.hpp"
 #include "quadtune/physics/depth_sensor.hpp"
 #include "quadtune/physics/world.hpp"
+#include "quadtune/planning/ipopt/trajectory_optimizer.hpp"
 #include "quadtune/planning/local_map.hpp"
 #include "quadtune/planning/local_planner.hpp"
 #include "quadtune/planning/parameters.hpp"
@@ -65,11 +66,21 @@ constexpr auto EnumNames(FlightStatus) {
 }
 using quadtune::ToString;
 
+/// Settings of the closed loop's planning step: those of every back end (the base) and the Ipopt
+/// back end's solver settings, which the Ipopt planner builds its optimiser from and the online
+/// adaptation's braking check reads its limits' tolerance and sampling from.
+struct FlightPlannerOptions : planning::LocalPlannerOptions {
+  planning::TrajectoryOptimizerOptions optimizer;
+
+  /// Throws ConfigError(origin, key, ...) for the first bad field (the optimiser's first).
+  void Validate(const std::string& origin = "") const;
+};
+
 /// Settings of a flight (not tuned by the experiments).
 struct FlightOptions {
   physics::DepthSensorOptions sensor = DefaultSensor();
   planning::LocalMapOptions map;  ///< resolution and inflation are taken from the parameters
-  planning::LocalPlannerOptions planner;
+  FlightPlannerOptions planner;
   ReplannerOptions replanner;
   double tick_rate_hz = 100.0;   ///< FSM and metric rate (Hz), must divide the physics rate
   double max_time = 120.0;       ///< flight time limit (s), > 0

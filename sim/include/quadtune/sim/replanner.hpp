@@ -43,7 +43,7 @@
 #include "quadtune/planning/parameters.hpp"
 #include "quadtune/planning/trajectory.hpp"
 #include "quadtune/planning/trajectory_backend.hpp"
-#include "quadtune/planning/trajectory_optimizer.hpp"
+#include "quadtune/planning/ipopt/trajectory_optimizer.hpp"
 
 namespace quadtune::sim {
 
