@@ -613,17 +613,25 @@ void RegisterRun(CLI::App& app, int& exit_code) {
 void RegisterExport(CLI::App& app, int& exit_code) {
   static std::string store;
   static std::string csv = "results/csv";
-  auto* cmd = app.add_subcommand("export", "export a results store to CSV files");
+  auto* cmd = app.add_subcommand(
+      "export", "export a results store to CSV files: experiment.csv, trials.csv and "
+                "evaluations.csv in --csv, or the tidy tables in --tidy");
   cmd->add_option("results", store, "results.sqlite")->required();
   static std::string tidy;
-  cmd->add_option("--csv", csv, "output directory")->capture_default_str();
+  cmd->add_option("--csv", csv,
+                  "output directory of experiment.csv, trials.csv and evaluations.csv (the "
+                  "stored rows as stored)")
+      ->capture_default_str();
   cmd->add_option("--tidy", tidy,
-                  "instead: one row per evaluation, one column per parameter and "
-                  "objective term (long_term.csv, short_term.csv) in this folder");
+                  "instead: typed tables in this folder, one row per evaluation, one column "
+                  "per parameter (params_*) and objective term (terms_*): long_term.csv, "
+                  "short_term.csv, and validation.csv, recheck.csv, race.csv, incumbent.csv "
+                  "where the store holds such rows");
   cmd->callback([&exit_code] {
     if (!tidy.empty()) {
-      WriteTidyCsv(store, tidy);
-      spdlog::info("wrote {}/long_term.csv, short_term.csv", tidy);
+      std::string files;
+      for (const auto& f : WriteTidyCsv(store, tidy)) files += (files.empty() ? "" : ", ") + f;
+      spdlog::info("wrote {} in {}", files, tidy);
       exit_code = 0;
       return;
     }

@@ -114,9 +114,10 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
     // The store's text form of a REAL has 15 significant digits; the export keeps every bit.
     EXPECT_NEAR(std::stod(long_rows[i].at("value")), std::stod(flights[i][2]),
                 1e-13 * std::abs(std::stod(flights[i][2])));
-    EXPECT_EQ(std::stod(long_rows[i].at("t_f")),
+    EXPECT_EQ(std::stod(long_rows[i].at("terms_t_f")),
               nlohmann::json::parse(flights[i][1])["t_f"].get<double>());
-    for (const char* p : {"v_des", "h_pl", "t_pl", "map_seed", "flight_seed"}) {
+    for (const char* p :
+         {"params_v_des", "params_h_pl", "params_t_pl", "map_seed", "flight_seed"}) {
       EXPECT_FALSE(long_rows[i].at(p).empty()) << p;
     }
   }
@@ -127,8 +128,8 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
   const auto short_rows = ReadCsv(dir / "tidy" / "short_term.csv");
   EXPECT_EQ(std::to_string(short_rows.size()), n_short[0][0]);
   ASSERT_FALSE(short_rows.empty());
-  EXPECT_FALSE(short_rows[0].at("w_col").empty());
-  EXPECT_FALSE(short_rows[0].at("t_c").empty());
+  EXPECT_FALSE(short_rows[0].at("params_w_col").empty());
+  EXPECT_FALSE(short_rows[0].at("terms_t_c").empty());
 
   // The Python reader: the same rows as DataFrames.
   const std::string python = "PYTHONPATH='" + std::string(QUADTUNE_SOURCE_DIR) +
@@ -136,8 +137,8 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
                              "r = quadtune.load('" +
                              run.string() +
                              "'); "
-                             "print(len(r.long), len(r.short), repr(r.long['t_f'].sum()), "
-                             "r.long['v_des'].notna().all(), r.experiment['name'])\"";
+                             "print(len(r.long), len(r.short), repr(r.long['terms_t_f'].sum()), "
+                             "r.long['params_v_des'].notna().all(), r.experiment['name'])\"";
   double t_f_sum = 0.0;
   for (const auto& f : flights) t_f_sum += nlohmann::json::parse(f[1])["t_f"].get<double>();
   const std::string loaded = Capture(python);
