@@ -262,7 +262,14 @@ int RunMpi(const RunArgs& a, const engine::FaultInjection& fault) {
   const std::string store = (fs::path(a.out) / "results.sqlite").string();
   InstallCancelSignalHandlers();
   try {
-    const engine::Experiment e = engine::LoadExperimentShared(mpi, a.experiment, a.set);
+    const engine::Experiment e = [&] {
+      try {
+        return engine::LoadExperimentShared(mpi, a.experiment, a.set);
+      } catch (const ConfigError& error) {
+        BlameSet(error, a.set);
+        throw;
+      }
+    }();
     CheckThreadsFitAddressSpace(a.threads, e.threads, a.experiment);
     const bool tty = rank == 0 && isatty(fileno(stderr)) != 0 && !a.quiet;
     engine::DistributedOptions options;
@@ -327,7 +334,7 @@ int Run(const RunArgs& a) {
   }
   // Every configuration error is reported here, before any work starts.
   CheckFileKind(a.experiment, FileKind::kExperiment);
-  const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
+  const engine::Experiment e = LoadExperiment(a.experiment, a.set);
   CheckThreadsFitAddressSpace(a.threads, e.threads, a.experiment);
   namespace fs = std::filesystem;
   const ResultDir dir(a.out, ResultDirPolicy{a.resume, a.overwrite, true});
@@ -496,7 +503,7 @@ void PrintPoolMemory(const engine::Experiment& e, const engine::Opaque& map,
 
 int Bench(const BenchArgs& a) {
   CheckFileKind(a.experiment, FileKind::kExperiment);
-  const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
+  const engine::Experiment e = LoadExperiment(a.experiment, a.set);
   CheckThreadsFitAddressSpace(a.max_threads, "", "--max-threads");
   if (a.soak > 0) return Soak(e, a.soak, a.max_threads, a.csv);
   const engine::Opaque map = e.planner.PrepareMap(e.MapSeed(0));
@@ -580,6 +587,28 @@ int Bench(const BenchArgs& a) {
 }
 
 }  // namespace
+
+void BlameSet(const ConfigError& e, const std::vector<std::string>& sets) {
+  const std::string what = e.what();
+  if (e.key().empty() || what.find("--set") != std::string::npos) return;
+  for (const std::string& item : sets) {
+    const std::string key = item.substr(0, item.find('='));
+    if (key != e.key() && key.rfind(e.key() + ".", 0) != 0) continue;
+    const std::size_t prefix = (e.file().empty() ? 0 : e.file().size() + 2) + e.key().size() + 2;
+    throw ConfigError("--set", e.key(),
+                      (what.size() > prefix ? what.substr(prefix) : what) + " (from --set " +
+                          item + ", applied to " + e.file() + ")");
+  }
+}
+
+engine::Experiment LoadExperiment(const std::string& path, const std::vector<std::string>& sets) {
+  try {
+    return engine::Experiment::LoadFile(path, sets);
+  } catch (const ConfigError& e) {
+    BlameSet(e, sets);
+    throw;
+  }
+}
 
 void RegisterRun(CLI::App& app, int& exit_code) {
   static RunArgs args;
