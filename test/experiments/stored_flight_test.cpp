@@ -219,11 +219,15 @@ TEST(StoredFlights, EgoFlightsFlyAgainExactly) {
   }
 }
 
-// fly writes summary.json once, with the parameters flown: the planner's defaults and --set.
+// fly writes summary.json once, with the parameters flown: the planner's defaults and --set;
+// into a used folder, it leaves no figure or report of the earlier flight behind.
 TEST(StoredFlights, FlySummaryHoldsTheParametersFlown) {
   const fs::path dir = fs::temp_directory_path() / "quadtune_fly_params";
   fs::remove_all(dir);
-  fs::create_directories(dir);
+  fs::create_directories(dir / "f");
+  // A used folder: the figure and report of an earlier flight must not stay beside the new logs.
+  std::ofstream(dir / "f" / "flight_topdown.png") << "an earlier flight's figure";
+  std::ofstream(dir / "f" / "report.html") << "an earlier flight's report";
   ASSERT_EQ(RunQuadtune("--log-level warn fly --planner ego --spacing 3.0 --seed 2 --max-time 3 "
                             "--set v_des=3 --set n_pol=6 --no-plot --out " +
                             (dir / "f").string(),
@@ -239,6 +243,9 @@ TEST(StoredFlights, FlySummaryHoldsTheParametersFlown) {
   EXPECT_EQ(summary["status"], "timeout");
   EXPECT_EQ(summary["seed"], 2);
   EXPECT_EQ(summary["drone"], "research_1kg");
+  EXPECT_FALSE(fs::exists(dir / "f" / "flight_topdown.png"));
+  EXPECT_FALSE(fs::exists(dir / "f" / "report.html"));
+  EXPECT_TRUE(fs::exists(dir / "f" / "flight.csv"));
 }
 
 }  // namespace
