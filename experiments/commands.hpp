@@ -65,8 +65,9 @@ inline CLI::Validator SeedValidator() {
 }
 
 /// Rethrows `e` (an error about the experiment file) as an error of the --set option, naming
-/// the key and keeping what is allowed, when its key is one an assignment of `sets` (KEY=VALUE)
-/// wrote or a map above it (a typo in a --set key is not the file's fault); returns otherwise.
+/// the key and keeping what is allowed, when it is an unknown key that an assignment of `sets`
+/// (KEY=VALUE) wrote, or a map above it (a typo in a --set key is not the file's fault); returns
+/// otherwise (a bad value keeps naming the file and its key).
 void BlameSet(const ConfigError& e, const std::vector<std::string>& sets);
 /// engine::Experiment::LoadFile(path, sets), errors about a --set key blamed on --set (BlameSet).
 engine::Experiment LoadExperiment(const std::string& path, const std::vector<std::string>& sets);

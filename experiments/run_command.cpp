@@ -595,9 +595,10 @@ void BlameSet(const ConfigError& e, const std::vector<std::string>& sets) {
     const std::string key = item.substr(0, item.find('='));
     if (key != e.key() && key.rfind(e.key() + ".", 0) != 0) continue;
     const std::size_t prefix = (e.file().empty() ? 0 : e.file().size() + 2) + e.key().size() + 2;
+    const std::string message = what.size() > prefix ? what.substr(prefix) : what;
+    if (message.rfind("unknown key", 0) != 0) return;  // a bad value: the file's key names it
     throw ConfigError("--set", e.key(),
-                      (what.size() > prefix ? what.substr(prefix) : what) + " (from --set " +
-                          item + ", applied to " + e.file() + ")");
+                      message + " (from --set " + item + ", applied to " + e.file() + ")");
   }
 }
 
