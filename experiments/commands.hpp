@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "quadtune/common/error.hpp"
+#include "quadtune/engine/experiment.hpp"
 #include "quadtune/layout/options.hpp"
 
 namespace quadtune::cli {
@@ -61,6 +63,14 @@ inline CLI::Validator SeedValidator() {
       },
       "SEED");
 }
+
+/// Rethrows `e` (an error about the experiment file) as an error of the --set option, naming
+/// the key and keeping what is allowed, when it is an unknown key that an assignment of `sets`
+/// (KEY=VALUE) wrote, or a map above it (a typo in a --set key is not the file's fault); returns
+/// otherwise (a bad value keeps naming the file and its key).
+void BlameSet(const ConfigError& e, const std::vector<std::string>& sets);
+/// engine::Experiment::LoadFile(path, sets), errors about a --set key blamed on --set (BlameSet).
+engine::Experiment LoadExperiment(const std::string& path, const std::vector<std::string>& sets);
 
 /// Runs `script_in_source` (relative to the source tree; $`override_env` names another file)
 /// with Debian's python3 and `args`; returns 0 on success, 1 otherwise (logged).

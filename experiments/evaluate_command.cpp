@@ -140,7 +140,7 @@ void WriteRows(std::ostream& out, const EvaluateArgs& a, const engine::Experimen
 }
 
 int RunEvaluate(const EvaluateArgs& a) {
-  const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
+  const engine::Experiment e = LoadExperiment(a.experiment, a.set);
   if (a.repeat >= e.repeats && a.maps != "heldout") {
     throw ConfigError("", "--repeat",
                       std::to_string(a.repeat) + " is not a repeat of the experiment (it has " +

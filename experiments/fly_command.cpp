@@ -111,6 +111,21 @@ double Fact(const engine::FlightRecord& r, const std::string& name) {
   return d ? *d : 0.0;
 }
 
+/// Removes from `out` what an earlier flight there left and this one did not write again: the
+/// figure and report drawn from the earlier logs, and, for a flight that keeps no log, those
+/// logs; so that every file beside the new summary.json is of the new flight.
+void RemoveStaleOutputs(const std::string& out, bool logged) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> stale = {"flight_topdown.png", "report.html"};
+  if (!logged) {
+    stale.insert(stale.end(), {"flight.csv", "plans.csv", "obstacles.json", "layout.yaml"});
+  }
+  for (const auto& name : stale) {
+    std::error_code ignored;
+    fs::remove(fs::path(out) / name, ignored);
+  }
+}
+
 std::atomic<bool> g_fly_interrupted{false};
 void OnFlySignal(int) { g_fly_interrupted.store(true); }
 
@@ -122,6 +137,7 @@ int RunFlyStored(const FlyArgs& a) {
                       "--from STORE and --evaluation ID go together");
   }
   const engine::Replay replay = FlyStored(a.from, a.evaluation, a.out);
+  RemoveStaleOutputs(a.out, replay.record.logged);
   if (!replay.record.logged) {
     spdlog::info("the planner keeps no flight log; wrote {}/summary.json", a.out);
   } else if (a.plot && RunPlotScript("flight '" + a.out + "'") != 0) {
@@ -174,6 +190,7 @@ int RunFly(const FlyArgs& a) {
   if (r.status == engine::EvalStatus::kFailed && !r.logged) {
     throw std::runtime_error("fly: " + r.message);  // the planner threw (FlyOnPool)
   }
+  RemoveStaleOutputs(a.out, r.logged);
   LogFlight(a, r);
   if (a.plot) {
     if (RunPlotScript("flight '" + a.out + "'") != 0) return 1;

@@ -9,6 +9,8 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <string>
+#include <vector>
 
 #include "commands.hpp"
 #include "config_reference.hpp"
@@ -52,6 +54,51 @@ std::string OneLine(std::string text) {
   return text;
 }
 
+/// Edits (insertions, deletions, substitutions) between `a` and `b`.
+std::size_t EditDistance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = up;
+    }
+  }
+  return row[b.size()];
+}
+
+/// "; did you mean --X?" for each unexpected option of the command line that is near a long
+/// option of the command given (the deepest one parsed) or of its parents: a prefix of it or at
+/// most two edits away; "" when none is.
+std::string Suggestions(const CLI::App* app) {
+  const CLI::App* command = app;
+  while (true) {
+    const auto used = command->get_subcommands();
+    if (used.empty()) break;
+    command = used.front();
+  }
+  std::string out;
+  for (const std::string& extra : app->remaining(true)) {
+    if (extra.rfind("--", 0) != 0 || extra.size() < 4) continue;
+    const std::string given = extra.substr(2, extra.find('=') - 2);
+    std::string best;
+    std::size_t best_distance = 3;
+    for (const CLI::App* c = command; c != nullptr; c = c->get_parent()) {
+      for (const CLI::Option* o : c->get_options()) {
+        for (const std::string& name : o->get_lnames()) {
+          const std::size_t d = name.rfind(given, 0) == 0 ? 0 : EditDistance(given, name);
+          if (d < best_distance) best = name, best_distance = d;
+        }
+      }
+    }
+    if (!best.empty()) out += "; did you mean --" + best + " instead of " + extra + "?";
+  }
+  return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -63,8 +110,9 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("quadtune ") + QUADTUNE_VERSION);
   app.require_subcommand(1);
   // A malformed command line is one line on stderr, like every other error.
-  app.failure_message([](const CLI::App*, const CLI::Error& e) {
-    return "quadtune: " + OneLine(e.what()) + " (see quadtune --help)\n";
+  app.failure_message([](const CLI::App* failed, const CLI::Error& e) {
+    const std::string near = dynamic_cast<const CLI::ExtrasError*>(&e) ? Suggestions(failed) : "";
+    return "quadtune: " + OneLine(e.what()) + near + " (see quadtune --help)\n";
   });
   std::string log_level = "info";
   app.add_option("--log-level", log_level, "log level: trace, debug, info, warn, error, off")

@@ -262,7 +262,14 @@ int RunMpi(const RunArgs& a, const engine::FaultInjection& fault) {
   const std::string store = (fs::path(a.out) / "results.sqlite").string();
   InstallCancelSignalHandlers();
   try {
-    const engine::Experiment e = engine::LoadExperimentShared(mpi, a.experiment, a.set);
+    const engine::Experiment e = [&] {
+      try {
+        return engine::LoadExperimentShared(mpi, a.experiment, a.set);
+      } catch (const ConfigError& error) {
+        BlameSet(error, a.set);
+        throw;
+      }
+    }();
     CheckThreadsFitAddressSpace(a.threads, e.threads, a.experiment);
     const bool tty = rank == 0 && isatty(fileno(stderr)) != 0 && !a.quiet;
     engine::DistributedOptions options;
@@ -327,7 +334,7 @@ int Run(const RunArgs& a) {
   }
   // Every configuration error is reported here, before any work starts.
   CheckFileKind(a.experiment, FileKind::kExperiment);
-  const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
+  const engine::Experiment e = LoadExperiment(a.experiment, a.set);
   CheckThreadsFitAddressSpace(a.threads, e.threads, a.experiment);
   namespace fs = std::filesystem;
   const ResultDir dir(a.out, ResultDirPolicy{a.resume, a.overwrite, true});
@@ -496,7 +503,7 @@ void PrintPoolMemory(const engine::Experiment& e, const engine::Opaque& map,
 
 int Bench(const BenchArgs& a) {
   CheckFileKind(a.experiment, FileKind::kExperiment);
-  const engine::Experiment e = engine::Experiment::LoadFile(a.experiment, a.set);
+  const engine::Experiment e = LoadExperiment(a.experiment, a.set);
   CheckThreadsFitAddressSpace(a.max_threads, "", "--max-threads");
   if (a.soak > 0) return Soak(e, a.soak, a.max_threads, a.csv);
   const engine::Opaque map = e.planner.PrepareMap(e.MapSeed(0));
@@ -581,6 +588,29 @@ int Bench(const BenchArgs& a) {
 
 }  // namespace
 
+void BlameSet(const ConfigError& e, const std::vector<std::string>& sets) {
+  const std::string what = e.what();
+  if (e.key().empty() || what.find("--set") != std::string::npos) return;
+  for (const std::string& item : sets) {
+    const std::string key = item.substr(0, item.find('='));
+    if (key != e.key() && key.rfind(e.key() + ".", 0) != 0) continue;
+    const std::size_t prefix = (e.file().empty() ? 0 : e.file().size() + 2) + e.key().size() + 2;
+    const std::string message = what.size() > prefix ? what.substr(prefix) : what;
+    if (message.rfind("unknown key", 0) != 0) return;  // a bad value: the file's key names it
+    throw ConfigError("--set", e.key(),
+                      message + " (from --set " + item + ", applied to " + e.file() + ")");
+  }
+}
+
+engine::Experiment LoadExperiment(const std::string& path, const std::vector<std::string>& sets) {
+  try {
+    return engine::Experiment::LoadFile(path, sets);
+  } catch (const ConfigError& e) {
+    BlameSet(e, sets);
+    throw;
+  }
+}
+
 void RegisterRun(CLI::App& app, int& exit_code) {
   static RunArgs args;
   auto* cmd = app.add_subcommand("run",
@@ -613,17 +643,25 @@ void RegisterRun(CLI::App& app, int& exit_code) {
 void RegisterExport(CLI::App& app, int& exit_code) {
   static std::string store;
   static std::string csv = "results/csv";
-  auto* cmd = app.add_subcommand("export", "export a results store to CSV files");
+  auto* cmd = app.add_subcommand(
+      "export", "export a results store to CSV files: experiment.csv, trials.csv and "
+                "evaluations.csv in --csv, or the tidy tables in --tidy");
   cmd->add_option("results", store, "results.sqlite")->required();
   static std::string tidy;
-  cmd->add_option("--csv", csv, "output directory")->capture_default_str();
+  cmd->add_option("--csv", csv,
+                  "output directory of experiment.csv, trials.csv and evaluations.csv (the "
+                  "stored rows as stored)")
+      ->capture_default_str();
   cmd->add_option("--tidy", tidy,
-                  "instead: one row per evaluation, one column per parameter and "
-                  "objective term (long_term.csv, short_term.csv) in this folder");
+                  "instead: typed tables in this folder, one row per evaluation, one column "
+                  "per parameter (params_*) and objective term (terms_*): long_term.csv, "
+                  "short_term.csv, and validation.csv, recheck.csv, race.csv, incumbent.csv "
+                  "where the store holds such rows");
   cmd->callback([&exit_code] {
     if (!tidy.empty()) {
-      WriteTidyCsv(store, tidy);
-      spdlog::info("wrote {}/long_term.csv, short_term.csv", tidy);
+      std::string files;
+      for (const auto& f : WriteTidyCsv(store, tidy)) files += (files.empty() ? "" : ", ") + f;
+      spdlog::info("wrote {} in {}", files, tidy);
       exit_code = 0;
       return;
     }

@@ -4,6 +4,9 @@
 #include <sqlite3.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -130,87 +133,176 @@ engine::Replay FlyStored(const std::string& store, std::int64_t id, const std::s
   return replay;
 }
 
-void WriteTidyCsv(const std::string& store, const std::string& directory) {
-  const ReadOnlyStore db(store);
-  const auto& columns = engine::EvaluationColumns().List();
-  struct Row {
-    std::vector<std::string> fixed;               // id, repeat, then the list's plain columns
-    std::vector<nlohmann::json> objects;          // the list's JSON objects, in list order
-  };
-  std::vector<std::string> fixed = {"id", "repeat"};
-  std::vector<const Columns<engine::EvaluationRow>::Column*> objects;
-  for (const auto& c : columns) {
-    if (c.type == ColumnType::kObject) {
-      objects.push_back(&c);
-    } else {
-      fixed.push_back(c.name);
+std::string TidyName(const std::string& stored) {
+  static const std::map<std::string, std::string> renamed = {
+      {"status", ""},
+      {"message", "state_reason"},
+      {"wall_s", "duration"},
+      {"started", "datetime_start"},
+      {"finished", "datetime_complete"}};
+  const auto it = renamed.find(stored);
+  return it == renamed.end() ? stored : it->second;
+}
+
+std::string IsoUtc(double unix_s) {
+  if (!(unix_s > 0.0)) return "";
+  const auto micros = static_cast<std::int64_t>(std::llround(unix_s * 1e6));
+  const std::time_t seconds = static_cast<std::time_t>(micros / 1000000);
+  std::tm tm{};
+  gmtime_r(&seconds, &tm);
+  char text[48];
+  std::snprintf(text, sizeof text, "%04d-%02d-%02dT%02d:%02d:%02d.%06dZ", tm.tm_year + 1900,
+                tm.tm_mon + 1, tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec,
+                static_cast<int>(micros % 1000000));
+  return text;
+}
+
+namespace {
+
+/// An object key's tidy cell: typed keys (Columns::KeyTypes) as whole numbers or true/false,
+/// other numbers in their shortest exact form.
+std::string KeyCell(const nlohmann::json& v, const std::string& type) {
+  if (v.is_number() && !type.empty()) {
+    const double x = v.get<double>();
+    if (type == "boolean" && (x == 0.0 || x == 1.0)) return x == 1.0 ? "true" : "false";
+    if (type == "integer" && x == std::round(x) && std::abs(x) < 9e15) {
+      return std::to_string(static_cast<long long>(x));
     }
   }
+  return Number(v);
+}
+
+/// The key → "integer"/"boolean" map of an object column (Columns::KeyTypes).
+std::map<std::string, std::string> KeyTypesOf(const Columns<engine::EvaluationRow>::Column& c) {
+  std::map<std::string, std::string> types;
+  for (const auto& n : c.names) {
+    const auto colon = n.rfind(':');
+    types[n.substr(0, colon)] = n.substr(colon + 1);
+  }
+  return types;
+}
+
+/// The tidy rows of one store, by kind.
+struct TidyRows {
+  struct Row {
+    std::vector<std::string> fixed;       // the tidy fixed columns (TidyColumns)
+    std::vector<nlohmann::json> objects;  // the list's JSON objects, in list order
+  };
+  std::vector<const Columns<engine::EvaluationRow>::Column*> objects;
   std::map<std::string, std::vector<Row>> by_kind;
-  // Per kind, per object column: the keys met, in order.
-  std::map<std::string, std::vector<std::vector<std::string>>> names;
+  /// Per kind, per object column: the keys met, in order.
+  std::map<std::string, std::vector<std::vector<std::string>>> keys;
+
+  void Add(const std::string& kind, Row r) {
+    auto& kind_keys = keys[kind];
+    kind_keys.resize(objects.size());
+    for (std::size_t k = 0; k < r.objects.size(); ++k) {
+      for (auto it = r.objects[k].begin(); it != r.objects[k].end(); ++it) {
+        auto& seen = kind_keys[k];
+        if (std::find(seen.begin(), seen.end(), it.key()) == seen.end()) seen.push_back(it.key());
+      }
+    }
+    by_kind[kind].push_back(std::move(r));
+  }
+};
+
+TidyRows ReadTidyRows(const std::string& store) {
+  const ReadOnlyStore db(store);
+  TidyRows out;
+  for (const auto& c : engine::EvaluationColumns().List()) {
+    if (c.type == ColumnType::kObject) out.objects.push_back(&c);
+  }
+  std::int64_t number = 0;
   db.Query(
       "SELECT e.id, t.repeat, t.map_seed, " + engine::EvaluationSqlColumns("e.") +
-          " FROM evaluation e LEFT JOIN trial t ON t.id = e.trial_id"
-          " ORDER BY e.kind, e.trial_id, e.iteration, e.idx",
+          " FROM evaluation e LEFT JOIN trial t ON t.id = e.trial_id ORDER BY e.id",
       [&](sqlite3_stmt* s) {
-        Row r;
+        TidyRows::Row r;
         const std::string id = Text(s, 0);
         engine::EvaluationRow row = RowOf(s, 3, store, id);
         if (row.map_seed == 0 && row.kind != engine::EvalKind::kShort) {
           row.map_seed = Seed(Text(s, 2));
         }
-        r.fixed = {id, Text(s, 1)};
-        const std::string kind = ToString(row.kind);
-        auto& kind_names = names[kind];
-        kind_names.resize(objects.size());
-        for (const auto& c : columns) {
+        r.fixed = {std::to_string(number++), id, Text(s, 1)};
+        for (const auto& c : engine::EvaluationColumns().List()) {
           const ColumnValue v = c.get(row);
-          if (c.type != ColumnType::kObject) {
+          const std::string name = TidyName(c.name);
+          if (c.type == ColumnType::kObject) {
+            r.objects.push_back(
+                StoredObject(store, id, c.name.c_str(), std::get<std::string>(v)));
+          } else if (name.rfind("datetime_", 0) == 0) {
+            r.fixed.push_back(IsoUtc(std::get<double>(v)));
+          } else if (!name.empty()) {
             r.fixed.push_back(engine::ColumnText(v, c.type, /*shortest=*/true));
-            continue;
-          }
-          const std::size_t k = r.objects.size();
-          r.objects.push_back(StoredObject(store, id, c.name.c_str(), std::get<std::string>(v)));
-          for (auto it = r.objects[k].begin(); it != r.objects[k].end(); ++it) {
-            auto& seen = kind_names[k];
-            if (std::find(seen.begin(), seen.end(), it.key()) == seen.end()) {
-              seen.push_back(it.key());
-            }
           }
         }
-        by_kind[kind].push_back(std::move(r));
+        out.Add(ToString(row.kind), std::move(r));
       });
-  std::filesystem::create_directories(directory);
-  const std::map<std::string, std::string> files = {
-      {"long", "long_term.csv"},   {"short", "short_term.csv"}, {"validation", "validation.csv"},
-      {"recheck", "recheck.csv"}, {"race", "race.csv"},         {"incumbent", "incumbent.csv"}};
-  for (const auto& [kind, file] : files) {
-    if (kind != "long" && kind != "short" && !by_kind.count(kind)) continue;
-    auto& kind_names = names[kind];
-    kind_names.resize(objects.size());
-    std::ofstream csv(std::filesystem::path(directory) / file);
-    std::set<std::string> used(fixed.begin(), fixed.end());
-    std::string header;
-    for (const auto& c : fixed) header += (header.empty() ? "" : ",") + c;
-    for (std::size_t k = 0; k < objects.size(); ++k) {
-      for (const auto& n : kind_names[k]) {
-        const std::string col = used.count(n) ? objects[k]->prefix + n : n;
-        used.insert(col);
-        header += "," + Cell(col);
-      }
-    }
-    csv << header << '\n';
-    for (const auto& r : by_kind[kind]) {
-      for (std::size_t c = 0; c < r.fixed.size(); ++c) csv << (c ? "," : "") << Cell(r.fixed[c]);
-      for (std::size_t k = 0; k < objects.size(); ++k) {
-        for (const auto& n : kind_names[k]) {
-          csv << ',' << (r.objects[k].contains(n) ? Cell(Number(r.objects[k][n])) : std::string());
-        }
-      }
-      csv << '\n';
+  return out;
+}
+
+/// Writes one kind's tidy file.
+void WriteTidyFile(const TidyRows& rows, const std::string& kind, const std::string& path) {
+  std::vector<std::vector<std::string>> keys = rows.keys.count(kind) ? rows.keys.at(kind)
+                                                                      : decltype(keys){};
+  keys.resize(rows.objects.size());
+  std::vector<std::map<std::string, std::string>> types;
+  std::ofstream csv(path);
+  std::string header;
+  for (const auto& c : TidyColumns()) header += (header.empty() ? "" : ",") + c;
+  for (std::size_t k = 0; k < rows.objects.size(); ++k) {
+    types.push_back(KeyTypesOf(*rows.objects[k]));
+    for (const auto& n : keys[k]) {
+      header += ',';
+      header += Cell(rows.objects[k]->prefix + n);
     }
   }
+  csv << header << '\n';
+  if (!rows.by_kind.count(kind)) return;
+  for (const auto& r : rows.by_kind.at(kind)) {
+    for (std::size_t c = 0; c < r.fixed.size(); ++c) csv << (c ? "," : "") << Cell(r.fixed[c]);
+    for (std::size_t k = 0; k < rows.objects.size(); ++k) {
+      for (const auto& n : keys[k]) {
+        const auto type = types[k].find(n);
+        csv << ','
+            << (r.objects[k].contains(n)
+                    ? Cell(KeyCell(r.objects[k][n], type == types[k].end() ? "" : type->second))
+                    : std::string());
+      }
+    }
+    csv << '\n';
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> TidyColumns() {
+  std::vector<std::string> names = {"number", "id", "repeat"};
+  for (const auto& c : engine::EvaluationColumns().List()) {
+    if (c.type != ColumnType::kObject && !TidyName(c.name).empty()) {
+      names.push_back(TidyName(c.name));
+    }
+  }
+  return names;
+}
+
+const std::vector<std::pair<std::string, std::string>>& TidyFiles() {
+  static const std::vector<std::pair<std::string, std::string>> files = {
+      {"long", "long_term.csv"},   {"short", "short_term.csv"}, {"validation", "validation.csv"},
+      {"recheck", "recheck.csv"}, {"race", "race.csv"},         {"incumbent", "incumbent.csv"}};
+  return files;
+}
+
+std::vector<std::string> WriteTidyCsv(const std::string& store, const std::string& directory) {
+  const TidyRows rows = ReadTidyRows(store);
+  std::filesystem::create_directories(directory);
+  std::vector<std::string> written;
+  for (const auto& [kind, file] : TidyFiles()) {
+    if (kind != "long" && kind != "short" && !rows.by_kind.count(kind)) continue;
+    WriteTidyFile(rows, kind, (std::filesystem::path(directory) / file).string());
+    written.push_back(file);
+  }
+  return written;
 }
 
 }  // namespace quadtune::cli

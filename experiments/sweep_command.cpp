@@ -295,7 +295,7 @@ std::vector<Group> LoadGroups(const SweepArgs& a) {
   std::vector<Group> groups;
   if (a.layouts.empty()) {
     Group g;
-    g.experiment = engine::Experiment::LoadFile(a.experiment, a.set);
+    g.experiment = LoadExperiment(a.experiment, a.set);
     g.label = g.experiment.name;
     groups.push_back(std::move(g));
   }

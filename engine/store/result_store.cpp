@@ -254,8 +254,13 @@ const Columns<EvaluationRow>& EvaluationColumns() {
                    "(race, incumbent), candidate rank (recheck)")
           .Integer("index", &R::index, "position inside the iteration")
           .StoredAs("idx")
-          .Object("params", &R::params, "param_", "the parameters evaluated, name → value")
-          .Object("terms", &R::terms, "term_", "every objective term, name → value")
+          .Object("params", &R::params, "params_", "the parameters evaluated, name → value")
+          .Object("terms", &R::terms, "terms_", "every objective term, name → value")
+          .KeyTypes({"n_c:integer", "n_e:integer", "queries:integer", "plans:integer",
+                     "failed_attempts:integer", "fallback_plans:integer", "n_s:integer",
+                     "n_d:integer", "race_map:integer", "flight_no:integer", "maps:integer",
+                     "incumbent_maps:integer", "completed:boolean", "success:boolean",
+                     "challenger:boolean", "accepted:boolean"})
           .Real("value", &R::value, "the objective value told to the optimiser")
           .Enum("status", &R::status,
                 "whether the evaluation ran: `failed` raised an error or diverged")

@@ -263,8 +263,8 @@ def mean_std(values):
 
 def load_run(path):
     """Per trial: method, repeat, the f_l sequence of its flights (tuning and racing, in the order
-    flown), the parameters of each flight, whether each
-    flight failed (f_l at objective.failure_value), the number of re-solves (θ_s candidates ×
+    flown), the parameters of each flight, whether each flight failed (did not finish, by its
+    state, or f_l at objective.failure_value), the number of re-solves (θ_s candidates ×
     queries_per_eval) before each flight, and the f_s of each θ_s candidate."""
     con = quadtune.connect(path)
     config = con.execute("SELECT config FROM experiment ORDER BY id LIMIT 1").fetchone()
@@ -284,8 +284,8 @@ def load_run(path):
         trials[tid] = {"method": method, "repeat": repeat, "best_value": best_value,
                        "best_params": best_params, "long": [], "params": [], "short_before": [],
                        "long_failed": [], "short_values": [], "shorts": 0, "failed": 0}
-    for row_id, tid, kind, value, status, params in con.execute(
-            "SELECT id, trial_id, kind, value, status, params FROM evaluation "
+    for row_id, tid, kind, value, status, state, params in con.execute(
+            "SELECT id, trial_id, kind, value, status, state, params FROM evaluation "
             "ORDER BY trial_id, id"):
         t = trials.get(tid)
         if t is None:
@@ -297,7 +297,9 @@ def load_run(path):
             t["long"].append(value)
             t["params"].append(quadtune.json_field(params, path, row_id, "params"))
             t["short_before"].append(t["shorts"])
-            t["long_failed"].append(status != "ok" or value >= failure_value)
+            # Failed: the flight did not finish (any state but ok and collision: timeout,
+            # stalled, solver_failure, diverged, error, ...) or scored the failure value.
+            t["long_failed"].append(state not in ("ok", "collision") or value >= failure_value)
             t["failed"] += status != "ok"
     con.close()
     return [t for t in trials.values() if t["long"]]

@@ -25,14 +25,14 @@ def read_store(con, path):
     from quadtune import json_field
     repeats = {tid: rep for tid, rep in con.execute("SELECT id, repeat FROM trial")}
     flights = []
-    for row_id, tid, method, iteration, value, terms, params, status in con.execute(
-            "SELECT id, trial_id, method, iteration, value, terms, params, status FROM evaluation "
+    for row_id, tid, method, iteration, value, terms, params, state in con.execute(
+            "SELECT id, trial_id, method, iteration, value, terms, params, state FROM evaluation "
             "WHERE kind = 'validation' ORDER BY trial_id, iteration"):
         t = json_field(terms, path, row_id, "terms")
         flights.append(dict(method=method, repeat=repeats.get(tid, -1), map=iteration,
                             value=value, completed=t.get("completed", 0.0) > 0.5,
                             n_c=t.get("n_c", 0.0), n_e=t.get("n_e", 0.0),
-                            status=status, params=json_field(params, path, row_id, "params")))
+                            state=state, params=json_field(params, path, row_id, "params")))
     # A `default` trial recommends the defaults; their flights are stored once (trial id 0).
     return flights
 

@@ -505,10 +505,14 @@ TEST(CliMpi, BuildWithoutMpiRefusesAMultiProcessLaunch) {
 // Every failure kind is stored with a state that names it and its reason, and that state is
 // what the tidy export, the Python loader and the report see: toy flights that collide (gates
 // slower than braking from any speed of the range allows), toy flights whose planner raises
-// (throw_speed_above below every speed of the range), real-planner flights cut by max_time.
-// Random search varies the parameters, so the report's importance has pairs to rank: it must
-// find none, as no flight succeeded. The tidy columns and the Python loader's columns are the
-// store's own column list (stored_column).
+// (throw_speed_above below every speed of the range), real-planner flights cut by max_time,
+// real-planner flights to a goal below the ground (no progress: stalled), and real-planner
+// flights whose every plan is rejected (a_max 0.001: solver_failure). Random search varies the
+// parameters, so the report's importance has pairs to rank: it must find none, as no flight
+// succeeded. The tidy tables are typed the same way in the CSV and in quadtune.load: Optuna's
+// leading columns (number, ..., datetime_start, datetime_complete, duration, state), then the
+// store's own column list (stored_column) under its tidy names, params_* and terms_*; integral
+// terms as integers, flags as booleans, timestamps as UTC datetimes, best_params as a mapping.
 TEST(CliStoredStates, EachFailureIsNamedInTheTidyExportPythonAndReport) {
   const fs::path dir = Fresh("stored_states");
   struct Planted {
@@ -518,6 +522,7 @@ TEST(CliStoredStates, EachFailureIsNamedInTheTidyExportPythonAndReport) {
       " --set 'parameters=[{name: gain, lower: 0.05, upper: 1.5, default: 0.3}, {name: max_iter, "
       "lower: 2, upper: 40, type: integer, default: 20}, {name: speed, lower: 5.5, upper: 6.0, "
       "default: 5.8}, {name: margin, lower: 0.0, upper: 0.1, default: 0.05}]'";
+  const std::string tiny = kExperiments + "tiny.yaml";
   const std::vector<Planted> planted = {
       {"collision", ToyExperimentFile(),
        "--set 'planner.toy={length: 20, gates: 6, gate_speed_min: 0.1, gate_speed_max: 0.2, "
@@ -525,12 +530,21 @@ TEST(CliStoredStates, EachFailureIsNamedInTheTidyExportPythonAndReport) {
        "collision", "completed"},
       {"error", ToyExperimentFile(), "--set planner.toy.throw_speed_above=1" + fast, "error",
        "exception: toy planner: speed "},
-      {"timeout", kExperiments + "tiny.yaml", "--set planner.max_time=2", "timeout",
+      {"timeout", tiny, "--set planner.max_time=2", "timeout",
        "timeout: mission not finished within max_time"},
+      {"stalled", tiny,
+       "--set 'planner.layout.mission.goal=[8.0, 0.0, -1.0]' --set planner.mission=go_to",
+       "stalled", "stalled: no progress"},
+      {"solver_failure", tiny, "--set 'planner.fixed={a_max: 0.001}'", "solver_failure", ""},
   };
   const std::string python_path =
       "PYTHONPATH='" + std::string(QUADTUNE_SOURCE_DIR) + "/experiments/python:" +
       std::string(QUADTUNE_SOURCE_DIR) + "/experiments/report' /usr/bin/python3 -c ";
+  const std::map<std::string, std::string> tidy_names = {
+      {"message", "state_reason"},
+      {"wall_s", "duration"},
+      {"started", "datetime_start"},
+      {"finished", "datetime_complete"}};
   for (const Planted& p : planted) {
     SCOPED_TRACE(p.name);
     const fs::path out = dir / p.name;
@@ -545,34 +559,69 @@ TEST(CliStoredStates, EachFailureIsNamedInTheTidyExportPythonAndReport) {
                           dir / "export.log"),
               0)
         << ReadText(dir / "export.log");
-    // The tidy header: id, repeat, then the store's listed columns but the JSON objects.
-    std::string listed = "id,repeat";
+    // The tidy header: number, id, repeat, then the store's listed columns but the JSON objects
+    // and status, under their tidy names.
+    std::string listed = "number,id,repeat";
     for (const auto& row : test::Query(out / "results.sqlite",
                                        "SELECT name FROM stored_column WHERE tbl = 'evaluation' "
                                        "AND type != 'object' ORDER BY position")) {
-      listed += "," + row[0];
+      if (row[0] == "status") continue;
+      listed += "," + (tidy_names.count(row[0]) ? tidy_names.at(row[0]) : row[0]);
     }
-    EXPECT_EQ(FirstLine(out / "tidy" / "long_term.csv").rfind(listed + ",", 0), 0u)
+    EXPECT_EQ(FirstLine(out / "tidy" / "long_term.csv").rfind(listed + ",params_", 0), 0u)
         << FirstLine(out / "tidy" / "long_term.csv");
     const auto flights = ReadCsv(out / "tidy" / "long_term.csv");
     ASSERT_EQ(flights.size(), 3u);
-    for (const auto& f : flights) {
+    for (std::size_t i = 0; i < flights.size(); ++i) {
+      const auto& f = flights[i];
+      if (i > 0) EXPECT_LT(std::stoi(flights[i - 1].at("number")), std::stoi(f.at("number")));
       EXPECT_EQ(f.at("state"), p.state);
-      EXPECT_EQ(f.at("message").rfind(p.message, 0), 0u) << f.at("message");
+      EXPECT_EQ(f.at("state_reason").rfind(p.message, 0), 0u) << f.at("state_reason");
+      if (p.name == "error") continue;  // no terms: the flight raised
+      EXPECT_EQ(f.at("terms_completed"), p.state == "collision" ? "true" : "false");
+      EXPECT_EQ(f.at("terms_n_c").find_first_not_of("0123456789"), std::string::npos)
+          << f.at("terms_n_c");
+      EXPECT_EQ(f.at("terms_plans").find_first_not_of("0123456789"), std::string::npos);
+      EXPECT_EQ(f.at("datetime_start").size(), 27u) << f.at("datetime_start");
+      EXPECT_EQ(f.at("datetime_start").substr(10, 1) + f.at("datetime_start").substr(26), "TZ");
+      EXPECT_LE(f.at("datetime_start"), f.at("datetime_complete"));
     }
-    // Python: the same states and reasons, the same leading columns, and the report's
-    // importance over successful flights only (here none).
+    // Python: the same columns, states and reasons, typed; and the report's importance over
+    // successful flights only (here none).
     const fs::path py = dir / (p.name + ".py.log");
     const std::string script =
         "\"import quadtune, quadtune_report; r = quadtune.load('" + out.string() +
-        "'); print(','.join(r.long.columns[:" + std::to_string(std::count(listed.begin(),
-        listed.end(), ',') + 1) + "])); print(sorted(set(r.long['state']))); "
-        "print(all(m.startswith('" + p.message + "') for m in r.long['message'])); "
-        "print(str(r.long['state'].dtype)); "
+        "'); l = r.long; print(','.join(l.columns[:" +
+        std::to_string(std::count(listed.begin(), listed.end(), ',') + 1) +
+        "])); print(sorted(set(l['state']))); "
+        "print(all(m.startswith('" + p.message + "') for m in l['state_reason'])); "
+        "print(l['state'].dtype, l['number'].dtype, l['trial_id'].dtype, l['map_seed'].dtype, "
+        "l['datetime_start'].dtype, l['duration'].dtype, "
+        "l.get('terms_n_c', l['number']).dtype, "
+        "l.get('terms_completed', l['state_reason'].isna().astype('boolean')).dtype); "
+        "print(sorted(n for t in r[:6] for n in t['number']) == list(range(sum(map(len, "
+        "r[:6])))), "
+        "all(b is None or isinstance(b, dict) for b in r.trials['best_params']), "
+        "r.trials['finished'].dtype); "
         "print(len(quadtune_report.run_data('" + out.string() + "')['importance']))\"";
     ASSERT_EQ(std::system((python_path + script + " > '" + py.string() + "' 2>&1").c_str()), 0)
         << ReadText(py);
-    EXPECT_EQ(ReadText(py), listed + "\n['" + p.state + "']\nTrue\ncategory\n0\n");
+    EXPECT_EQ(ReadText(py), listed + "\n['" + p.state + "']\nTrue\n" +
+                                "category Int64 Int64 UInt64 datetime64[ns, UTC] float64 Int64 "
+                                "boolean\nTrue True datetime64[ns, UTC]\n0\n");
+  }
+}
+
+// export --help names every file each form writes: the three stored tables of --csv and the six
+// tidy tables of --tidy.
+TEST(CliExport, HelpNamesEveryFileItWrites) {
+  const fs::path dir = Fresh("export_help");
+  ASSERT_EQ(RunQuadtune("export --help", dir / "help.log"), 0) << ReadText(dir / "help.log");
+  const std::string help = ReadText(dir / "help.log");
+  for (const char* file : {"experiment.csv", "trials.csv", "evaluations.csv", "long_term.csv",
+                           "short_term.csv", "validation.csv", "recheck.csv", "race.csv",
+                           "incumbent.csv"}) {
+    EXPECT_NE(help.find(file), std::string::npos) << file << " not in:\n" << help;
   }
 }
 

@@ -296,6 +296,23 @@ std::vector<Case> Cases() {
        toy,
        "run {d}/toy.yaml --out {d}/out --set repeats",
        {"toy.yaml", "--set", "repeats"}},
+      // A typo in a --set key is the option's fault, not the file's: named with what is allowed.
+      {"exp_set_key_typo",
+       "",
+       "",
+       "run {d}/toy.yaml --out {d}/out --set budget.flight=3",
+       {"] --set: budget.flight: unknown key", "flights", "--set budget.flight=3"}},
+      {"exp_set_map_typo",
+       "",
+       "",
+       "run {d}/toy.yaml --out {d}/out --set budgt.flights=3",
+       {"] --set: budgt: unknown key", "budget", "--set budgt.flights=3"}},
+      // An option near a known one is named as the likely meaning.
+      {"run_thread_typo",
+       "",
+       "",
+       "run {d}/toy.yaml --out {d}/out --thread 2",
+       {"not expected", "did you mean --threads instead of --thread?"}},
       // ---- ipopt experiment: drone and layout options files ----
       {"ipopt_nbol_outside_planner",
        "ip.yaml",

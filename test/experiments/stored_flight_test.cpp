@@ -114,9 +114,10 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
     // The store's text form of a REAL has 15 significant digits; the export keeps every bit.
     EXPECT_NEAR(std::stod(long_rows[i].at("value")), std::stod(flights[i][2]),
                 1e-13 * std::abs(std::stod(flights[i][2])));
-    EXPECT_EQ(std::stod(long_rows[i].at("t_f")),
+    EXPECT_EQ(std::stod(long_rows[i].at("terms_t_f")),
               nlohmann::json::parse(flights[i][1])["t_f"].get<double>());
-    for (const char* p : {"v_des", "h_pl", "t_pl", "map_seed", "flight_seed"}) {
+    for (const char* p :
+         {"params_v_des", "params_h_pl", "params_t_pl", "map_seed", "flight_seed"}) {
       EXPECT_FALSE(long_rows[i].at(p).empty()) << p;
     }
   }
@@ -127,8 +128,8 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
   const auto short_rows = ReadCsv(dir / "tidy" / "short_term.csv");
   EXPECT_EQ(std::to_string(short_rows.size()), n_short[0][0]);
   ASSERT_FALSE(short_rows.empty());
-  EXPECT_FALSE(short_rows[0].at("w_col").empty());
-  EXPECT_FALSE(short_rows[0].at("t_c").empty());
+  EXPECT_FALSE(short_rows[0].at("params_w_col").empty());
+  EXPECT_FALSE(short_rows[0].at("terms_t_c").empty());
 
   // The Python reader: the same rows as DataFrames.
   const std::string python = "PYTHONPATH='" + std::string(QUADTUNE_SOURCE_DIR) +
@@ -136,8 +137,8 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
                              "r = quadtune.load('" +
                              run.string() +
                              "'); "
-                             "print(len(r.long), len(r.short), repr(r.long['t_f'].sum()), "
-                             "r.long['v_des'].notna().all(), r.experiment['name'])\"";
+                             "print(len(r.long), len(r.short), repr(r.long['terms_t_f'].sum()), "
+                             "r.long['params_v_des'].notna().all(), r.experiment['name'])\"";
   double t_f_sum = 0.0;
   for (const auto& f : flights) t_f_sum += nlohmann::json::parse(f[1])["t_f"].get<double>();
   const std::string loaded = Capture(python);
@@ -218,11 +219,15 @@ TEST(StoredFlights, EgoFlightsFlyAgainExactly) {
   }
 }
 
-// fly writes summary.json once, with the parameters flown: the planner's defaults and --set.
+// fly writes summary.json once, with the parameters flown: the planner's defaults and --set;
+// into a used folder, it leaves no figure or report of the earlier flight behind.
 TEST(StoredFlights, FlySummaryHoldsTheParametersFlown) {
   const fs::path dir = fs::temp_directory_path() / "quadtune_fly_params";
   fs::remove_all(dir);
-  fs::create_directories(dir);
+  fs::create_directories(dir / "f");
+  // A used folder: the figure and report of an earlier flight must not stay beside the new logs.
+  std::ofstream(dir / "f" / "flight_topdown.png") << "an earlier flight's figure";
+  std::ofstream(dir / "f" / "report.html") << "an earlier flight's report";
   ASSERT_EQ(RunQuadtune("--log-level warn fly --planner ego --spacing 3.0 --seed 2 --max-time 3 "
                             "--set v_des=3 --set n_pol=6 --no-plot --out " +
                             (dir / "f").string(),
@@ -238,6 +243,9 @@ TEST(StoredFlights, FlySummaryHoldsTheParametersFlown) {
   EXPECT_EQ(summary["status"], "timeout");
   EXPECT_EQ(summary["seed"], 2);
   EXPECT_EQ(summary["drone"], "research_1kg");
+  EXPECT_FALSE(fs::exists(dir / "f" / "flight_topdown.png"));
+  EXPECT_FALSE(fs::exists(dir / "f" / "report.html"));
+  EXPECT_TRUE(fs::exists(dir / "f" / "flight.csv"));
 }
 
 }  // namespace

@@ -3,21 +3,26 @@
     import sys; sys.path.insert(0, "<quadtune>/experiments/python")
     import quadtune
     r = quadtune.load("results/main/tuning/results.sqlite")   # or the run directory
-    r.long      # pandas DataFrame: one row per flight (f_l), one column per parameter and term
+    r.long      # pandas DataFrame: one row per flight (f_l)
     r.short     # one row per short-term evaluation (f_s on recorded planning queries)
     r.race      # racing flights (race: enabled), r.incumbent the outcome of each race
-    r.validation, r.trials, r.experiment
+    r.validation, r.recheck, r.trials, r.experiment
 
-The tables have the columns of `quadtune export STORE --tidy DIR`: id, repeat, then the
+`load()` gives the tables of `quadtune export STORE --tidy DIR`, typed (it needs pandas;
+Debian: python3-pandas): number (0-based, the store's evaluation order), id, repeat, then the
 evaluation table's columns as the store lists them in its `stored_column` table (written from
-the C++ column list, EvaluationColumns in engine/store/result_store.cpp): trial_id, method, kind,
-iteration, index, value, status, state (what became of the evaluation: ok, collision, timeout,
-stalled, diverged, solver_failure, error, ...), message (the reason), wall_s, started, finished,
-map_seed, flight_seed, then one column per parameter and one per objective term (a name clashing
-with a fixed column gets the prefix the list gives: "param_" or "term_"). `rows()` gives the same
-rows as plain dicts with the standard library only; `load()` needs pandas (Debian:
-python3-pandas) and types the columns by the list (enums as categoricals, seeds as UInt64,
-integers as Int64). Stores are opened read-only.
+the C++ list, EvaluationColumns in engine/store/result_store.cpp) under their tidy names (TIDY_NAMES:
+`status` left out, `message` as state_reason, `wall_s` as duration, `started` and `finished` as
+datetime_start and datetime_complete), then params_<name> per parameter and terms_<name> per
+objective term. Integers are Int64, seeds UInt64, enums (method, kind, state) categoricals,
+timestamps UTC datetimes, and the terms the list types (n_c, plans, ... integers; completed,
+success, ... booleans) Int64 and boolean. `state` says what became of an evaluation: ok,
+collision, timeout, stalled, diverged, solver_failure, error, incomplete, cancelled; state_reason
+says why in words. `trials` has best_params as a dict per trial and finished as a datetime.
+
+`rows()` gives the evaluation rows as stored, as plain dicts with the standard library only (the
+params and terms keys merged in, a key clashing with a column prefixed). Stores are opened
+read-only.
 """
 
 import collections
@@ -40,19 +45,19 @@ class DamagedStore(ValueError):
     column where one is at fault."""
 
 
-def json_field(text, path, row_id, column):
-    """The JSON object stored in `column` of evaluation `row_id` ({} for NULL or empty);
+def json_field(text, path, row_id, column, table="evaluation"):
+    """The JSON object stored in `column` of `table` row `row_id` ({} for NULL or empty);
     DamagedStore naming the file, the row and the column when it is not a JSON object."""
     if not text:
         return {}
     try:
         value = json.loads(text)
     except ValueError as e:
-        raise DamagedStore("{}: damaged results store: evaluation {}: {} is not JSON ({})".format(
-            path, row_id, column, e)) from None
+        raise DamagedStore("{}: damaged results store: {} {}: {} is not JSON ({})".format(
+            path, table, row_id, column, e)) from None
     if not isinstance(value, dict):
-        raise DamagedStore("{}: damaged results store: evaluation {}: {} is not a JSON object"
-                           .format(path, row_id, column))
+        raise DamagedStore("{}: damaged results store: {} {}: {} is not a JSON object"
+                           .format(path, table, row_id, column))
     return value
 
 
@@ -97,7 +102,8 @@ def columns(path, table="evaluation"):
 
 
 def fixed_columns(path):
-    """The tidy columns every row has (KEYS, then the store's columns but its JSON objects)."""
+    """The columns every row of rows() has (KEYS, then the store's columns but its JSON
+    objects)."""
     return KEYS + [c.name for c in columns(path) if c.type != "object"]
 
 
@@ -196,34 +202,121 @@ def experiment(path):
         return dict(zip(["id"] + [c.name for c in listed], row)) if row else {}
 
 
+# Stored evaluation columns under another name in the tidy tables (None: left out).
+TIDY_NAMES = {"status": None, "message": "state_reason", "wall_s": "duration",
+              "started": "datetime_start", "finished": "datetime_complete"}
+# Columns of every tidy row before the store's own: the evaluation order, the row's id and its
+# trial's repeat.
+TIDY_KEYS = ["number", "id", "repeat"]
+
+
+def tidy_name(name):
+    """The tidy name of stored evaluation column `name` (None when left out)."""
+    return TIDY_NAMES.get(name, name)
+
+
+def key_types(column):
+    """{key: "integer" | "boolean"} of an object column (its typed keys, in `names`)."""
+    return dict(n.rsplit(":", 1) for n in column.names if ":" in n)
+
+
+def tidy_rows(path):
+    """({kind: [dict per evaluation, tidy names]}, {kind: {object column: [keys in order]}})
+    in the store's evaluation order (standard library)."""
+    file = store_path(path)
+    listed = columns(path)
+    out, keys = {k: [] for k in KINDS}, {}
+    with connect(path) as db:
+        query = ("SELECT e.id, t.repeat, t.map_seed, "
+                 + ", ".join("e." + c.sql for c in listed)
+                 + " FROM evaluation e LEFT JOIN trial t ON t.id = e.trial_id ORDER BY e.id")
+        for number, r in enumerate(db.execute(query)):
+            where = "evaluation {}".format(r[0])
+            row = {"number": number, "id": r[0], "repeat": r[1]}
+            stored = dict(zip((c.name for c in listed), r[3:]))
+            for column in listed:
+                value = stored[column.name]
+                if column.type == "object":
+                    seen = keys.setdefault(stored.get("kind"), {}).setdefault(column.name, [])
+                    for name, v in json_field(value, file, r[0], column.name).items():
+                        row[column.prefix + name] = v
+                        if name not in seen:
+                            seen.append(name)
+                elif tidy_name(column.name) is not None:
+                    row[tidy_name(column.name)] = _value(column, value, file, where)
+            if row.get("map_seed") is None and row.get("kind") != "short":
+                row["map_seed"] = _seed(r[2], file, where, "the trial's map_seed")
+            out.setdefault(row.get("kind"), []).append(row)
+    return out, keys
+
+
+def _typed(df, pd, listed):
+    """`df` with its columns typed by the store's list (see the module documentation)."""
+    out = df.copy()
+    for name in ("number", "id", "repeat"):
+        out[name] = out[name].astype("Int64")
+    for c in listed:
+        name = tidy_name(c.name)
+        if c.type == "object":
+            for key, kind in key_types(c).items():
+                column = c.prefix + key
+                if column in out.columns:
+                    try:
+                        out[column] = out[column].astype(
+                            "Int64" if kind == "integer" else "boolean")
+                    except (TypeError, ValueError):
+                        pass  # a value the key's type cannot hold: left as numbers
+        elif name is None:
+            continue
+        elif name.startswith("datetime_"):
+            seconds = pd.to_numeric(out[name]).where(lambda s: s > 0)
+            out[name] = pd.to_datetime(seconds, unit="s", utc=True)
+        elif c.type in ("integer", "seed", "real"):
+            out[name] = out[name].astype(
+                {"integer": "Int64", "seed": "UInt64", "real": "float64"}[c.type])
+        elif c.type == "enum":
+            out[name] = out[name].astype(pd.CategoricalDtype(c.names))
+    return out
+
+
+def _trials_frame(path, pd):
+    """The trial table typed: best_params a dict per trial, finished a UTC datetime."""
+    listed = {c.name: c for c in columns(path, "trial")}
+    file = store_path(path)
+    rows_ = trials(path)
+    for row in rows_:
+        for name, column in listed.items():
+            if column.type == "object" and row[name] is not None:
+                row[name] = json_field(row[name], file, row["id"], name, "trial")
+    df = pd.DataFrame(rows_, columns=["id"] + list(listed))
+    for name, column in listed.items():
+        if column.type == "enum":
+            df[name] = df[name].astype(pd.CategoricalDtype(column.names))
+        elif column.type in ("integer", "seed"):
+            df[name] = df[name].astype("Int64" if column.type == "integer" else "UInt64")
+    if "finished" in df.columns:
+        df["finished"] = pd.to_datetime(pd.to_numeric(df["finished"]), unit="s", utc=True)
+    df["id"] = df["id"].astype("Int64")
+    return df
+
+
 def load(path):
-    """Results of the store at `path` as pandas DataFrames (see the module documentation)."""
+    """Results of the store at `path` as typed pandas DataFrames (see the module
+    documentation)."""
     import pandas as pd  # Debian: python3-pandas; only load() needs it
 
-    by_kind = rows(path)
-    params, terms = parameter_names(path)
+    by_kind, keys = tidy_rows(path)
     listed = columns(path)
-    fixed = fixed_columns(path)
-    dtypes = {"id": "Int64", "repeat": "Int64"}
-    for c in listed:
-        if c.type == "integer":
-            dtypes[c.name] = "Int64"
-        elif c.type == "seed":
-            dtypes[c.name] = "UInt64"
-        elif c.type == "real":
-            dtypes[c.name] = "float64"
-        elif c.type == "enum":
-            dtypes[c.name] = pd.CategoricalDtype(c.names)
-    prefixes = {c.name: c.prefix for c in listed if c.type == "object"}
+    fixed = TIDY_KEYS + [tidy_name(c.name) for c in listed
+                         if c.type != "object" and tidy_name(c.name) is not None]
 
     def frame(kind):
         names = list(fixed)
-        for source, column in ((params, "params"), (terms, "terms")):
-            names += [(prefixes[column] + n if n in fixed else n) for n in source.get(kind, [])]
-        df = pd.DataFrame(by_kind.get(kind, []), columns=names)
-        return df.astype({k: v for k, v in dtypes.items() if k in df.columns})
+        for c in listed:
+            if c.type == "object":
+                names += [c.prefix + k for k in keys.get(kind, {}).get(c.name, [])]
+        return _typed(pd.DataFrame(by_kind.get(kind, []), columns=names), pd, listed)
 
     return Results(long=frame("long"), short=frame("short"), validation=frame("validation"),
                    recheck=frame("recheck"), race=frame("race"), incumbent=frame("incumbent"),
-                   trials=pd.DataFrame(trials(path)),
-                   experiment=pd.Series(experiment(path)))
+                   trials=_trials_frame(path, pd), experiment=pd.Series(experiment(path)))

@@ -74,7 +74,8 @@ class Columns {
     std::string name;                ///< in JSON, the exports and Python
     std::string sql;                 ///< the SQL column (the name unless StoredAs)
     ColumnType type = ColumnType::kText;
-    std::vector<std::string> names;  ///< kEnum: the allowed names, in table order
+    /// kEnum: the allowed names, in table order; kObject: its typed keys (KeyTypes)
+  std::vector<std::string> names;
     /// kObject: the prefix a key gets in the exports when another column has its name
     std::string prefix;
     std::string meaning;
@@ -142,6 +143,21 @@ class Columns {
     c.set = [member](T& t, const ColumnValue& v) {
       t.*member = std::get<std::map<std::string, double>>(v);
     };
+    return *this;
+  }
+  /// The last column (kObject): its keys whose values are whole numbers ("key:integer") or 0/1
+  /// flags ("key:boolean"), kept in `names`. The tidy export and the Python loader type those
+  /// keys so; every other key is a real.
+  Columns& KeyTypes(std::vector<std::string> typed) {
+    Column& c = columns_.back();
+    QT_DEMAND(c.type == ColumnType::kObject, "key types for '" + c.name + "', not an object");
+    for (const std::string& t : typed) {
+      const auto colon = t.rfind(':');
+      const std::string type = colon == std::string::npos ? "" : t.substr(colon + 1);
+      QT_DEMAND(type == "integer" || type == "boolean",
+                "key type '" + t + "' of '" + c.name + "': key:integer or key:boolean");
+    }
+    c.names = std::move(typed);
     return *this;
   }
   /// The last column's SQL name, where its name is an SQL keyword.
