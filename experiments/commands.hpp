@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "quadtune/common/error.hpp"
-#include "quadtune/engine/experiment.hpp"
+#include "quadtune/engine/experiment/experiment.hpp"
 #include "quadtune/layout/options.hpp"
 
 namespace quadtune::cli {
