@@ -787,11 +787,14 @@ class Trial {
 
   /// Point `p` in the unit cube of the tuned space (`p` may hold untuned planner parameters too,
   /// which ParameterSpace::FromNamed refuses).
-  Eigen::VectorXd Unit(const ParamValues& p) const {
-    const auto names = e_.space.Names();
+  Eigen::VectorXd Unit(const ParamValues& p) const { return UnitIn(e_.space, p); }
+
+  /// Point `p` in the unit cube of `space` (`p` may hold other parameters too).
+  static Eigen::VectorXd UnitIn(const optimizers::ParameterSpace& space, const ParamValues& p) {
+    const auto names = space.Names();
     Eigen::VectorXd x(static_cast<Eigen::Index>(names.size()));
     for (std::size_t i = 0; i < names.size(); ++i) x[static_cast<Eigen::Index>(i)] = p.at(names[i]);
-    return e_.space.ToUnit(x);
+    return space.ToUnit(x);
   }
 
   /// The recommendation's candidates, best first, at most recommend.candidates, then
@@ -910,11 +913,7 @@ class Trial {
 
   /// `p` in the unit cube of ModelSpace().
   [[nodiscard]] Eigen::VectorXd ModelUnit(const ParamValues& p) const {
-    const auto& space = ModelSpace();
-    const auto names = space.Names();
-    Eigen::VectorXd x(static_cast<Eigen::Index>(names.size()));
-    for (std::size_t i = 0; i < names.size(); ++i) x[static_cast<Eigen::Index>(i)] = p.at(names[i]);
-    return space.ToUnit(x);
+    return UnitIn(ModelSpace(), p);
   }
 
   /// `points` ordered by a ChallengerModel fit to every flight of the trial (race flights

@@ -41,17 +41,23 @@ std::string Capture(const std::string& command) {
   return out;
 }
 
-TEST(StoredFlights, FlyAgainExportLoadAndReport) {
-  const fs::path dir = fs::temp_directory_path() / "quadtune_stored_flights";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  const fs::path run = dir / "run";
-  ASSERT_EQ(RunQuadtune("--log-level warn run --no-plot " + std::string(QUADTUNE_SOURCE_DIR) +
-                            "/experiments/tiny.yaml --out " + run.string(),
-                        dir / "run.log"),
+/// `quadtune run --no-plot` of experiments/`yaml` into a fresh folder `name`; its store.
+fs::path RunInto(const std::string& name, const std::string& yaml, fs::path* dir) {
+  *dir = test::FreshTempDir(name);
+  const fs::path run = *dir / "run";
+  EXPECT_EQ(RunQuadtune("--log-level warn run --no-plot " + std::string(QUADTUNE_SOURCE_DIR) +
+                            "/experiments/" + yaml + " --out " + run.string(),
+                        *dir / "run.log"),
             0)
-      << ReadText(dir / "run.log");
-  const fs::path store = run / "results.sqlite";
+      << ReadText(*dir / "run.log");
+  return run / "results.sqlite";
+}
+
+TEST(StoredFlights, FlyAgainExportLoadAndReport) {
+  fs::path dir;
+  const fs::path store = RunInto("quadtune_stored_flights", "tiny.yaml", &dir);
+  ASSERT_FALSE(HasFailure());
+  const fs::path run = dir / "run";
   const auto flights = Query(store,
                              "SELECT id, terms, value FROM evaluation WHERE kind = 'long' "
                              "ORDER BY id");
@@ -178,16 +184,9 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
 // Flights of the EGO planner fly again through its plug-in: exit 0 says the same value and every
 // term (but the recorded query count); the summary holds them and the stored parameters.
 TEST(StoredFlights, EgoFlightsFlyAgainExactly) {
-  const fs::path dir = fs::temp_directory_path() / "quadtune_stored_ego_flights";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  const fs::path run = dir / "run";
-  ASSERT_EQ(RunQuadtune("--log-level warn run --no-plot " + std::string(QUADTUNE_SOURCE_DIR) +
-                            "/experiments/tiny_ego.yaml --out " + run.string(),
-                        dir / "run.log"),
-            0)
-      << ReadText(dir / "run.log");
-  const fs::path store = run / "results.sqlite";
+  fs::path dir;
+  const fs::path store = RunInto("quadtune_stored_ego_flights", "tiny_ego.yaml", &dir);
+  ASSERT_FALSE(HasFailure());
   const auto flights = Query(store,
                              "SELECT id, terms, value, params FROM evaluation WHERE kind = 'long' "
                              "ORDER BY id");
