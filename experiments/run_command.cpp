@@ -591,9 +591,15 @@ int Bench(const BenchArgs& a) {
 void BlameSet(const ConfigError& e, const std::vector<std::string>& sets) {
   const std::string what = e.what();
   if (e.key().empty() || what.find("--set") != std::string::npos) return;
+  const auto names = [&e](const std::string& key) {
+    return key == e.key() || key.rfind(e.key() + ".", 0) == 0;
+  };
   for (const std::string& item : sets) {
     const std::string key = item.substr(0, item.find('='));
-    if (key != e.key() && key.rfind(e.key() + ".", 0) != 0) continue;
+    // A study's `override.KEY` reaches its experiment, whose error names KEY.
+    const std::string study_override = "override.";
+    const bool overrides = key.rfind(study_override, 0) == 0;
+    if (!names(key) && !(overrides && names(key.substr(study_override.size())))) continue;
     const std::size_t prefix = (e.file().empty() ? 0 : e.file().size() + 2) + e.key().size() + 2;
     const std::string message = what.size() > prefix ? what.substr(prefix) : what;
     if (message.rfind("unknown key", 0) != 0) return;  // a bad value: the file's key names it

@@ -62,10 +62,20 @@ void WriteSummary(const engine::StudySummary& s, const std::string& out) {
   std::ofstream(std::filesystem::path(out) / "summary.json") << j.dump(1) << '\n';
 }
 
+/// engine::Study::LoadFile(path, sets), errors about a --set key blamed on --set (BlameSet).
+engine::Study LoadStudy(const std::string& path, const std::vector<std::string>& sets) {
+  try {
+    return engine::Study::LoadFile(path, sets);
+  } catch (const ConfigError& e) {
+    BlameSet(e, sets);
+    throw;
+  }
+}
+
 int RunStudyCommand(const StudyArgs& a) {
   engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "study");
   CheckFileKind(a.file, FileKind::kStudy);
-  const engine::Study study = engine::Study::LoadFile(a.file, a.set);  // all errors before any work
+  const engine::Study study = LoadStudy(a.file, a.set);  // all errors before any work
   if (a.threads > 0) CheckThreadsFitAddressSpace(a.threads, "", "--threads");
   spdlog::info("study '{}' ({}): {} point(s){}, {} stage(s), {} validation flights per tuned trial",
                study.name, a.file, study.labels.size(),
