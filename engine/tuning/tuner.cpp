@@ -985,8 +985,9 @@ class Trial {
       ++summary_.race_flights;
       if (o.status != EvalStatus::kOk) ++summary_.failed;
       if (o.replayed) ++summary_.replayed;
-      (flights[i].challenger ? challenger_samples : incumbent_samples_).push_back(Sample(o));
-      every_flight_.push_back({Sample(o).failed, o.objective.value, o.params});
+      const optimizers::RaceSample sample = Sample(o);
+      (flights[i].challenger ? challenger_samples : incumbent_samples_).push_back(sample);
+      every_flight_.push_back({sample.failed, o.objective.value, o.params});
       TellSurrogate(flights[i].challenger ? challenger : incumbent_, o.objective.value);
     }
     return true;

@@ -53,6 +53,28 @@ fs::path RunInto(const std::string& name, const std::string& yaml, fs::path* dir
   return run / "results.sqlite";
 }
 
+/// `fly --from STORE --evaluation ID` into DIR/fly_ID, which must exit 0; *summary: the flight's
+/// summary.json, whose flight time, collisions, emergency stops and each of `same` must equal
+/// the stored terms (JSON text).
+void FlyAgain(const fs::path& store, const fs::path& dir, const std::string& id,
+              const std::string& stored_terms, const std::vector<std::string>& same,
+              nlohmann::json* summary) {
+  const fs::path out = dir / ("fly_" + id);
+  ASSERT_EQ(RunQuadtune("--log-level warn fly --from " + store.string() + " --evaluation " + id +
+                            " --no-plot --out " + out.string(),
+                        dir / "fly.log"),
+            0)
+      << ReadText(dir / "fly.log");
+  const auto terms = nlohmann::json::parse(stored_terms);
+  *summary = nlohmann::json::parse(ReadText(out / "summary.json"));
+  EXPECT_EQ((*summary)["flight_time"].get<double>(), terms["t_f"].get<double>());
+  EXPECT_EQ((*summary)["collisions"].get<double>(), terms["n_c"].get<double>());
+  EXPECT_EQ((*summary)["emergency_stops"].get<double>(), terms["n_e"].get<double>());
+  for (const auto& key : same) {
+    EXPECT_EQ((*summary)[key].get<double>(), terms[key].get<double>()) << key;
+  }
+}
+
 TEST(StoredFlights, FlyAgainExportLoadAndReport) {
   fs::path dir;
   const fs::path store = RunInto("quadtune_stored_flights", "tiny.yaml", &dir);
@@ -75,20 +97,11 @@ TEST(StoredFlights, FlyAgainExportLoadAndReport) {
   for (const auto& f : again) {
     SCOPED_TRACE("evaluation " + f[0]);
     const fs::path out = dir / ("fly_" + f[0]);
-    ASSERT_EQ(RunQuadtune("--log-level warn fly --from " + store.string() + " --evaluation " +
-                              f[0] + " --no-plot --out " + out.string(),
-                          dir / "fly.log"),
-              0)
-        << ReadText(dir / "fly.log");
-    const auto terms = nlohmann::json::parse(f[1]);
-    const auto summary = nlohmann::json::parse(ReadText(out / "summary.json"));
-    EXPECT_EQ(summary["flight_time"].get<double>(), terms["t_f"].get<double>());
-    EXPECT_EQ(summary["collisions"].get<double>(), terms["n_c"].get<double>());
-    EXPECT_EQ(summary["emergency_stops"].get<double>(), terms["n_e"].get<double>());
-    for (const char* same :
-         {"plans", "failed_attempts", "compute_units", "jerk_integral", "min_clearance"}) {
-      EXPECT_EQ(summary[same].get<double>(), terms[same].get<double>()) << same;
-    }
+    nlohmann::json summary;
+    FlyAgain(store, dir, f[0], f[1],
+             {"plans", "failed_attempts", "compute_units", "jerk_integral", "min_clearance"},
+             &summary);
+    ASSERT_FALSE(HasFatalFailure());
     EXPECT_EQ(summary["stored"]["evaluation"].get<int>(), std::stoi(f[0]));
     EXPECT_GT(ReadCsv(out / "flight.csv").size(), 20u);
     EXPECT_GT(ReadCsv(out / "plans.csv").size(), 20u);
@@ -194,20 +207,12 @@ TEST(StoredFlights, EgoFlightsFlyAgainExactly) {
   for (const auto& f : flights) {
     SCOPED_TRACE("evaluation " + f[0]);
     const fs::path out = dir / ("fly_" + f[0]);
-    ASSERT_EQ(RunQuadtune("--log-level warn fly --from " + store.string() + " --evaluation " +
-                              f[0] + " --no-plot --out " + out.string(),
-                          dir / "fly.log"),
-              0)
-        << ReadText(dir / "fly.log");
-    const auto terms = nlohmann::json::parse(f[1]);
-    const auto summary = nlohmann::json::parse(ReadText(out / "summary.json"));
-    EXPECT_EQ(summary["flight_time"].get<double>(), terms["t_f"].get<double>());
-    EXPECT_EQ(summary["collisions"].get<double>(), terms["n_c"].get<double>());
-    EXPECT_EQ(summary["emergency_stops"].get<double>(), terms["n_e"].get<double>());
-    for (const char* same : {"plans", "failed_attempts", "fallback_plans", "compute_units",
-                             "jerk_integral", "min_clearance"}) {
-      EXPECT_EQ(summary[same].get<double>(), terms[same].get<double>()) << same;
-    }
+    nlohmann::json summary;
+    FlyAgain(store, dir, f[0], f[1],
+             {"plans", "failed_attempts", "fallback_plans", "compute_units", "jerk_integral",
+              "min_clearance"},
+             &summary);
+    ASSERT_FALSE(HasFatalFailure());
     EXPECT_EQ(summary["stored"]["evaluation"].get<int>(), std::stoi(f[0]));
     const auto params = nlohmann::json::parse(f[3]);
     ASSERT_FALSE(params.empty());
