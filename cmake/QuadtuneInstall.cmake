@@ -23,3 +23,13 @@ write_basic_package_version_file(${PROJECT_BINARY_DIR}/quadtuneConfigVersion.cma
 install(FILES ${PROJECT_BINARY_DIR}/quadtuneConfig.cmake
   ${PROJECT_BINARY_DIR}/quadtuneConfigVersion.cmake
   DESTINATION ${QUADTUNE_INSTALL_CMAKEDIR})
+
+# The Python package `quadtune` goes where the interpreter looks under the prefix: with the
+# default prefix /usr/local, Debian's python3 finds lib/python3.X/dist-packages without any
+# PYTHONPATH; with --prefix P, PYTHONPATH=P/${QUADTUNE_INSTALL_PYTHONDIR}.
+find_package(Python3 REQUIRED COMPONENTS Interpreter)
+set(QUADTUNE_INSTALL_PYTHONDIR
+  "lib/python${Python3_VERSION_MAJOR}.${Python3_VERSION_MINOR}/dist-packages"
+  CACHE PATH "Where cmake --install puts the Python package quadtune, relative to the prefix")
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/experiments/python/quadtune
+  DESTINATION ${QUADTUNE_INSTALL_PYTHONDIR} PATTERN __pycache__ EXCLUDE)
