@@ -84,6 +84,13 @@ const Fields<RaceOptions>& RaceFields() {
                   "a race starts after a round when its first stage keeps racing flights within "
                   "this share of the flights flown so far; every racing flight counts against "
                   "`budget.flights`")
+          .Flag("reserve", &R::reserve,
+                "whole races only: a race starts only when all the flights it may need fit the "
+                "flights left, and tuning rounds stop where one whole race no longer would, so "
+                "the trial's last flights race its best points (`share` does not limit those)")
+          .Flag("incumbent_short", &R::incumbent_short,
+                "`bo_pso`: each θ_l also challenges with the incumbent's θ_s, besides PSO's best, "
+                "and the `two_part` model works in the whole space")
           .Flag("tell", &R::tell,
                 "race flights are told to the method's surrogate (`bo`, `bo_pso`: observations "
                 "of the points flown), so repeats correct what one lucky flight suggested")
@@ -160,6 +167,7 @@ RaceDecision RunRace(const RaceOptions& options, const std::vector<RaceSample>* 
     if (!extend(maps)) {
       last.verdict = RaceVerdict::kReject;
       last.reason = "stopped (budget or cancel)";
+      last.stopped = true;
       return last;
     }
     last = JudgeRace(*incumbent, *challenger, maps, options);

@@ -549,9 +549,9 @@ class Trial {
     optimizers::Optimizer* opt = single_opt_.get();
     const ParamValues defaults = DefaultsOf(e_);
     int iteration = 0;
-    while (summary_.flights < FlightBudget()) {
+    while (summary_.flights < TuningLimit()) {
       if (c_.CancelRequested()) return false;
-      const int k = std::min(FlightBatch(), FlightBudget() - summary_.flights);
+      const int k = std::min(FlightBatch(), TuningLimit() - summary_.flights);
       std::vector<optimizers::Candidate> cands;
       std::vector<ParamValues> batch;
       if (opt != nullptr) {
@@ -575,7 +575,7 @@ class Trial {
       Report();
       if (!MaybeRace()) return false;
     }
-    return true;
+    return FinalRaces();
   }
 
   // ---- bo_pso ------------------------------------------------------------------------------
@@ -732,9 +732,9 @@ class Trial {
       iteration = 1;
       Report();
     }
-    while (summary_.flights < e_.budget.flights) {
+    while (summary_.flights < TuningLimit()) {
       if (c_.CancelRequested()) return false;
-      const int k = std::min(FlightBatch(), e_.budget.flights - summary_.flights);
+      const int k = std::min(FlightBatch(), TuningLimit() - summary_.flights);
       const ParamValues theta_s_round = BestShort();
       NoteFlyingShort(theta_s_round);
       const auto cands = bo_pso_.bo->Ask(k);
@@ -755,7 +755,7 @@ class Trial {
       Report();
       if (!MaybeRace()) return false;
     }
-    return true;
+    return FinalRaces();
   }
 
   /// Fills summary_.recommended (see TrialSummary).
@@ -848,8 +848,11 @@ class Trial {
       }
     } else if (method_ == Method::kBoPso && bo_pso_.bo) {
       const ParamValues theta_s = BestShort();
+      const bool both = Racing() && e_.race.incumbent_short;
       for (const auto& b : bo_pso_.bo->Ranked()) {
-        out.push_back(Merge(Merge(bo_pso_defaults_, theta_s), bo_pso_.long_space.ToNamed(b.x)));
+        const ParamValues theta_l = bo_pso_.long_space.ToNamed(b.x);
+        out.push_back(Merge(Merge(bo_pso_defaults_, theta_s), theta_l));
+        if (both) out.push_back(Merge(Merge(bo_pso_defaults_, Pick(incumbent_, e_.short_names)), theta_l));
       }
     } else {
       auto flown = flown_;  // completed flights first, then by f_l; ties keep flight order
@@ -894,21 +897,58 @@ class Trial {
     // race.share of the trial's flights.
     const int first = std::min(e_.race.first_maps, e_.race.max_maps);
     const int stage = first + std::max(0, first - static_cast<int>(incumbent_samples_.size()));
-    if (summary_.flights + stage > FlightBudget()) return true;
+    if (summary_.flights + (e_.race.reserve ? WholeRaceFlights() : stage) > FlightBudget()) {
+      return true;
+    }
     if (summary_.race_flights + stage > e_.race.share * (summary_.flights + stage)) return true;
+    std::vector<ParamValues> points = Challengers();
+    if (points.empty()) return true;
+    return RaceAgainst(std::move(points.front()));
+  }
+
+  /// The points not raced yet, the next challenger first (race.challenger).
+  std::vector<ParamValues> Challengers() {
     std::vector<ParamValues> points;
     for (auto& p : RankedPoints()) {
       if (!NearAny(raced_, Unit(p))) points.push_back(std::move(p));
     }
-    if (points.empty()) return true;
-    if (e_.race.challenger == optimizers::ChallengerRule::kTwoPart) points = ByTwoPartModel(points);
-    return RaceAgainst(std::move(points.front()));
+    if (!points.empty() && e_.race.challenger == optimizers::ChallengerRule::kTwoPart) {
+      points = ByTwoPartModel(points);
+    }
+    return points;
+  }
+
+  /// Flights a race of a new challenger may need: max_maps of its own and the incumbent's
+  /// missing ones.
+  [[nodiscard]] int WholeRaceFlights() const {
+    const int have = static_cast<int>(incumbent_samples_.size());
+    return e_.race.max_maps + std::max(0, e_.race.max_maps - have);
+  }
+
+  /// The flights tuning rounds may use: the budget, less one whole race with race.reserve.
+  [[nodiscard]] int TuningLimit() const {
+    if (!Racing() || !e_.race.reserve) return FlightBudget();
+    return std::max(0, FlightBudget() - WholeRaceFlights());
+  }
+
+  /// race.reserve: after the tuning rounds, races the points not raced yet while a whole race
+  /// fits the flights left. Returns false when cancelled.
+  bool FinalRaces() {
+    if (!Racing() || !e_.race.reserve) return true;
+    while (summary_.flights + WholeRaceFlights() <= FlightBudget()) {
+      if (c_.CancelRequested()) return false;
+      std::vector<ParamValues> points = Challengers();
+      if (points.empty()) return true;
+      if (!RaceAgainst(std::move(points.front()))) return false;
+    }
+    return true;
   }
 
   /// The space the challenger model works in: bo_pso's θ_l (its challengers share the best
   /// θ_s), else the tuned space.
   [[nodiscard]] const optimizers::ParameterSpace& ModelSpace() const {
-    return method_ == Method::kBoPso ? bo_pso_.long_space : e_.space;
+    const bool long_only = method_ == Method::kBoPso && !e_.race.incumbent_short;
+    return long_only ? bo_pso_.long_space : e_.space;
   }
 
   /// `p` in the unit cube of ModelSpace().
@@ -1049,6 +1089,7 @@ class Trial {
                          {"maps", d.maps},
                          {"incumbent_maps", static_cast<double>(incumbent_samples_.size())},
                          {"flight_no", summary_.flights}};
+    if (d.stopped) o.objective.terms["stopped"] = 1.0;  // cut by the budget before its verdict
     if (challenger_estimate_) {
       o.objective.terms["challenger_p_fail"] = challenger_estimate_->failure_probability;
       o.objective.terms["challenger_mean"] = challenger_estimate_->mean;

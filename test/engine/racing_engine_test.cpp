@@ -78,6 +78,48 @@ TEST(Racing, EveryFlightCountsAgainstTheBudget) {
   EXPECT_GT(races, 4) << "the toy runs should race";
 }
 
+TEST(Racing, ReserveRunsOnlyWholeRacesAndEndsTheTrialRacing) {
+  RunOptions o;
+  const RunSummary s = RunRacing(
+      "race_reserve",
+      RacingToy("[random, bo_pso]", "{enabled: true, first_maps: 2, max_maps: 8, reserve: true}"),
+      &o);
+  ASSERT_EQ(s.status, RunStatus::kCompleted);
+  const auto rows = RowsByTrial(o.store_path);
+  int cut_without = 0;
+  {
+    RunOptions plain;
+    const RunSummary p = RunRacing("race_no_reserve", RacingToy("[random, bo_pso]"), &plain);
+    for (const auto& [id, r] : RowsByTrial(plain.store_path)) {
+      for (const auto& row : r.incumbent) cut_without += nlohmann::json::parse(row.terms).contains("stopped");
+    }
+  }
+  for (const auto& t : s.trials) {
+    const Rows& r = rows.at(t.trial_id);
+    EXPECT_LE(t.flights, kFlights) << t.method;
+    EXPECT_EQ(static_cast<int>(r.tuning.size() + r.race.size()), t.flights) << t.method;
+    ASSERT_FALSE(r.incumbent.empty()) << t.method;
+    for (const auto& row : r.incumbent) {
+      EXPECT_FALSE(nlohmann::json::parse(row.terms).contains("stopped"))
+          << t.method << " race " << row.iteration << " was cut by the budget";
+    }
+    // The trial's last flights are a race's: no tuning flight after the last race began.
+    int last_tuning = 0;
+    for (const auto& row : r.tuning) last_tuning = std::max(last_tuning, static_cast<int>(TermOf(row, "flight_no")));
+    int last_race_start = 0;
+    for (const auto& row : r.race) {
+      if (row.iteration == r.incumbent.back().iteration) {
+        const int no = static_cast<int>(TermOf(row, "flight_no"));
+        last_race_start = last_race_start == 0 ? no : std::min(last_race_start, no);
+      }
+    }
+    EXPECT_LT(last_tuning, last_race_start) << t.method;
+    // A whole race (at most 8 maps for each side) no longer fits the flights left.
+    EXPECT_GT(t.flights + 2 * 8, kFlights) << t.method;
+  }
+  EXPECT_GT(cut_without, 0) << "without reserve some race of these trials is cut by the budget";
+}
+
 TEST(Racing, IncumbentAndChallengerFlyTheSameRaceMaps) {
   RunOptions o;
   const Experiment e = RacingToy();

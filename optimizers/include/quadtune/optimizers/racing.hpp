@@ -55,6 +55,14 @@ struct RaceOptions {
   /// A race starts after a round of the method when its first stage keeps the flights spent
   /// racing within this share of the flights flown so far (tuning and racing), in (0, 1).
   double share = 0.5;
+  /// Whole races only: a race starts only when every flight it may need fits the flights left,
+  /// and tuning rounds stop where the flights left would no longer hold one whole race, so the
+  /// trial's last flights go to races (then `share` no longer limits them).
+  bool reserve = false;
+  /// bo_pso: each θ_l is also raced with the incumbent's θ_s (after the one with PSO's best
+  /// θ_s), and the two_part model works in the whole space, so a θ_s that PSO prefers for its
+  /// f_s but that fails flights does not sink every challenger.
+  bool incumbent_short = false;
   /// Race flights are told to the method's surrogate (bo, bo_pso: observations of the points
   /// flown, so repeats show the GP what one lucky flight hides).
   bool tell = true;
@@ -89,6 +97,7 @@ struct RaceDecision {
   int challenger_only_failures = 0;  ///< instances failed by the challenger alone
   int incumbent_only_failures = 0;   ///< instances failed by the incumbent alone
   std::string reason;           ///< a phrase for logs
+  bool stopped = false;         ///< the race could not fly its next stage (budget or cancel)
 };
 
 /// One-sided p-value of Wilcoxon's signed-rank test of H0 "the differences are symmetric about
