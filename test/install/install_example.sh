@@ -62,8 +62,9 @@ check() {  # check WHAT COMMAND...: runs COMMAND (debug log in WORK/WHAT.log), w
   if ! "$quadtune" --log-level debug "$@" > "$work/$what.log" 2>&1; then
     echo "install_example: quadtune $* failed: $(tail -3 "$work/$what.log")" >&2
     fail=1
-  elif grep -qF "$src/" "$work/$what.log"; then
-    echo "install_example: quadtune $* used the source tree: $(grep -F "$src/" "$work/$what.log" | head -2)" >&2
+  elif grep -qE "$src/(experiments|assets)/" "$work/$what.log"; then
+    echo "install_example: quadtune $* used the source tree's files:" \
+      "$(grep -E "$src/(experiments|assets)/" "$work/$what.log" | head -2)" >&2
     fail=1
   elif ! grep -q "running .*'$work/prefix/share/quadtune/experiments/" "$work/$what.log"; then
     echo "install_example: quadtune $* ran no installed script" >&2
