@@ -31,9 +31,10 @@ int RunPythonScript(const std::string& script_in_source, const char* override_en
   namespace fs = std::filesystem;
   const std::string script = ScriptPath(script_in_source, override_env);
   // An installed program's scripts import the installed package quadtune (program_paths.hpp).
-  const std::string python_path =
-      InstallPrefix().empty() ? std::string()
-                              : "PYTHONPATH='" + PythonPackageDir() + "'\"${PYTHONPATH:+:$PYTHONPATH}\" ";
+  std::string python_path;
+  if (!InstallPrefix().empty()) {
+    python_path = "PYTHONPATH='" + PythonPackageDir() + "'\"${PYTHONPATH:+:$PYTHONPATH}\" ";
+  }
   // Debian's interpreter, which has python3-matplotlib; a python3 earlier on PATH may not.
   const std::string python = PathExists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
   // The script's stderr goes to a file: on failure its last line (a traceback's "Error: why")

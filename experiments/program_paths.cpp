@@ -73,8 +73,8 @@ std::vector<std::string> ProgramAssetDirs() {
 std::vector<std::pair<std::string, std::string>> ProgramPathLines() {
   const std::string prefix = InstallPrefix();
   std::vector<std::pair<std::string, std::string>> lines = {
-      {"prefix", prefix.empty() ? "(none: the build tree's program, files from the source tree)"
-                                : prefix},
+      {"prefix",
+       prefix.empty() ? "(none: the build tree's program, files from the source tree)" : prefix},
       {"plot_script", ScriptPath("experiments/plot/quadtune_plot.py", "QUADTUNE_PLOT_SCRIPT")},
       {"report_script",
        ScriptPath("experiments/report/quadtune_report.py", "QUADTUNE_REPORT_SCRIPT")},
