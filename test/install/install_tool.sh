@@ -6,7 +6,8 @@
 # - `quadtune run` of a copy of experiments/tiny.yaml (drone and layout from the installed
 #   assets) completes and draws its figures and report.html with the installed scripts and
 #   JavaScript libraries (the debug log names the scripts it runs; none is in SOURCE);
-# - `python3 -c 'import quadtune'` imports the installed package, which reads the run's store.
+# - `python3 -c 'import quadtune'` imports the installed package, which reads the run's store;
+# - the prefix moved to another folder still finds its own files (`paths`, `plot run`).
 set -euo pipefail
 build=$1 src=$2 work=$3 pydir=$4
 
@@ -23,9 +24,11 @@ unset QUADTUNE_ASSETS QUADTUNE_PLOT_SCRIPT QUADTUNE_REPORT_SCRIPT QUADTUNE_REPOR
 export PATH="$prefix/bin:$PATH" PYTHONPATH="$prefix/$pydir"
 cd "$work"
 
-[[ $(command -v quadtune) == "$prefix/bin/quadtune" ]] || fail "quadtune is not $prefix/bin/quadtune"
+[[ $(command -v quadtune) == "$prefix/bin/quadtune" ]] ||
+  fail "quadtune on PATH is not $prefix/bin/quadtune"
 quadtune paths > paths.txt
-grep -qx "prefix: $prefix" paths.txt || fail "quadtune paths does not name the prefix: $(cat paths.txt)"
+grep -qx "prefix: $prefix" paths.txt ||
+  fail "quadtune paths does not name the prefix: $(cat paths.txt)"
 while IFS=': ' read -r name path; do
   [[ $path == "$prefix"/* ]] || fail "quadtune paths: $name is $path, not under $prefix"
   [[ -e $path ]] || fail "quadtune paths: $name $path does not exist"
@@ -41,7 +44,8 @@ for script in plot/quadtune_plot.py report/quadtune_report.py; do
 done
 # The source tree's scripts, assets or package (WORK itself may lie inside the source tree).
 if grep -qE "$src/(experiments|assets)/" run.log; then
-  fail "the installed program used the source tree: $(grep -E "$src/(experiments|assets)/" run.log | head -3)"
+  fail "the installed program used the source tree:" \
+    "$(grep -E "$src/(experiments|assets)/" run.log | head -3)"
 fi
 [[ -s run/report.html ]] || fail "no run/report.html"
 grep -q "plotly" run/report.html || fail "run/report.html holds no plotly.js"
@@ -60,4 +64,14 @@ r = quadtune.load("run/results.sqlite")
 assert len(r.long) == 3, f"{len(r.long)} tuning flights, expected 3"
 print("install_tool: quadtune.load read", len(r.long), "tuning flights")
 EOF
+# The install is relocatable: moved elsewhere, the program finds everything under its new prefix.
+mv "$prefix" "$work/moved"
+moved=$work/moved
+"$moved/bin/quadtune" paths > moved_paths.txt
+grep -qx "prefix: $moved" moved_paths.txt ||
+  fail "the moved install names $(head -1 moved_paths.txt)"
+"$moved/bin/quadtune" --log-level debug plot run run > moved_plot.log 2>&1 ||
+  fail "the moved install's quadtune plot run failed: $(tail -3 moved_plot.log)"
+grep -q "running .*'$moved/share/quadtune/experiments/plot/quadtune_plot.py'" moved_plot.log ||
+  fail "the moved install did not run its own figure script"
 echo "install_tool: ok"
