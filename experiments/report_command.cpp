@@ -15,9 +15,9 @@
 #include "commands.hpp"
 #include "result_dir.hpp"
 #include "quadtune/common/error.hpp"
+#include "quadtune/common/text_file.hpp"
 #include "quadtune/common/yaml.hpp"
 #include "quadtune/engine/api/planner_registry.hpp"
-#include "quadtune/common/text_file.hpp"
 #include "stored_flight.hpp"
 
 namespace quadtune::cli {
