@@ -145,9 +145,16 @@ engine::AdaptExperiment LoadAdaptExperiment(const AdaptArgs& a) {
   engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "adapt");
   CheckFileKind(a.experiment, FileKind::kAdaptation);
   const std::string dir_of_file = fs::path(a.experiment).parent_path().string();
-  engine::AdaptExperiment e = engine::AdaptExperiment::FromString(
-      ApplyAssignments(ReadFileText(a.experiment), a.set, a.experiment), a.experiment,
-      dir_of_file.empty() ? "." : dir_of_file);
+  engine::AdaptExperiment e = [&] {
+    try {
+      return engine::AdaptExperiment::FromString(
+          ApplyAssignments(ReadFileText(a.experiment), a.set, a.experiment), a.experiment,
+          dir_of_file.empty() ? "." : dir_of_file);
+    } catch (const ConfigError& error) {
+      BlameSet(error, a.set);  // a typo in a --set key is the option's fault
+      throw;
+    }
+  }();
   if (a.seed) e.SetSeed(*a.seed);
   CheckThreadsFitAddressSpace(a.threads, "", "--threads");
   return e;

@@ -72,8 +72,9 @@ void BlameSet(const ConfigError& e, const std::vector<std::string>& sets);
 /// engine::Experiment::LoadFile(path, sets), errors about a --set key blamed on --set (BlameSet).
 engine::Experiment LoadExperiment(const std::string& path, const std::vector<std::string>& sets);
 
-/// Runs `script_in_source` (relative to the source tree; $`override_env` names another file)
-/// with Debian's python3 and `args`; returns 0 on success, 1 otherwise (logged).
+/// Runs `script_in_source` (relative to the source tree, or to an installed program's
+/// share/quadtune: ScriptPath in program_paths.hpp; $`override_env` names another file) with
+/// Debian's python3 and `args`; returns 0 on success, 1 otherwise (logged).
 int RunPythonScript(const std::string& script_in_source, const char* override_env,
                     const std::string& args);
 /// Runs the figure script with `args`; returns its exit status (0 on success).
@@ -87,7 +88,8 @@ int WriteReport(const std::string& dir, int flights = 3);
 /// the results stay).
 int DrawFiguresAndReport(const std::string& plot_args, const std::string& dir);
 /// The asset folders of `quadtune` (main hands them to engine::SetAssetDirs at start-up):
-/// $QUADTUNE_ASSETS when set, then the source tree's assets/.
+/// $QUADTUNE_ASSETS when set, then an installed program's share/quadtune/assets, or the source
+/// tree's assets/ for the program in the build tree (program_paths.cpp).
 std::vector<std::string> ProgramAssetDirs();
 /// Path of an asset shipped with the sources (assets/…): the first of engine::AssetDirs() that
 /// holds it (else `relative`).

@@ -36,8 +36,10 @@ const char* const kIntro = R"(# Configuration reference
 
 Every input file is YAML. Unknown keys, wrong types and values out of range stop the command
 before any work starts, with a message that names the file, the key and what is allowed
-(`ConfigError`). Relative paths inside a file resolve next to that file first, then under
-`$QUADTUNE_ASSETS`, then under the source tree's `assets/`.
+(`ConfigError`). Relative paths inside a file resolve next to that file first, then in the
+working directory, then under `$QUADTUNE_ASSETS`, then under the installed program's
+`share/quadtune/assets` (the source tree's `assets/` for the program in the build tree; `quadtune
+paths` prints the folders).
 
 Every command that reads an experiment file (`run`, `study`, `sweep`, `adapt`, `bench`) takes
 `--set KEY=VALUE` on the file's dotted keys (list elements by index, e.g. `--set

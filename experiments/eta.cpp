@@ -29,6 +29,13 @@ int WorkPlan::AddTrials(const engine::Experiment& e, int run) {
   return tuned;
 }
 
+void WorkPlan::AddDrawing(const engine::Experiment& e, int threads, int stores) {
+  drawing.on = true;
+  drawing.replay_flights = std::min(3, stores * static_cast<int>(e.methods.size()));
+  const int t = std::max(1, threads);
+  drawing.flights_at_once = e.budget.flight_batch > 0 ? std::min(e.budget.flight_batch, t) : t;
+}
+
 namespace {
 
 /// Validation flies on every thread; a trial round flies flight_batch flights at once.
@@ -143,6 +150,7 @@ bool EtaEstimator::RechecksDone(std::size_t i) const {
 }
 
 double EtaEstimator::FlightsDone() const {
+  if (finished_) return FlightsPlanned();
   double done = 0.0;
   for (std::size_t i = 0; i < flights_.size(); ++i) {
     done += flights_[i];
@@ -174,6 +182,10 @@ void EtaEstimator::ObserveValidation(const engine::Progress& p, double now_s, in
   std::size_t v = 0;
   while (v < plan_.validations.size() && plan_.validations[v].run != run) ++v;
   if (v == plan_.validations.size()) return;
+  // On --resume the stored validation flights are replayed: the report's total is the rest.
+  if (p.flights_total > 0 && p.flights_total < plan_.validations[v].flights) {
+    plan_.validations[v].flights = p.flights_total;
+  }
   const double flights = p.flights_done - validated_[v];
   if (flights <= 0.0) return;  // no work finished: the time counts on
   const double seconds = now_s - last_t_;
@@ -272,8 +284,19 @@ Eta EtaEstimator::TrialCost(const std::string& method, double flights, double re
   return pooled_.Cost(flights, resolves);
 }
 
+void EtaEstimator::Finished() { finished_ = true; }
+
+Eta EtaEstimator::DrawingCost() const {
+  const PlannedDrawing& d = plan_.drawing;
+  if (!d.on) return {};
+  Eta eta = pooled_.Cost(d.replay_flights * d.flights_at_once, 0.0);
+  eta.seconds += kScriptSeconds;
+  return eta;
+}
+
 Eta EtaEstimator::Remaining() const {
-  Eta eta;
+  Eta eta = DrawingCost();
+  if (finished_) return eta;
   const auto add = [&eta](const Eta& part) {
     eta.seconds += part.seconds;
     eta.lower_bound = eta.lower_bound || part.lower_bound;
@@ -281,7 +304,10 @@ Eta EtaEstimator::Remaining() const {
   for (std::size_t i = 0; i < plan_.trials.size(); ++i) {
     const PlannedTrial& t = plan_.trials[i];
     const double flights_left = std::max(0, t.flights - flights_[i]);
-    const double resolves_left = std::max(0.0, static_cast<double>(t.resolves) - resolves_[i]);
+    // A trial's rounds re-solve before they report: with its flights, its re-solves are done
+    // (on --resume, replayed re-solves are not counted).
+    const double resolves_left =
+        flights_left > 0.0 ? std::max(0.0, static_cast<double>(t.resolves) - resolves_[i]) : 0.0;
     if (flights_left > 0.0 || resolves_left > 0.0) {
       add(TrialCost(t.method, flights_left, resolves_left));
     }

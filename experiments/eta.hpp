@@ -26,8 +26,16 @@
 /// the fitted rates, and a method's trials left are charged the mean tail measured for it
 /// (before one is measured: the fewest re-check flights at the pooled flight cost).
 /// The ETA sums, trial by trial, the flights and re-solves left at the trial method's rates and
-/// the tails left, then the validation flights left. Time before the first report (the job's
-/// start: store, first maps) is not projected.
+/// the tails left, then the validation flights left, then the figures and the report drawn when
+/// the job has ended (PlannedDrawing: the stored flights the report flies again, one at a time,
+/// each at the pooled flight cost times the flights a trial round flies at once, and a nominal
+/// kScriptSeconds for the figure and report scripts, which no report measures). Time before the
+/// first report (the job's start: store, first maps) is not projected.
+///
+/// A trial whose budget's flights are all reported has no re-solves left (its rounds re-solve
+/// before they report), and a validation reported with fewer flights in all than planned flies
+/// only those: on --resume the stored ones are replayed, not counted again. Finished() (the
+/// job's trials and validation have returned) leaves the drawing only.
 ///
 /// - Work of a kind no fit has measured (re-solves before any bo_pso report) is not charged and
 ///   the estimate is a lower bound (Eta::lower_bound).
@@ -71,10 +79,26 @@ struct PlannedValidation {
   double speedup = 1.0;
 };
 
+/// The figures and the report drawn when the job has ended (run and study without --no-plot).
+struct PlannedDrawing {
+  bool on = false;
+  int replay_flights = 0;  ///< stored flights `quadtune report` flies again, one at a time
+  /// Trial flights flown at once (a lone flight takes as long as this many at the pooled rate).
+  double flights_at_once = 1.0;
+};
+
+/// Nominal seconds of the figure script and the report script together (Python start and
+/// matplotlib, nearly independent of the store's size), charged while they are ahead; no
+/// progress report measures them. Measured on the 2-core development machine: 2.2 s + 0.2 s
+/// for tiny.yaml's run, 3.2 s + 0.4 s for the main job's store of 4 677 evaluations (`time
+/// quadtune plot run DIR`, `time python3 experiments/report/quadtune_report.py DIR`).
+inline constexpr double kScriptSeconds = 3.0;
+
 /// The work of a whole job, in the order it is done.
 struct WorkPlan {
   std::vector<PlannedTrial> trials;
   std::vector<PlannedValidation> validations;
+  PlannedDrawing drawing;
 
   /// The plan of `e` run on `threads` worker threads (`quadtune run`: run 0, then the
   /// experiment's own held-out validation).
@@ -85,6 +109,10 @@ struct WorkPlan {
   static WorkPlan Of(const engine::Study& s, int threads);
   /// Appends the trials of `e` as run `run`; returns the number of tuned (non-default) trials.
   int AddTrials(const engine::Experiment& e, int run);
+  /// Plans the figures and the report of `quadtune report`'s default --flights 3: as many
+  /// stored flights flown again as there are stores × methods, at most 3. `e` is the (last)
+  /// experiment, run on `threads` threads.
+  void AddDrawing(const engine::Experiment& e, int threads, int stores);
 };
 
 /// An estimate of the seconds left.
@@ -123,7 +151,10 @@ class EtaEstimator {
   /// flights_done counting that validation's flights) at `now_s` seconds of the job's wall
   /// clock. Reports of trials or runs the plan does not hold are ignored.
   void Observe(const engine::Progress& p, double now_s, int run = 0);
-  /// Seconds left for the whole job: trials, re-checks and validation.
+  /// The job's trials and validation have returned (completed): none of their work is left,
+  /// whatever the reports said (e.g. a resumed job whose stored work was replayed).
+  void Finished();
+  /// Seconds left for the whole job: trials, re-checks, validation, figures and report.
   [[nodiscard]] Eta Remaining() const;
   /// The fit over every trial increment.
   [[nodiscard]] const CostFit& Pooled() const { return pooled_; }
@@ -146,6 +177,8 @@ class EtaEstimator {
   /// Mean measured tail of `method`'s trials (seconds from a trial's last report to the end of
   /// its re-check flights); < 0 while none has been measured.
   [[nodiscard]] double Tail(const std::string& method) const;
+  /// Cost of the figures and the report (0 when the plan draws none).
+  [[nodiscard]] Eta DrawingCost() const;
   void ObserveValidation(const engine::Progress& p, double now_s, int run);
 
   /// The increment from a finished trial's last report to the next report of other work: the
@@ -170,6 +203,7 @@ class EtaEstimator {
   CostFit pooled_;
   CostFit validation_fit_;
   std::vector<Handover> handovers_;
+  bool finished_ = false;  // Finished(): only the drawing is left
 };
 
 }  // namespace quadtune::cli

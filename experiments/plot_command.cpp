@@ -11,18 +11,12 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "program_paths.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/text_file.hpp"
 #include "quadtune/engine/experiment/experiment.hpp"
 
 namespace quadtune::cli {
-
-std::vector<std::string> ProgramAssetDirs() {
-  std::vector<std::string> dirs;
-  if (const char* env = std::getenv("QUADTUNE_ASSETS")) dirs.emplace_back(env);
-  dirs.push_back((std::filesystem::path(QUADTUNE_SOURCE_DIR) / "assets").string());
-  return dirs;
-}
 
 std::string AssetPath(const std::string& relative) {
   for (const std::string& dir : engine::AssetDirs()) {
@@ -35,8 +29,12 @@ std::string AssetPath(const std::string& relative) {
 int RunPythonScript(const std::string& script_in_source, const char* override_env,
                     const std::string& args) {
   namespace fs = std::filesystem;
-  std::string script = (fs::path(QUADTUNE_SOURCE_DIR) / script_in_source).string();
-  if (const char* env = std::getenv(override_env)) script = env;
+  const std::string script = ScriptPath(script_in_source, override_env);
+  // An installed program's scripts import the installed package quadtune (program_paths.hpp).
+  std::string python_path;
+  if (!InstallPrefix().empty()) {
+    python_path = "PYTHONPATH='" + PythonPackageDir() + "'\"${PYTHONPATH:+:$PYTHONPATH}\" ";
+  }
   // Debian's interpreter, which has python3-matplotlib; a python3 earlier on PATH may not.
   const std::string python = PathExists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
   // The script's stderr goes to a file: on failure its last line (a traceback's "Error: why")
@@ -44,7 +42,7 @@ int RunPythonScript(const std::string& script_in_source, const char* override_en
   char errors[] = "/tmp/quadtune_script_XXXXXX";
   const int fd = mkstemp(errors);
   if (fd >= 0) close(fd);
-  const std::string command = python + " '" + script + "' " + args +
+  const std::string command = python_path + python + " '" + script + "' " + args +
                               (fd >= 0 ? std::string(" 2>'") + errors + "'" : std::string());
   spdlog::debug("running {}", command);
   const int status = std::system(command.c_str());

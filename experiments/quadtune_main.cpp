@@ -15,6 +15,7 @@
 #include "commands.hpp"
 #include "config_reference.hpp"
 #include "limits_reference.hpp"
+#include "program_paths.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/engine/experiment/experiment.hpp"
 
@@ -134,6 +135,7 @@ int main(int argc, char** argv) {
   quadtune::cli::RegisterEvaluate(app, exit_code);
   quadtune::cli::RegisterConfigReference(app, exit_code);
   quadtune::cli::RegisterLimitsReference(app, exit_code);
+  quadtune::cli::RegisterPaths(app, exit_code);
   // Every command's --help, nested ones (plot run, …) included, ends with the exit codes.
   const std::function<void(CLI::App*)> add_footer = [&add_footer](CLI::App* command) {
     command->footer(quadtune::cli::kExitCodes);

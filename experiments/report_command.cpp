@@ -2,6 +2,8 @@
 // flight directory. Stored flights are flown again into DIR/report_flights/ for the 3-D replay;
 // the page itself is written by experiments/report/quadtune_report.py (Debian's python3, standard
 // library only) with three.js and plotly.js inlined from experiments/report/js/node_modules.
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -14,6 +16,8 @@
 #include "result_dir.hpp"
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/text_file.hpp"
+#include "quadtune/common/yaml.hpp"
+#include "quadtune/engine/api/planner_registry.hpp"
 #include "stored_flight.hpp"
 
 namespace quadtune::cli {
@@ -37,6 +41,36 @@ std::vector<fs::path> StoresUnder(const fs::path& dir) {
   }
   std::sort(stores.begin(), stores.end());
   return stores;
+}
+
+/// The stored configuration's planner.type when this program has not registered it (a planner
+/// of one's own, registered by one's own program), else "".
+std::string UnregisteredPlannerType(const fs::path& store, std::int64_t id) {
+  try {
+    const engine::StoredFlight f = engine::LoadStoredFlight(store.string(), id);
+    const std::string type =
+        YamlMap::FromString(f.config, store.string()).Map("planner", true).String("type", "ipopt");
+    return engine::FindPlanner(type) ? std::string() : type;
+  } catch (const ConfigError&) {
+    return {};
+  }
+}
+
+/// Warns that stored evaluation `id` is not replayed: `why`, or, for a planner type this
+/// program has not registered, that the program which registers it flies it again.
+void WarnNoReplay(const fs::path& store, std::int64_t id, const std::string& why) {
+  const std::string type = UnregisteredPlannerType(store, id);
+  if (type.empty()) {
+    spdlog::warn("no replay of {} evaluation {}: {}", store.string(), id, why);
+    return;
+  }
+  spdlog::warn(
+      "no 3-D replay in the report: planner.type '{}' of {} is not registered in this program "
+      "(registered: {}); the program that registers it flies a stored flight again, e.g. the "
+      "own-planner example's `own_planner --fly {} {} OUT`, and `quadtune report OUT` shows "
+      "that flight",
+      type, store.string(), fmt::format("{}", fmt::join(engine::RegisteredPlanners(), ", ")),
+      store.string(), id);
 }
 
 /// Folder name of a replayed flight: the store's folder relative to the report, and the id.
@@ -88,7 +122,7 @@ int Report(const ReportArgs& a) {
                        store.string(), id);
         }
       } catch (const ConfigError& e) {  // e.g. a planner type this program has not registered
-        spdlog::warn("no replay of {} evaluation {}: {}", store.string(), id, e.what());
+        WarnNoReplay(store, id, e.what());
         break;
       }
     }

@@ -57,12 +57,12 @@ struct RunArgs {
 /// The progress line: on a terminal rewritten in place at every update; otherwise (a log file,
 /// a cluster job) an info log line at most every 30 s and whenever a trial ends, so long runs
 /// show progress without flooding the log. Every other update, and all of them with `quiet`,
-/// goes to the debug log. The ETA is the measured cost of the work `plan` has left (eta.hpp),
-/// on a wall clock started here.
-std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quiet, WorkPlan plan) {
+/// goes to the debug log. The ETA is the measured cost of the work `eta`'s plan has left
+/// (eta.hpp), on a wall clock started here.
+std::function<void(const engine::Progress&)> ProgressPrinter(
+    bool tty, bool quiet, const std::shared_ptr<EtaEstimator>& eta) {
   using Clock = std::chrono::steady_clock;
   auto last = std::make_shared<Clock::time_point>();
-  auto eta = std::make_shared<EtaEstimator>(std::move(plan));
   const Clock::time_point start = Clock::now();
   return [tty, quiet, last, eta, start](const engine::Progress& p) {
     const auto now = Clock::now();
@@ -102,9 +102,23 @@ std::function<void(const engine::Progress&)> ProgressPrinter(bool tty, bool quie
   };
 }
 
-/// The run's figures and table (`quadtune plot run OUT`) and its browser report (`quadtune
-/// report OUT`).
-int DrawRun(const std::string& out) { return DrawFiguresAndReport("run '" + out + "'", out); }
+/// The plan of the run of `e` on `threads` threads (with its figures and report unless
+/// --no-plot), for the progress line's ETA.
+std::shared_ptr<EtaEstimator> RunEta(const engine::Experiment& e, int threads, bool plot) {
+  WorkPlan plan = WorkPlan::Of(e, threads);
+  if (plot) plan.AddDrawing(e, threads, 1);
+  return std::make_shared<EtaEstimator>(std::move(plan));
+}
+
+/// The end of a run that returned `code`: with --no-plot or after a failure, `code`; else the
+/// run's figures and table (`quadtune plot run OUT`) and its browser report (`quadtune report
+/// OUT`), announced with their ETA.
+int DrawRun(int code, const RunArgs& a, EtaEstimator& eta) {
+  if (code != 0 || !a.plot) return code;
+  eta.Finished();
+  spdlog::info("drawing the figures and the report, {}", eta.Remaining().Text());
+  return DrawFiguresAndReport("run '" + a.out + "'", a.out);
+}
 
 /// Logs the run's outcome and writes OUT/summary.json; returns the exit code.
 int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& store, bool tty,
@@ -280,6 +294,7 @@ int RunMpi(const RunArgs& a, const engine::FaultInjection& fault) {
     options.process_ended = ProcessEnded;
     options.fault = fault;
     std::unique_ptr<ResultDir> dir;
+    std::shared_ptr<EtaEstimator> eta;
     if (rank == 0) {
       try {
         dir = std::make_unique<ResultDir>(a.out, ResultDirPolicy{a.resume, a.overwrite, true});
@@ -289,8 +304,8 @@ int RunMpi(const RunArgs& a, const engine::FaultInjection& fault) {
         mpi.Abort(2);
       }
       options.run.store_path = store;
-      options.run.on_progress =
-          ProgressPrinter(tty, a.quiet, WorkPlan::Of(e, a.threads > 0 ? a.threads : e.threads));
+      eta = RunEta(e, a.threads > 0 ? a.threads : e.threads, a.plot);
+      options.run.on_progress = ProgressPrinter(tty, a.quiet, eta);
       std::error_code ec;
       const fs::path self = fs::read_symlink("/proc/self/exe", ec);
       std::string sets;
@@ -309,8 +324,7 @@ int RunMpi(const RunArgs& a, const engine::FaultInjection& fault) {
     }
     const engine::RunSummary s = engine::RunDistributed(mpi, e, options);
     if (rank != 0) return 0;
-    const int code = Finish(s, a, store, tty, e.budget.queries_per_eval);
-    return code == 0 && a.plot ? DrawRun(a.out) : code;
+    return DrawRun(Finish(s, a, store, tty, e.budget.queries_per_eval), a, *eta);
   } catch (const engine::PeerError& ex) {
     // Another rank failed before the run started and reported why; rank 0 says which.
     if (rank == 0) spdlog::error("{}", ex.what());
@@ -353,7 +367,8 @@ int Run(const RunArgs& a) {
       e.name, a.experiment, e.planner.Name(), e.methods.size(), e.repeats, e.budget.flights,
       threads, e.mode == engine::TimingMode::kRealtime ? "realtime" : "reproducible",
       a.resume ? ", resuming" : "");
-  options.on_progress = ProgressPrinter(tty, a.quiet, WorkPlan::Of(e, threads));
+  const std::shared_ptr<EtaEstimator> eta = RunEta(e, threads, a.plot);
+  options.on_progress = ProgressPrinter(tty, a.quiet, eta);
   engine::RunSummary s;
   try {
     s = engine::RunExperiment(e, options);
@@ -362,8 +377,7 @@ int Run(const RunArgs& a) {
     s.status = engine::RunStatus::kCancelled;
     s.threads = threads;
   }
-  const int code = Finish(s, a, store, tty, e.budget.queries_per_eval);
-  return code == 0 && a.plot ? DrawRun(a.out) : code;
+  return DrawRun(Finish(s, a, store, tty, e.budget.queries_per_eval), a, *eta);
 }
 
 /// Resident set size of this process (MiB), from /proc/self/statm: the pool's memory as the

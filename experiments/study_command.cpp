@@ -97,7 +97,13 @@ int RunStudyCommand(const StudyArgs& a) {
   std::string last_stage;
   using Clock = std::chrono::steady_clock;
   const Clock::time_point start = Clock::now();
-  EtaEstimator eta(WorkPlan::Of(study, a.threads));
+  WorkPlan plan = WorkPlan::Of(study, a.threads);
+  if (a.plot) {
+    const engine::Experiment last = study.Build(0, study.stages.size() - 1);
+    plan.AddDrawing(last, a.threads > 0 ? a.threads : last.threads,
+                    static_cast<int>(study.labels.size() * study.stages.size()));
+  }
+  EtaEstimator eta(std::move(plan));
   const int stages = static_cast<int>(study.stages.size());
   options.on_progress = [&](const engine::StudyProgress& p) {
     const double job_s = std::chrono::duration<double>(Clock::now() - start).count();
@@ -159,6 +165,8 @@ int RunStudyCommand(const StudyArgs& a) {
     return 130;
   }
   if (!a.plot) return 0;
+  eta.Finished();
+  spdlog::info("drawing the figures and the report, {}", eta.Remaining().Text());
   return DrawFiguresAndReport("study '" + a.out + "'", a.out);
 }
 

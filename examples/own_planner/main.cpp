@@ -8,7 +8,10 @@
 // with engine::RunExperiment into the SQLite store and prints the best value of every trial. The
 // second flies stored evaluation ID again with engine::FlyStoredAgain (the planner the stored
 // configuration builds, through the registry), writes its log into the folder OUT and exits 0
-// when the flight is the stored one, 4 when it differs (as `quadtune fly --from`).
+// when the flight is the stored one, 4 when it differs (as `quadtune fly --from`). The installed
+// `quadtune` program draws the figures and the report of the store (`quadtune plot run DIR`,
+// `quadtune report DIR`) and the 3-D replay of a flight flown again (`quadtune report OUT`); it
+// cannot fly this program's planner itself.
 
 #include <cstdint>
 #include <exception>

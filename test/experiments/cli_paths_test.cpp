@@ -625,5 +625,36 @@ TEST(CliExport, HelpNamesEveryFileItWrites) {
   }
 }
 
+// `quadtune paths` of the program in the build tree: the source tree's scripts, report libraries,
+// package and assets; each environment override in its place (the installed program's paths:
+// test/install/install_tool.sh).
+TEST(CliPaths, BuildTreeProgramUsesTheSourceTreeAndTheOverrides) {
+  const fs::path dir = Fresh("paths");
+  const std::string src = QUADTUNE_SOURCE_DIR;
+  ASSERT_EQ(RunQuadtune("paths", dir / "paths.log"), 0) << ReadText(dir / "paths.log");
+  const std::string plain = ReadText(dir / "paths.log");
+  const std::vector<std::string> source_tree = {
+      "prefix: (none",
+      "plot_script: " + src + "/experiments/plot/quadtune_plot.py\n",
+      "report_script: " + src + "/experiments/report/quadtune_report.py\n",
+      "report_js: " + src + "/experiments/report/js/node_modules\n",
+      "python_package: " + src + "/experiments/python\n",
+      "assets: " + src + "/assets\n"};
+  for (const std::string& line : source_tree) {
+    EXPECT_NE(plain.find(line), std::string::npos) << line << " not in:\n" << plain;
+  }
+  const std::string overrides =
+      "env QUADTUNE_PLOT_SCRIPT=/p.py QUADTUNE_REPORT_SCRIPT=/r.py QUADTUNE_REPORT_JS=/js "
+      "QUADTUNE_ASSETS=/a " + QuadtuneBinary() + " paths > '" + (dir / "env.log").string() + "'";
+  ASSERT_EQ(std::system(overrides.c_str()), 0);
+  const std::string env = ReadText(dir / "env.log");
+  const std::vector<std::string> overridden = {"plot_script: /p.py\n", "report_script: /r.py\n",
+                                               "report_js: /js\n",
+                                               "assets: /a\nassets: " + src + "/assets\n"};
+  for (const std::string& line : overridden) {
+    EXPECT_NE(env.find(line), std::string::npos) << line << " not in:\n" << env;
+  }
+}
+
 }  // namespace
 }  // namespace quadtune

@@ -220,6 +220,75 @@ TEST(EtaEstimator, StudyRunsKeepTheirOwnResolveCountersAndValidations) {
   EXPECT_NEAR(eta.FlightsPlanned(), 2 + 2 + 4, 1e-12);
 }
 
+TEST(EtaEstimator, ChargesTheFiguresAndTheReportUntilTheyAreDrawn) {
+  WorkPlan plan;
+  plan.trials = {{"random", 0, 4, 0, 0}};
+  plan.drawing = {true, 3, 2.0};
+  EtaEstimator eta(plan);
+  eta.Observe(Report("random", 0, 2, 4, 0, 4.0), 4.0);
+  eta.Observe(Report("random", 0, 4, 4, 0, 8.0), 8.0);  // 2 flights in 4 s each: 2 s per flight
+  // The trials are done; left: the report's 3 flights flown again one at a time (each as long
+  // as the 2 flights a round flies at once) and the scripts.
+  EXPECT_NEAR(eta.Remaining().seconds, 3 * 2.0 * 2.0 + kScriptSeconds, 1e-9);
+  EXPECT_FALSE(eta.Remaining().lower_bound);
+  eta.Finished();
+  EXPECT_NEAR(eta.Remaining().seconds, 12.0 + kScriptSeconds, 1e-9);
+  // Before any flight cost is measured the report's flights are of unknown cost.
+  EXPECT_TRUE(EtaEstimator(plan).Remaining().lower_bound);
+  // --no-plot: nothing is drawn, nothing left.
+  plan.drawing = {};
+  EtaEstimator bare(plan);
+  bare.Observe(Report("random", 0, 2, 4, 0, 4.0), 4.0);
+  bare.Observe(Report("random", 0, 4, 4, 0, 8.0), 8.0);
+  EXPECT_NEAR(bare.Remaining().seconds, 0.0, 1e-12);
+}
+
+TEST(EtaEstimator, LeavesNothingWhenAResumedJobHasDoneItsWork) {
+  // A bo_pso trial (4 flights, 400 re-solves) and 6 validation flights, resumed after its first
+  // round (2 flights, 200 re-solves) and 4 validation flights were stored.
+  WorkPlan plan;
+  plan.trials = {{"bo_pso", 0, 4, 0, 400}};
+  plan.validations = {{0, 6, 1.0}};
+  EtaEstimator eta(plan);
+  // The replayed round reports its flights but no re-solves (stored ones are not re-solved).
+  eta.Observe(Report("bo_pso", 0, 2, 4, 0, 0.5), 0.5);
+  eta.Observe(Report("bo_pso", 0, 4, 4, 200, 4.5), 4.5);  // a new round
+  // Pooled fit over (0.5 s, 2, 0) and (4 s, 2, 200): a = 0.25 s per flight, b = 0.0175 s per
+  // re-solve. The trial's 200 replayed re-solves are not left; the 6 planned validation flights
+  // are (at 0.25 s).
+  EXPECT_NEAR(eta.Pooled().FlightCost(), 0.25, 1e-12);
+  EXPECT_NEAR(eta.Remaining().seconds, 6 * 0.25, 1e-9);
+  // Validation flies only the 2 flights not stored.
+  eta.Observe(Report("validation", -1, 1, 2, 0, 1.0), 5.5);
+  EXPECT_NEAR(eta.Remaining().seconds, 0.25, 1e-9);
+  eta.Observe(Report("validation", -1, 2, 2, 0, 2.0), 6.5);
+  EXPECT_NEAR(eta.Remaining().seconds, 0.0, 1e-12);
+  EXPECT_FALSE(eta.Remaining().lower_bound);
+  // Every validation flight stored: no validation report comes; the job's end says it is done.
+  EtaEstimator stored(plan);
+  stored.Observe(Report("bo_pso", 0, 2, 4, 0, 0.5), 0.5);
+  stored.Observe(Report("bo_pso", 0, 4, 4, 200, 4.5), 4.5);
+  EXPECT_GT(stored.Remaining().seconds, 1.0);
+  stored.Finished();
+  EXPECT_NEAR(stored.Remaining().seconds, 0.0, 1e-12);
+  EXPECT_NEAR(stored.FlightsDone(), stored.FlightsPlanned(), 1e-12);
+}
+
+TEST(WorkPlan, PlansTheReportsFlightsFlownAgain) {
+  // tiny.yaml: one method, 2 flights a round on 2 threads.
+  const engine::Experiment e = engine::Experiment::LoadFile(
+      std::string(QUADTUNE_SOURCE_DIR) + "/experiments/tiny.yaml");
+  WorkPlan plan = WorkPlan::Of(e, 2);
+  EXPECT_FALSE(plan.drawing.on);
+  plan.AddDrawing(e, 2, 1);
+  EXPECT_TRUE(plan.drawing.on);
+  EXPECT_EQ(plan.drawing.replay_flights, 1);  // the best flight of its one method
+  EXPECT_NEAR(plan.drawing.flights_at_once, 2.0, 1e-12);
+  plan.AddDrawing(e, 1, 5);  // 5 stores (a study's stages): `report`'s default 3 flights
+  EXPECT_EQ(plan.drawing.replay_flights, 3);
+  EXPECT_NEAR(plan.drawing.flights_at_once, 1.0, 1e-12);
+}
+
 TEST(WorkPlan, CountsAnExperimentFilesWork) {
   const engine::Experiment e = engine::Experiment::LoadFile(
       std::string(QUADTUNE_SOURCE_DIR) + "/experiments/tiny.yaml",

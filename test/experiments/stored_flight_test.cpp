@@ -252,5 +252,40 @@ TEST(StoredFlights, FlySummaryHoldsTheParametersFlown) {
   EXPECT_TRUE(fs::exists(dir / "f" / "flight.csv"));
 }
 
+// A stored flight that no longer flies the same (here: its stored value altered) exits 4, the
+// code every --help and the exit-code lists of docs/config.md and docs/hardening.md name.
+TEST(StoredFlights, AFlightOtherThanTheStoredOneExitsFour) {
+  fs::path dir;
+  const fs::path store = RunInto("quadtune_fly_differs", "tiny.yaml", &dir);
+  const std::string id =
+      Capture("sqlite3 '" + store.string() + "' \"SELECT min(id) FROM evaluation WHERE kind = "
+              "'long'\"");
+  ASSERT_FALSE(id.empty());
+  const std::string trimmed = id.substr(0, id.find('\n'));
+  ASSERT_EQ(std::system(("sqlite3 '" + store.string() +
+                         "' \"UPDATE evaluation SET value = value + 1 WHERE id = " + trimmed +
+                         "\"")
+                            .c_str()),
+            0);
+  EXPECT_EQ(RunQuadtune("--log-level warn fly --from " + store.string() + " --evaluation " +
+                            trimmed + " --no-plot --out " + (dir / "f").string(),
+                        dir / "fly.log"),
+            4)
+      << ReadText(dir / "fly.log");
+  EXPECT_NE(ReadText(dir / "fly.log").find("differs from the stored one"), std::string::npos)
+      << ReadText(dir / "fly.log");
+  ASSERT_EQ(RunQuadtune("fly --help", dir / "help.log"), 0);
+  EXPECT_NE(ReadText(dir / "help.log").find("4 fly --from flew a flight other than the stored"),
+            std::string::npos)
+      << ReadText(dir / "help.log");
+  for (const char* doc : {"/docs/config.md", "/docs/hardening.md"}) {
+    const std::string text = ReadText(std::string(QUADTUNE_SOURCE_DIR) + doc);
+    EXPECT_NE(text.find("4 `fly --from` flew a flight other than the stored one"),
+              std::string::npos)
+        << doc << " does not list exit code 4";
+  }
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace quadtune
