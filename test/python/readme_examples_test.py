@@ -45,7 +45,7 @@ def check_planner(out):
         assert 0 < float(value) <= 1000, (method, value)
         assert set(ast.literal_eval(params)) >= {"n_pol", "v_des", "t_pl"}, params
     # The Python planner flies the held-out map with its defaults (a 3-flight tuning's point may
-    # fail there; both are failure-free on the tuning maps in the store).
+    # fail there).
     assert float(rows[0][1]) < 1000, rows[0]
 
 
