@@ -103,6 +103,12 @@ class Run(unittest.TestCase):
         with self.assertRaisesRegex(ValueError, "planner.type.*py_path"):
             quadtune.run(c, self.out("bad2"), progress=False)
 
+    def test_registration_errors(self):
+        with self.assertRaisesRegex(ValueError, "ipopt"):
+            quadtune.register_planner("ipopt", Path())
+        with self.assertRaisesRegex(ValueError, r"waypoints\(query, params\)"):
+            quadtune.register_planner("py_none", object())
+
     def test_python_planner_failure_stops_the_run(self):
         with self.assertRaisesRegex(RuntimeError, "Python planner 'py_broken'.*planner bug"):
             quadtune.run(config("py_broken"), self.out("broken"), progress=False)
