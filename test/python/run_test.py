@@ -112,6 +112,12 @@ class Run(unittest.TestCase):
     def test_python_planner_failure_stops_the_run(self):
         with self.assertRaisesRegex(RuntimeError, "Python planner 'py_broken'.*planner bug"):
             quadtune.run(config("py_broken"), self.out("broken"), progress=False)
+        # The failing round was cancelled: nothing of it is stored, so a fixed planner resumes.
+        self.assertEqual(len(quadtune.load(self.out("broken")).long), 0)
+        quadtune.register_planner("py_broken", Path())  # the same name, a fixed planner
+        fixed = quadtune.resume(config("py_broken"), self.out("broken"), progress=False)
+        self.assertEqual(fixed.summary["status"], "completed")
+        self.assertEqual(fixed.results.long["value"].tolist(), self.first.results.long["value"].tolist())
 
     def test_progress_callback_failure_is_raised(self):
         def progress(p):

@@ -100,6 +100,13 @@ class Errors(unittest.TestCase):
         self.check(lambda: study.tell(x, "1.0"), "finite")
         study.tell(x, 1.0)
         self.check(lambda: study.tell(x, 1.0), "id")  # told already
+        self.check(lambda: study.ask(0), "ask", "int >= 1")
+
+    def test_pso_with_every_particle_pending(self):
+        study = quadtune.PSO(SPACE, seed=1, num_particles=2)
+        self.assertEqual(len(study.ask(5)), 2)  # never a particle twice at once
+        with self.assertRaisesRegex(RuntimeError, "tell or cancel"):
+            study.ask()
 
 
 if __name__ == "__main__":

@@ -21,7 +21,8 @@ void BindRun(pybind11::module_& m);
 void BindPlanners(pybind11::module_& m);
 
 /// Called by a Python planner whose call raised (on a worker thread, without the GIL): the run in
-/// progress stops after its current round and _core.run raises RuntimeError with `message`.
+/// progress is cancelled (the round in flight is not stored) and _core.run raises RuntimeError
+/// with `message`.
 void ReportPlannerFailure(const std::string& message);
 
 }  // namespace quadtune::python

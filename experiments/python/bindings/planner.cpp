@@ -10,7 +10,8 @@
 //
 // Threads: Solve() runs on the engine's worker threads; it takes the GIL for the Python call
 // only, so Python planners run one call at a time while the physics and the checks run in
-// parallel without it. A Python exception stops the run (ReportPlannerFailure).
+// parallel without it. A Python exception fails its evaluation and cancels the run
+// (ReportPlannerFailure): nothing of the round is stored, and _core.run raises it.
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
 
@@ -19,6 +20,7 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <stdexcept>
 #include <memory>
 #include <string>
 #include <vector>
@@ -194,11 +196,16 @@ class PythonBackend final : public qp::TrajectoryBackend {
     qp::PlanOutcome out;
     std::vector<Vector3d> inner;
     const std::string failure = CallPlanner(*slot_, query, params, &inner);
-    if (!failure.empty() || query.occupancy == nullptr) {
+    if (!failure.empty()) {
+      // The evaluation fails (the engine catches this at its boundary) and the run is cancelled
+      // at once, so the round, cancelled, is not stored; _core.run raises the message.
+      const std::string message = "Python planner '" + slot_->name + "': " + failure;
+      ReportPlannerFailure(message);
+      throw std::runtime_error(message);
+    }
+    if (query.occupancy == nullptr) {
       out.result.status = qp::PlanStatus::kInvalidInput;
-      out.result.message = failure.empty() ? "the query has no occupancy snapshot"
-                                           : "Python planner '" + slot_->name + "': " + failure;
-      if (!failure.empty()) ReportPlannerFailure(out.result.message);
+      out.result.message = "the query has no occupancy snapshot";
       return out;
     }
     const std::vector<Vector3d> route = Route(query, inner);

@@ -95,8 +95,11 @@ class Study:
 
     def ask(self, n=None):
         """One point (a dict), or with n a list of up to n points asked together (a batch)."""
-        asked = self._core.ask(1 if n is None else n)
-        points = [self._point(cid, values) for cid, values in asked]
+        if n is not None and (not isinstance(n, int) or isinstance(n, bool) or n < 1):
+            raise ValueError(f"ask: n is {n!r}; allowed: None (one point) or an int >= 1")
+        points = [self._point(cid, values) for cid, values in self._core.ask(1 if n is None else n)]
+        if n is None and not points:  # PSO: every particle waits for its value
+            raise RuntimeError("ask: every point asked waits for its value; tell or cancel one")
         return points if n is not None else points[0]
 
     def _values(self, x):
