@@ -117,7 +117,8 @@ class Run(unittest.TestCase):
         quadtune.register_planner("py_broken", Path())  # the same name, a fixed planner
         fixed = quadtune.resume(config("py_broken"), self.out("broken"), progress=False)
         self.assertEqual(fixed.summary["status"], "completed")
-        self.assertEqual(fixed.results.long["value"].tolist(), self.first.results.long["value"].tolist())
+        self.assertEqual(fixed.results.long["value"].tolist(),
+                         self.first.results.long["value"].tolist())
 
     def test_progress_callback_failure_is_raised(self):
         def progress(p):

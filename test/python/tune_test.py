@@ -86,7 +86,8 @@ class Errors(unittest.TestCase):
         self.check(lambda: quadtune.BayesOpt(SPACE, seed=1, initial_designs=3),
                    "bo.initial_designs", "allowed", "initial_design_size")
         self.check(lambda: quadtune.PSO(SPACE, seed=1, num_particles=0), "pso.num_particles")
-        self.check(lambda: quadtune.RandomSearch(SPACE, seed=1, anything=1), "random.anything", "no options")
+        self.check(lambda: quadtune.RandomSearch(SPACE, seed=1, anything=1), "random.anything",
+                   "no options")
         self.check(lambda: quadtune.BayesOpt(SPACE, seed=-1), "seed", "allowed")
         self.check(lambda: quadtune.BayesOpt(SPACE, seed=1.5), "seed", "allowed")
 

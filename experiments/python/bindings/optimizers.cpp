@@ -48,7 +48,8 @@ class Optimizer {
       o.seed = seed;
       optimizer_ = std::make_unique<opt::Pso>(space_, o);
     } else if (method == "random") {
-      if (!section.Keys().empty()) section.Fail(section.Keys().front(), "unknown key; random search takes no options");
+      if (!section.Keys().empty())
+        section.Fail(section.Keys().front(), "unknown key; random search takes no options");
       optimizer_ = std::make_unique<opt::RandomSearch>(space_, opt::RandomSearchOptions{seed});
     } else {
       throw ConfigError("", "method", "got '" + method + "', allowed: bo, pso, random");
@@ -118,8 +119,9 @@ class Optimizer {
     const std::lock_guard lock(mutex_);
     double mean = 0.0;
     double variance = 0.0;
-    Bo("predict").Predict(Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size())),
-                          &mean, &variance);
+    Bo("predict").Predict(
+        Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size())), &mean,
+        &variance);
     return {mean, variance};
   }
 

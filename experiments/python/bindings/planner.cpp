@@ -20,8 +20,8 @@
 #include <chrono>
 #include <cmath>
 #include <map>
-#include <stdexcept>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -56,24 +56,28 @@ struct Query {
   std::vector<Vector3d> path;
   std::shared_ptr<const qp::LocalMap> map;
 
-  [[nodiscard]] bool Occupied(const Vector3d& p) const { return map != nullptr && map->IsOccupied(p); }
+  [[nodiscard]] bool Occupied(const Vector3d& p) const {
+    return map != nullptr && map->IsOccupied(p);
+  }
 };
 
 /// The planning parameters as a dict: θ_s, θ_l and the fixed limits a planner needs.
 py::dict ParamsDict(const qp::PlannerParams& params) {
   py::dict d;
-  for (const std::string& name : qp::PlannerParams::TunableNames()) d[name.c_str()] = params.Get(name);
+  for (const std::string& name : qp::PlannerParams::TunableNames())
+    d[name.c_str()] = params.Get(name);
   d["n_pol"] = params.n_pol;
   for (const char* name : {"a_max", "inflation", "clearance"}) d[name] = params.Get(name);
   return d;
 }
 
 /// Calls the planner's waypoints(); "" and the points, or the failure.
-std::string CallPlanner(const Slot& slot, const qp::PlanningQuery& q, const qp::PlannerParams& params,
-                        std::vector<Vector3d>* points) {
+std::string CallPlanner(const Slot& slot, const qp::PlanningQuery& q,
+                        const qp::PlannerParams& params, std::vector<Vector3d>* points) {
   const py::gil_scoped_acquire gil;
-  Query query{q.time, q.p0_W, q.v0_W, q.a0_W, q.goal_W, q.goal_v_W, q.goal_is_mission_goal,
-              q.initial_path_W, q.occupancy};
+  Query query{
+      q.time,           q.p0_W,     q.v0_W, q.a0_W, q.goal_W, q.goal_v_W, q.goal_is_mission_goal,
+      q.initial_path_W, q.occupancy};
   py::object result;
   try {
     result = py::handle(slot.planner).attr("waypoints")(query, ParamsDict(params));
@@ -106,13 +110,12 @@ std::vector<Vector3d> Route(const qp::PlanningQuery& q, const std::vector<Vector
 }
 
 /// The quintic pieces through `route` at up to `speed`. A speed per point: `speed`, less where
-/// the route turns (s² θ / L <= a_max / 4 for a turn by θ, L the shorter leg), the start's and
-/// the goal's from the query, capped
-/// so that no piece needs more than a_max / 4 to change speed (a forward and a backward pass);
-/// each piece takes the time of a constant acceleration between its end speeds (>= 0.05 s). Inner
-/// points get the velocity and acceleration of finite differences over their neighbours
-/// (Catmull-Rom), so positions, times and derivatives agree; the goal keeps the query's goal
-/// velocity.
+/// the route turns (s² θ / L <= a_max / 4 for a turn by θ, L the shorter leg), the start's and the
+/// goal's from the query, capped so that no piece needs more than a_max / 4 to change speed (a
+/// forward and a backward pass); each piece takes the time of a constant acceleration between its
+/// end speeds (>= 0.05 s). Inner points get the velocity and acceleration of finite differences
+/// over their neighbours (Catmull-Rom), so positions, times and derivatives agree; the goal keeps
+/// the direction of the query's goal velocity.
 qp::Trajectory Join(const std::vector<Vector3d>& route, const qp::PlanningQuery& q, double speed,
                     double a_max) {
   const std::size_t n = route.size();
@@ -124,7 +127,8 @@ qp::Trajectory Join(const std::vector<Vector3d>& route, const qp::PlanningQuery&
     const Vector3d in = route[k] - route[k - 1];
     const Vector3d out = route[k + 1] - route[k];
     const double theta = std::acos(std::clamp(in.normalized().dot(out.normalized()), -1.0, 1.0));
-    s[k] = std::min(speed, std::sqrt(0.25 * a_max * std::min(in.norm(), out.norm()) / std::max(theta, 1e-9)));
+    s[k] = std::min(
+        speed, std::sqrt(0.25 * a_max * std::min(in.norm(), out.norm()) / std::max(theta, 1e-9)));
   }
   const auto reachable = [&](std::size_t from, std::size_t k) {  // from the speed at `from`
     return std::sqrt(s[from] * s[from] + 0.5 * a_max * (route[k] - route[from]).norm());
@@ -141,14 +145,16 @@ qp::Trajectory Join(const std::vector<Vector3d>& route, const qp::PlanningQuery&
   std::vector<Vector3d> a(n, Vector3d::Zero());
   v.front() = q.v0_W;
   a.front() = q.a0_W;
-  v.back() = s.back() > 0.0 ? Vector3d(q.goal_v_W * s.back() / q.goal_v_W.norm()) : Vector3d::Zero();
+  v.back() =
+      s.back() > 0.0 ? Vector3d(q.goal_v_W * s.back() / q.goal_v_W.norm()) : Vector3d::Zero();
   for (std::size_t k = 1; k + 1 < n; ++k) {
     v[k] = (route[k + 1] - route[k - 1]) / (T[k - 1] + T[k]);
     a[k] = 2.0 * (mean[k] - mean[k - 1]) / (T[k - 1] + T[k]);
   }
   std::vector<qp::Trajectory::Coefficients> pieces;
   for (std::size_t k = 0; k + 1 < n; ++k) {
-    pieces.push_back(qp::QuinticBoundaryValue(route[k], v[k], a[k], route[k + 1], v[k + 1], a[k + 1], T[k]));
+    pieces.push_back(
+        qp::QuinticBoundaryValue(route[k], v[k], a[k], route[k + 1], v[k + 1], a[k + 1], T[k]));
   }
   return {std::move(T), std::move(pieces)};
 }
@@ -160,7 +166,8 @@ std::size_t Check(const qp::LocalMap& map, const qp::PlannerParams& params, qp::
   // A plan may start inside the inflated region; it must leave it and stay out.
   const auto free = std::find_if(samples.begin(), samples.end(),
                                  [&](const auto& s) { return !map.IsOccupied(s.p_W); });
-  const bool collision = std::any_of(free, samples.end(), [&](const auto& s) { return map.IsOccupied(s.p_W); });
+  const bool collision =
+      std::any_of(free, samples.end(), [&](const auto& s) { return map.IsOccupied(s.p_W); });
   for (const qp::TrajectorySample& s : samples) {
     r->max_speed = std::max(r->max_speed, s.v_W.norm());
     r->max_acceleration = std::max(r->max_acceleration, s.a_W.norm());
@@ -168,12 +175,14 @@ std::size_t Check(const qp::LocalMap& map, const qp::PlannerParams& params, qp::
   r->duration = r->trajectory.Duration();
   r->cost.jerk = r->trajectory.JerkEnergy();
   r->min_clearance = collision ? 0.0 : map.options().inflation;
-  r->status = collision ? qp::PlanStatus::kCollision
-              : r->max_speed > kTolerance * params.v_des || r->max_acceleration > kTolerance * params.a_max
-                  ? qp::PlanStatus::kDynamicsViolated
-                  : qp::PlanStatus::kSuccess;
+  r->status =
+      collision ? qp::PlanStatus::kCollision
+      : r->max_speed > kTolerance * params.v_des || r->max_acceleration > kTolerance * params.a_max
+          ? qp::PlanStatus::kDynamicsViolated
+          : qp::PlanStatus::kSuccess;
   r->message = collision ? "the curve enters an inflated obstacle"
-               : r->Ok() ? "" : "over the velocity or acceleration limit";
+               : r->Ok() ? ""
+                         : "over the velocity or acceleration limit";
   return samples.size();
 }
 
@@ -183,14 +192,17 @@ class PythonBackend final : public qp::TrajectoryBackend {
   explicit PythonBackend(std::shared_ptr<const Slot> slot) : slot_(std::move(slot)) {}
 
   [[nodiscard]] std::string Name() const override { return slot_->name; }
-  [[nodiscard]] qp::QuerySnapshot Snapshot() const override { return qp::QuerySnapshot::kOccupancy; }
+  [[nodiscard]] qp::QuerySnapshot Snapshot() const override {
+    return qp::QuerySnapshot::kOccupancy;
+  }
   [[nodiscard]] std::optional<qp::PlanResult> Fallback(const qp::PlanningQuery& /*query*/,
                                                        const qp::PlannerParams& /*params*/,
                                                        double /*speed*/) const override {
     return std::nullopt;
   }
 
-  [[nodiscard]] qp::PlanOutcome Solve(const qp::PlanningQuery& query, const qp::PlannerParams& params,
+  [[nodiscard]] qp::PlanOutcome Solve(const qp::PlanningQuery& query,
+                                      const qp::PlannerParams& params,
                                       const qp::LocalPlannerOptions& options) const override {
     const auto started = std::chrono::steady_clock::now();
     qp::PlanOutcome out;
@@ -210,17 +222,20 @@ class PythonBackend final : public qp::TrajectoryBackend {
     }
     const std::vector<Vector3d> route = Route(query, inner);
     double speed = params.v_des;
-    for (int attempt = 0; attempt < params.max_attempts; ++attempt, speed *= options.retry_slowdown) {
+    for (int attempt = 0; attempt < params.max_attempts;
+         ++attempt, speed *= options.retry_slowdown) {
       ++out.attempts;
       out.result = qp::PlanResult{};
       out.result.trajectory = Join(route, query, speed, params.a_max);
       // Deterministic work measure: 1 unit per attempt, 1 per Python call and per 100 samples.
-      out.result.compute_units = 2.0 + 0.01 * static_cast<double>(Check(*query.occupancy, params, &out.result));
+      out.result.compute_units =
+          2.0 + 0.01 * static_cast<double>(Check(*query.occupancy, params, &out.result));
       out.compute_units += out.result.compute_units;
       if (out.Ok()) break;
       ++out.failed_attempts;
     }
-    out.solve_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    out.solve_time_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     out.result.solve_time_s = out.solve_time_s;
     return out;
   }
@@ -247,7 +262,8 @@ void RegisterPythonPlanner(const std::string& name, const py::object& planner) {
   engine::RegisterPlanner(
       name,
       [slot, backend](const YamlMap& map, const std::string& base_dir) {
-        return engine::Planner{engine::BackendPlanner{slot->name, engine::ClosedLoopOptions::FromYaml(map, base_dir), backend()}};
+        return engine::Planner{engine::BackendPlanner{
+            slot->name, engine::ClosedLoopOptions::FromYaml(map, base_dir), backend()}};
       },
       engine::BackendPlanner::Schema(), backend);
   slot->planner = planner.inc_ref().ptr();

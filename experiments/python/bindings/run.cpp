@@ -46,13 +46,18 @@ std::string SummaryJson(const engine::RunSummary& s) {
   j["worlds"] = s.worlds;
   j["trials"] = nlohmann::json::array();
   for (const auto& t : s.trials) {
-    j["trials"].push_back(engine::ToJson(t, engine::TrialSummaryColumns(), engine::JsonReals::kNumbers));
+    j["trials"].push_back(
+        engine::ToJson(t, engine::TrialSummaryColumns(), engine::JsonReals::kNumbers));
   }
   j["validation"] = nlohmann::json::array();
   for (const auto& v : s.validation) {
-    j["validation"].push_back({{"method", v.method}, {"repeat", v.repeat}, {"params", v.params},
-                               {"flights", v.flights}, {"mean_value", v.mean_value},
-                               {"completed", v.completed}, {"collision_free", v.collision_free},
+    j["validation"].push_back({{"method", v.method},
+                               {"repeat", v.repeat},
+                               {"params", v.params},
+                               {"flights", v.flights},
+                               {"mean_value", v.mean_value},
+                               {"completed", v.completed},
+                               {"collision_free", v.collision_free},
                                {"emergency_stops", v.emergency_stops}});
   }
   return j.dump();
@@ -63,21 +68,20 @@ std::string SummaryJson(const engine::RunSummary& s) {
 /// `error` to be raised when the run has stopped.
 /// The callback holds `progress` without a reference (the caller's keeps it alive), so copies of
 /// it made without the GIL touch no reference count.
-std::function<void(const engine::Progress&)> ProgressCallback(py::handle progress,
-                                                               std::optional<py::error_already_set>* error) {
+std::function<void(const engine::Progress&)> ProgressCallback(
+    py::handle progress, std::optional<py::error_already_set>* error) {
   return [progress, error](const engine::Progress& p) {
     const py::gil_scoped_acquire gil;
     if (error->has_value()) return;
     try {
       if (PyErr_CheckSignals() != 0) throw py::error_already_set();
       if (progress.is_none()) return;
-      progress(py::dict(py::arg("method") = p.method, py::arg("repeat") = p.repeat,
-                        py::arg("flights_done") = p.flights_done,
-                        py::arg("flights_total") = p.flights_total,
-                        py::arg("trials_done") = p.trials_done,
-                        py::arg("trials_total") = p.trials_total,
-                        py::arg("short_evals") = p.short_evals, py::arg("best_long") = p.best_long,
-                        py::arg("elapsed_s") = p.elapsed_s));
+      progress(py::dict(
+          py::arg("method") = p.method, py::arg("repeat") = p.repeat,
+          py::arg("flights_done") = p.flights_done, py::arg("flights_total") = p.flights_total,
+          py::arg("trials_done") = p.trials_done, py::arg("trials_total") = p.trials_total,
+          py::arg("short_evals") = p.short_evals, py::arg("best_long") = p.best_long,
+          py::arg("elapsed_s") = p.elapsed_s));
     } catch (py::error_already_set& e) {
       error->emplace(std::move(e));
       Active().cancel = true;
@@ -99,8 +103,9 @@ std::string Run(const std::string& source, bool is_file, const std::string& orig
     const std::lock_guard lock(active.run_mutex);
     active.cancel = false;
     active.planner_failure.reset();
-    const engine::Experiment experiment = is_file ? engine::Experiment::LoadFile(source)
-                                                  : engine::Experiment::FromString(source, origin, base_dir);
+    const engine::Experiment experiment =
+        is_file ? engine::Experiment::LoadFile(source)
+                : engine::Experiment::FromString(source, origin, base_dir);
     engine::RunOptions options;
     options.store_path = store;
     options.threads = threads;
@@ -128,9 +133,8 @@ void ReportPlannerFailure(const std::string& message) {
 }
 
 void BindRun(py::module_& m) {
-  m.def("run", &Run, py::arg("source"), py::arg("is_file"), py::arg("origin"),
-        py::arg("base_dir"), py::arg("store"), py::arg("resume"), py::arg("threads"),
-        py::arg("progress"),
+  m.def("run", &Run, py::arg("source"), py::arg("is_file"), py::arg("origin"), py::arg("base_dir"),
+        py::arg("store"), py::arg("resume"), py::arg("threads"), py::arg("progress"),
         "Runs (or resumes) an experiment into the SQLite store `store` with the GIL released; "
         "returns the summary as JSON text. quadtune.run wraps it.");
 }

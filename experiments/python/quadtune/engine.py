@@ -64,8 +64,10 @@ def run(config, out, *, resume=False, overwrite=False, threads=None, progress=Tr
     prints a line per round, a callable gets a dict per round, False is silent (an exception in
     the callable, or Ctrl-C, stops the run after its round and is raised). Returns an Outcome."""
     source, is_file, origin, base_dir = _source(config)
-    if threads is not None and (not isinstance(threads, int) or isinstance(threads, bool) or threads < 1):
-        raise ValueError(f"threads: got {threads!r}; allowed: None (the experiment's) or an int >= 1")
+    if threads is not None and (not isinstance(threads, int) or isinstance(threads, bool)
+                                or threads < 1):
+        raise ValueError(f"threads: got {threads!r}; allowed: None (the experiment's) or an "
+                         "int >= 1")
     store = os.path.join(os.fspath(out), "results.sqlite")
     if resume and not os.path.isfile(store):
         raise ValueError(f"{out}: no run to resume (no results.sqlite there)")

@@ -54,7 +54,8 @@ def _parameter(name, bounds):
 
 def _space_yaml(space):
     if not isinstance(space, dict) or not space:
-        raise ValueError(f"space: got {space!r}; allowed: a non-empty dict of name -> (lower, upper)")
+        raise ValueError(f"space: got {space!r}; allowed: a non-empty dict of "
+                         "name -> (lower, upper)")
     for name in space:
         if not isinstance(name, str):
             raise ValueError(f"space: the name {name!r} is not a string")
