@@ -66,6 +66,46 @@ class Points(unittest.TestCase):
         self.assertEqual(len(study.ask(3)), 3)
 
 
+class ComplementaryTuner(unittest.TestCase):
+    LONG = {"v": (0.5, 4.0)}
+    SHORT = {"w": {"lower": 0.05, "upper": 5.0, "log": True, "default": 0.5}, "n": (2, 8, int)}
+
+    def tune(self, seed):
+        tuner = quadtune.Complementary(self.LONG, self.SHORT, seed=seed,
+                                       bo={"initial_design_size": 3}, pso={"num_particles": 4})
+        flown = []
+        for _ in range(6):
+            x = tuner.ask()
+            flown.append(dict(x))
+            tuner.tell(x, (x["v"] - 2.5) ** 2 + math.log(x["w"]) ** 2)
+            for _ in range(4):
+                s = tuner.ask_short()
+                tuner.tell_short(s, math.log(s["w"] / 2) ** 2 + abs(s["n"] - 4))
+        return tuner, flown
+
+    def test_flies_the_best_short_point_and_discounts_when_it_changes(self):
+        tuner, flown = self.tune(4)
+        self.assertEqual({k: flown[0][k] for k in ("w", "n")}, {"w": 0.5, "n": 5})  # defaults
+        self.assertIsInstance(flown[0]["n"], int)
+        for x in flown[1:]:  # later flights fly PSO's best short-term point at the time
+            self.assertIn(x["n"], range(2, 9))
+        changes = sum(1 for a, b in zip(flown, flown[1:])
+                      if (a["w"], a["n"]) != (b["w"], b["n"]))
+        self.assertGreater(changes, 0)
+        self.assertEqual(tuner.context_changes, changes)
+        self.assertEqual(tuner.best.params["n"], tuner.short.best.params["n"])
+        self.assertEqual(self.tune(4)[1], flown)
+        self.assertNotEqual(self.tune(5)[1], flown)
+
+    def test_errors(self):
+        with self.assertRaisesRegex(ValueError, "'v' is in long_space too"):
+            quadtune.Complementary(self.LONG, {"v": (0.0, 1.0)}, seed=1)
+        tuner = quadtune.Complementary(self.LONG, self.SHORT, seed=1)
+        x = tuner.ask()
+        with self.assertRaisesRegex(ValueError, "unknown parameter 'q'; allowed: v, w, n"):
+            tuner.tell({**x, "q": 1.0}, 1.0)
+
+
 class Errors(unittest.TestCase):
     def check(self, call, *words):
         with self.assertRaises(ValueError) as e:

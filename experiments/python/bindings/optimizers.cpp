@@ -128,6 +128,10 @@ class Optimizer {
   std::size_t NumTold() const { return optimizer_->NumTold(); }
   std::size_t NumPending() const { return optimizer_->NumPending(); }
   std::vector<std::string> Names() const { return space_.Names(); }
+  std::vector<double> Defaults() const {
+    const Eigen::VectorXd d = space_.Defaults();
+    return {d.data(), d.data() + d.size()};
+  }
   std::vector<bool> Integer() const {
     std::vector<bool> out;
     for (const opt::Parameter& p : space_.Parameters()) {
@@ -168,6 +172,7 @@ void BindOptimizers(py::module_& m) {
       .def_property_readonly("num_told", &Optimizer::NumTold)
       .def_property_readonly("num_pending", &Optimizer::NumPending)
       .def_property_readonly("names", &Optimizer::Names)
+      .def_property_readonly("defaults", &Optimizer::Defaults)
       .def_property_readonly("integer", &Optimizer::Integer)
       .def_property_readonly("ask_seconds", &Optimizer::AskSeconds)
       .def_property_readonly("tell_seconds", &Optimizer::TellSeconds);

@@ -1,8 +1,8 @@
 """quadtune from Python: results stores as DataFrames (load, rows: pure Python), and through the
 extension module quadtune._core (built from the C++, docs/python.md) the ask/tell optimisers
-(BayesOpt, PSO, RandomSearch: tune.py), experiment runs (run, resume) and planners written in
-Python (register_planner: engine.py). The build puts the package in build/python
-(PYTHONPATH=build/python); cmake --install puts it in site-packages.
+(BayesOpt, PSO, RandomSearch, Complementary: tune.py), experiment runs (run, resume) and
+planners written in Python (register_planner: engine.py). The build puts the package in
+build/python (PYTHONPATH=build/python); cmake --install puts it in site-packages.
 
     import quadtune
     r = quadtune.load("results/main/tuning/results.sqlite")   # or the run directory
@@ -328,6 +328,7 @@ def load(path):
 # The names backed by the compiled module, imported on first use so that load() works from a
 # copy of the package without it (e.g. PYTHONPATH=experiments/python in the source tree).
 _COMPILED = {"BayesOpt": "tune", "PSO": "tune", "RandomSearch": "tune", "Study": "tune",
+             "Complementary": "tune",
              "Best": "tune", "Point": "tune", "run": "engine", "resume": "engine",
              "register_planner": "engine", "Outcome": "engine"}
 

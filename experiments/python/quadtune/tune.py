@@ -190,3 +190,79 @@ class RandomSearch(Study):
     """Uniform random search in the space's unit cube."""
 
     method = "random"
+
+
+class Complementary:
+    """quadtune's complementary tuner (paper Sec. III) as ask/tell, for two objectives: Bayesian
+    optimisation of the long-term parameters on an expensive value f_l (a flight), particle swarm
+    optimisation of the short-term ones on a cheap value f_s (a re-solved planning query), the best
+    short-term point so far flying in every long-term evaluation.
+
+        tuner = quadtune.Complementary({"v_des": (0.5, 4.0)}, {"w_col": (0.05, 5.0, "log")}, seed=1)
+        for _ in range(flights):
+            for _ in range(10):                       # the cheap loop, as often as it is cheap
+                s = tuner.ask_short(); tuner.tell_short(s, f_s(s))
+            x = tuner.ask(); tuner.tell(x, f_l(x))    # x: long-term point + best short-term one
+
+    As the engine's `bo_pso` method does, BO discounts its older observations once for each ask()
+    whose short-term point differs from the last one flown (notify_context_changed: their noise
+    is divided by bo.discount). The short-term point flown is the defaults until the first
+    tell_short. Options: `bo` and `pso`, dicts of the experiment file's `bo:` and `pso:` keys.
+    """
+
+    def __init__(self, long_space, short_space, seed, bo=None, pso=None):
+        common = set(long_space or ()) & set(short_space or ())
+        if common:
+            raise ValueError(f"short_space: {sorted(common)[0]!r} is in long_space too; a "
+                             "parameter is long-term or short-term")
+        if not isinstance(seed, int) or isinstance(seed, bool) or not 0 <= seed < 2**63:
+            raise ValueError(f"seed: got {seed!r}; allowed: an int in [0, 2**63)")
+        # The two optimisers draw from distinct seeds derived from the one given.
+        self.long = BayesOpt(long_space, seed=2 * seed, **(bo or {}))
+        self.short = PSO(short_space, seed=2 * seed + 1, **(pso or {}))
+        self._defaults = {n: int(v) if i else v for n, v, i in
+                          zip(self.short.names, self.short._core.defaults, self.short._integer)}
+        self._flying = None  # the short-term point of the last ask()
+        self.context_changes = 0
+
+    def flying(self):
+        """The short-term point the next ask() flies: PSO's best so far, else the defaults."""
+        best = self.short.best
+        return dict(best.params) if best is not None else dict(self._defaults)
+
+    def ask_short(self, n=None):
+        return self.short.ask(n)
+
+    def tell_short(self, s, value):
+        self.short.tell(s, value)
+
+    def ask(self):
+        """A point to evaluate with f_l: BO's long-term point and the flying short-term one."""
+        flying = self.flying()
+        if self._flying is not None and flying != self._flying:
+            self.long.notify_context_changed()
+            self.context_changes += 1
+        self._flying = flying
+        x = self.long.ask()
+        point = Point(x, **flying)
+        point.id = x.id
+        return point
+
+    def tell(self, x, value, noise=None):
+        """Reports f_l(x) for a point ask() returned."""
+        if not isinstance(x, dict):
+            raise ValueError(f"tell: x is {type(x).__name__}; allowed: a point ask() returned")
+        long_x = Point((k, x[k]) for k in self.long.names if k in x)
+        long_x.id = getattr(x, "id", None)
+        unknown = [k for k in x if k not in self.long.names and k not in self.short.names]
+        if unknown:
+            raise ValueError(f"tell: x has unknown parameter {unknown[0]!r}; allowed: "
+                             f"{', '.join(self.long.names + self.short.names)}")
+        self.long.tell(long_x, value, noise)
+
+    @property
+    def best(self):
+        """Best(params, value, observed): BO's best long-term point with the flying short-term
+        one; value and observed are BO's (f_l). None before the first tell."""
+        b = self.long.best
+        return None if b is None else Best({**b.params, **self.flying()}, b.value, b.observed)
