@@ -67,8 +67,9 @@ echo "quadtune setup: built into $build_dir"
 
 # The Python package quadtune (with its compiled module), the program, libraries and assets go
 # under the install prefix (default /usr/local), where Debian's python3 finds `import quadtune`
-# without PYTHONPATH (docs/python.md). Only as root; QUADTUNE_NO_INSTALL=1 skips it.
-if [[ "${QUADTUNE_NO_INSTALL:-0}" != 1 ]]; then
+# without PYTHONPATH (docs/python.md). Only as root, not for sanitizer builds;
+# QUADTUNE_NO_INSTALL=1 skips it.
+if [[ "${QUADTUNE_NO_INSTALL:-0}" != 1 && "${QUADTUNE_CMAKE_ARGS:-}" != *SANITIZE* ]]; then
   if [[ $(id -u) -eq 0 ]]; then
     cmake --install "$build_dir" >/dev/null
     echo "quadtune setup: installed (cmake --install $build_dir): import quadtune works without PYTHONPATH"
