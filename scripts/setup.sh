@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # Installs quadtune's Debian 12 packages (idempotent: a no-op when all are present), then
-# configures and builds quadtune in Release mode.
+# configures and builds quadtune in Release mode and, as root, installs it (cmake --install, prefix
+# /usr/local: `import quadtune` then works in any python3).
 #
 #   scripts/setup.sh                # install + configure + build everything into ./build
 #   QUADTUNE_BUILD_DIR=/tmp/b scripts/setup.sh
 #   QUADTUNE_CMAKE_ARGS="-DQUADTUNE_SANITIZE=address" scripts/setup.sh
+#   QUADTUNE_NO_INSTALL=1 scripts/setup.sh     # build only
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -21,6 +23,7 @@ packages=(
   python3 python3-matplotlib python3-numpy python3-pandas python3-scipy python3-yaml
   npm chromium python3-pil clang libclang-rt-14-dev
   python3-optuna r-cran-irace
+  pybind11-dev python3-pybind11 python3-dev
 )
 
 missing=()
@@ -61,3 +64,16 @@ if (( mem_gib / 2 < jobs )); then jobs=$(( mem_gib / 2 > 0 ? mem_gib / 2 : 1 ));
 cmake -S "$root" -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release ${QUADTUNE_CMAKE_ARGS:-}
 cmake --build "$build_dir" -j "$jobs"
 echo "quadtune setup: built into $build_dir"
+
+# The Python package quadtune (with its compiled module), the program, libraries and assets go
+# under the install prefix (default /usr/local), where Debian's python3 finds `import quadtune`
+# without PYTHONPATH (docs/python.md). Only as root, not for sanitizer builds;
+# QUADTUNE_NO_INSTALL=1 skips it.
+if [[ "${QUADTUNE_NO_INSTALL:-0}" != 1 && "${QUADTUNE_CMAKE_ARGS:-}" != *SANITIZE* ]]; then
+  if [[ $(id -u) -eq 0 ]]; then
+    cmake --install "$build_dir" >/dev/null
+    echo "quadtune setup: installed (cmake --install $build_dir): import quadtune works without PYTHONPATH"
+  else
+    echo "quadtune setup: not root, so not installed; PYTHONPATH=$build_dir/python finds the Python package"
+  fi
+fi

@@ -1,6 +1,9 @@
-"""Reading quadtune results stores (results.sqlite) from Python.
+"""quadtune from Python: results stores as DataFrames (load, rows: pure Python), and through the
+extension module quadtune._core (built from the C++, docs/python.md) the ask/tell optimisers
+(BayesOpt, PSO, RandomSearch, Complementary: tune.py), experiment runs (run, resume) and
+planners written in Python (register_planner: engine.py). The build puts the package in
+build/python (PYTHONPATH=build/python); cmake --install puts it in site-packages.
 
-    import sys; sys.path.insert(0, "<quadtune>/experiments/python")
     import quadtune
     r = quadtune.load("results/main/tuning/results.sqlite")   # or the run directory
     r.long      # pandas DataFrame: one row per flight (f_l)
@@ -320,3 +323,26 @@ def load(path):
     return Results(long=frame("long"), short=frame("short"), validation=frame("validation"),
                    recheck=frame("recheck"), race=frame("race"), incumbent=frame("incumbent"),
                    trials=_trials_frame(path, pd), experiment=pd.Series(experiment(path)))
+
+
+# The names backed by the compiled module, imported on first use so that load() works from a
+# copy of the package without it (e.g. PYTHONPATH=experiments/python in the source tree).
+_COMPILED = {"BayesOpt": "tune", "PSO": "tune", "RandomSearch": "tune", "Study": "tune",
+             "Complementary": "tune",
+             "Best": "tune", "Point": "tune", "run": "engine", "resume": "engine",
+             "register_planner": "engine", "Outcome": "engine"}
+
+
+def __getattr__(name):
+    if name not in _COMPILED:
+        raise AttributeError(f"module 'quadtune' has no attribute {name!r}")
+    import importlib
+    try:
+        module = importlib.import_module("." + _COMPILED[name], __name__)
+    except ImportError as e:
+        raise ImportError(
+            f"quadtune.{name} needs the compiled module quadtune._core, which this copy of the "
+            f"package ({os.path.dirname(__file__)}) lacks ({e}): build it (ninja -C build "
+            "quadtune_python, then PYTHONPATH=build/python) or install quadtune (cmake --install "
+            "build)") from None
+    return getattr(module, name)
