@@ -34,6 +34,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
 matplotlib.use("Agg")
 import quadtune  # noqa: E402  (experiments/python/quadtune: the store reader)
+import quadtune_methods as qm  # noqa: E402  (method names, colours, final values)
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.patches import Circle  # noqa: E402
 
@@ -248,10 +249,18 @@ def plot_flights(directories, out_dir):
     return [topdown, density, table]
 
 
-COLORS = {"default": "tab:green", "random": "tab:gray", "pso": "tab:purple", "bo": "tab:blue",
-          "bo_pso": "tab:red"}
-LABELS = {"default": "Default", "random": "Random", "pso": "PSO only", "bo": "BO only",
-          "bo_pso": "BO+PSO"}
+class _Colours(dict):
+    """Method key -> colour, from quadtune_methods (shared with tuning.md and the report)."""
+
+    def __missing__(self, key):
+        return qm.colour(key)
+
+    def get(self, key, default=None):
+        return qm.colour(key)
+
+
+COLORS = _Colours()
+LABELS = qm.LABELS
 
 
 def mean_std(values):
@@ -325,16 +334,13 @@ def iterations_to_fraction(values, fraction=0.9):
 
 
 def method_order(trials):
-    order = []
-    for m in ["default", "random", "pso", "bo", "bo_pso"] + [t["method"] for t in trials]:
-        if m not in order and any(t["method"] == m for t in trials):
-            order.append(m)
-    return order
+    return qm.order(t["method"] for t in trials)
 
 
 def final_value(t):
-    """A trial's final value: best f_l found, or for the defaults the mean f_l of their flights."""
-    return statistics.fmean(t["long"]) if t["method"] == "default" else min(t["long"])
+    """A trial's final value (quadtune_methods.final_value): best f_l found, or for the defaults
+    the mean f_l of their flights."""
+    return qm.final_value(t["method"], t["long"])
 
 
 def mean_ci95(values):
@@ -536,9 +542,10 @@ def plot_run(directory, out_dir=None):
         w.writerow(["method", "repeats", "flights", "final_mean", "final_std", "final_min",
                      "best_at_10pct", "best_at_25pct", "flights_to_90pct", "resolves",
                      "failed", "p_vs_default", "p_vs_bo_pso", "best_params"])
-        f.write("Final value: best f_l of the trial (Default: mean f_l of its flights). Early "
-                "columns: mean best f_l after 10% and 25% of the flights. p: two-sided "
-                "Mann–Whitney U test of the final values over repeats.\n\n")
+        f.write("Final value: best f_l of the trial's flights, tuning and racing flights "
+                "(Default: mean f_l of its flights). Early columns: mean best f_l after 10% and "
+                "25% of the flights. p: two-sided Mann–Whitney U test of the final values over "
+                "repeats. Best parameters: the best trial's best flight.\n\n")
         f.write("| method | repeats | flights | final f_l (mean ± std) | min | after 10% | "
                 "after 25% | flights to 90% of optimum | re-solves | failed | "
                 "p vs Default | p vs BO+PSO | best parameters |\n")
@@ -559,7 +566,14 @@ def plot_run(directory, out_dir=None):
             w.writerow([r["method"], r["repeats"], r["flights"], m, s, min(r["finals"]),
                         r["early10"], r["early25"], r["k90"], r["shorts"], r["failed"], pd_, pb,
                         r["params"]])
-    return [figure, table, csv_path] + plot_validation(directory, out_dir)
+    validation = plot_validation(directory, out_dir)
+    store = os.path.join(directory, "results.sqlite")
+    con = quadtune.connect(store)
+    tuned = qm.tuned_parameters(con, store)
+    con.close()
+    with open(table, "a") as f:
+        f.write("\n" + qm.parameters_markdown(tuned))
+    return [figure, table, csv_path] + validation
 
 
 def plot_validation(directory, out_dir=None):
