@@ -53,7 +53,10 @@ def paired_p(diffs):
     diffs = [d for d in diffs if d == d]
     if _stats is None or len(diffs) < 2 or all(d == 0 for d in diffs):
         return float("nan")
-    return float(_stats.wilcoxon(diffs, alternative="two-sided").pvalue)
+    import warnings
+    with warnings.catch_warnings():  # ties or zero differences: scipy's normal approximation
+        warnings.simplefilter("ignore", UserWarning)
+        return float(_stats.wilcoxon(diffs, alternative="two-sided").pvalue)
 
 
 def near_bounds(params, space, fraction=0.02):
