@@ -308,8 +308,9 @@ def load_run(path):
             t["short_before"].append(t["shorts"])
             # Failed: the flight did not finish (any state but ok and collision: timeout,
             # stalled, solver_failure, diverged, error, ...) or scored the failure value.
-            t["long_failed"].append(state not in ("ok", "collision") or value >= failure_value)
-            t["failed"] += status != "ok"
+            failed = state not in ("ok", "collision") or value >= failure_value
+            t["long_failed"].append(failed)
+            t["failed"] += failed
     con.close()
     return [t for t in trials.values() if t["long"]]
 
@@ -545,7 +546,9 @@ def plot_run(directory, out_dir=None):
         f.write("Final value: best f_l of the trial's flights, tuning and racing flights "
                 "(Default: mean f_l of its flights). Early columns: mean best f_l after 10% and "
                 "25% of the flights. p: two-sided Mann–Whitney U test of the final values over "
-                "repeats. Best parameters: the best trial's best flight.\n\n")
+                "repeats. Failed: flights that did not finish (state timeout, stalled, diverged, "
+                "solver_failure, error, ...). Best parameters: the best trial's best flight."
+                "\n\n")
         f.write("| method | repeats | flights | final f_l (mean ± std) | min | after 10% | "
                 "after 25% | flights to 90% of optimum | re-solves | failed | "
                 "p vs Default | p vs BO+PSO | best parameters |\n")
