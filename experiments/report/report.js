@@ -14,6 +14,9 @@ for (const m of (data.runs && data.runs.methods) || []) methodInfo[m.key] = m;
 const label = (method) => (methodInfo[method] ? methodInfo[method].label : method);
 const colour = (method) => (methodInfo[method] ? methodInfo[method].colour : "#444444");
 const several = () => data.runs.stores.length > 1;
+// Stores of a study: one line style each (the colour stays the method's).
+const dashOf = (store) => ["solid", "dash", "dot", "dashdot", "longdash"][
+    Math.max(0, data.runs.stores.indexOf(store)) % 5];
 const seriesName = (store, method) => (several() ? `${store} · ${label(method)}` : label(method));
 
 function logScaleFits(values) {
@@ -156,10 +159,10 @@ function drawConvergence(runs) {
     const name = seriesName(s.store, s.method);
     all.push(...s.lo, ...s.hi);
     traces.push({ x: s.x.concat([...s.x].reverse()), y: s.hi.concat([...s.lo].reverse()),
-                  fill: "toself", fillcolor: withAlpha(c, 0.15), line: { width: 0 },
+                  fill: "toself", fillcolor: withAlpha(c, 0.15), line: { width: 0 }, mode: "lines",
                   hoverinfo: "skip", showlegend: false, legendgroup: name, type: "scatter" });
     traces.push({ x: s.x, y: s.median, name: `${name} (${s.trials} repeat${s.trials > 1 ? "s" : ""})`,
-                  legendgroup: name, line: { color: c, width: 2.5, shape: "hv" },
+                  legendgroup: name, line: { color: c, width: 2.5, shape: "hv", dash: dashOf(s.store) },
                   mode: "lines+markers", type: "scatter" });
   }
   Plotly.newPlot("qt-convergence", traces, {
@@ -217,7 +220,7 @@ function drawEcdf(runs, kind) {
       const v = rs.map((r) => r.value).sort((a, b) => a - b);
       traces.push({ type: "scatter", mode: "lines", name: `${seriesName(store, method)} (${v.length})`,
                     x: v, y: v.map((_, k) => (k + 1) / v.length), line: { shape: "hv", width: 2.2,
-                    color: colour(method) } });
+                    color: colour(method), dash: dashOf(store) } });
     }
   }
   const all = rows.map((r) => r.value);
