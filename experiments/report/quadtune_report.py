@@ -25,7 +25,11 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "python"))
+# The figure scripts' folder (method names, colours, tables): beside this one, or the folder of
+# $QUADTUNE_PLOT_SCRIPT when that names the figure script elsewhere.
 sys.path.insert(0, os.path.join(HERE, "..", "plot"))
+if os.environ.get("QUADTUNE_PLOT_SCRIPT"):
+    sys.path.insert(0, os.path.dirname(os.path.abspath(os.environ["QUADTUNE_PLOT_SCRIPT"])))
 sys.path.insert(0, HERE)
 import quadtune  # noqa: E402  (experiments/python/quadtune: the store reader)
 import quadtune_methods as qm  # noqa: E402  (experiments/plot: method names, colours, finals)
