@@ -612,7 +612,7 @@ def plot_validation(directory, out_dir=None):
             w.writerow(qv.csv_row(r))
     fig, (ax_a, ax_b) = plt.subplots(1, 2, figsize=(11, 3.8),
                                      gridspec_kw={"width_ratios": [1.2, 1]})
-    ranked = sorted(rows, key=lambda r: r["mean"])
+    ranked = sorted(rows, key=lambda r: r["mean"], reverse=True)  # the best at the top
     ys = list(range(len(ranked)))
     for y, r in zip(ys, ranked):
         c = COLORS.get(r["method"], "0.3")
