@@ -483,7 +483,7 @@ def plot_run(directory, out_dir=None):
                            "ticks in the top strip", xy=(0, 1.18), xycoords="axes fraction",
                            fontsize=11, weight="bold")
     # (C) the short-term search of BO+PSO: best f_s so far against the re-solves it took.
-    bottom = grid[2, :].subgridspec(1, 2, wspace=0.3)
+    bottom = grid[2, :].subgridspec(1, 2, wspace=0.45)
     ax_c = fig.add_subplot(bottom[0, 0])
     shorts = [t for t in trials if t["short_values"]]
     for t in shorts:
@@ -494,7 +494,7 @@ def plot_run(directory, out_dir=None):
         ax_c.set_xscale("log")  # most of the search's progress is in its first re-solves
         ax_c.set_yscale("log")
         _plain_log_ticks(ax_c.yaxis)
-        ax_c.set_title("(C) BO+PSO: best f_s so far, one line per repeat", loc="left",
+        ax_c.set_title("(C) BO+PSO: best f_s so far per repeat", loc="left",
                        fontsize=11, weight="bold")
     else:
         ax_c.text(0.5, 0.5, "no θ_s candidates in this run", ha="center", va="center",
@@ -516,7 +516,7 @@ def plot_run(directory, out_dir=None):
     ax_d.set_yticklabels([LABELS.get(m, m) for m in ranked])
     ax_d.set_ylim(-0.6, len(ranked) - 0.4)
     ax_d.set_xlabel("final f_l (s): best of the trial; Default: mean of its flights")
-    ax_d.set_title("(D) final values: mean ± 95% CI, dots: repeats", loc="left", fontsize=11,
+    ax_d.set_title("(D) final values: mean ± 95% CI", loc="left", fontsize=11,
                    weight="bold")
     ax_d.grid(alpha=0.3, axis="x")
     out_dir = out_dir or directory
