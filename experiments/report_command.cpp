@@ -1,7 +1,7 @@
 // `quadtune report DIR`: one self-contained HTML page (DIR/report.html) of a run, a study or a
 // flight directory. Stored flights are flown again into DIR/report_flights/ for the 3-D replay;
-// the page itself is written by experiments/report/quadtune_report.py (Debian's python3, standard
-// library only) with three.js and plotly.js inlined from experiments/report/js/node_modules.
+// the page itself is written by experiments/report/quadtune_report.py (Debian's python3 with
+// numpy, scipy and yaml) with three.js and plotly.js inlined from experiments/report/js/node_modules.
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
@@ -154,8 +154,9 @@ void RegisterReport(CLI::App& app, int& exit_code) {
   static ReportArgs args;
   auto* cmd = app.add_subcommand(
       "report",
-      "write DIR/report.html: convergence, final values, parameter importance, slices, "
-      "parallel coordinates and a 3-D replay of stored flights (opens offline)");
+      "write DIR/report.html: held-out validation, tuned parameters, convergence, final "
+      "values, f_l distributions, Sobol' importance, slices, evaluations and a 3-D replay of "
+      "stored flights (opens offline)");
   cmd->add_option("DIR", args.dir, "a `quadtune run`, `study` or `fly` output directory")
       ->required()
       ->check(CLI::ExistingDirectory);

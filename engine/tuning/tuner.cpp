@@ -897,7 +897,8 @@ class Trial {
     // race.share of the trial's flights.
     const int first = std::min(e_.race.first_maps, e_.race.max_maps);
     const int stage = first + std::max(0, first - static_cast<int>(incumbent_samples_.size()));
-    if (summary_.flights + (e_.race.reserve ? WholeRaceFlights() : stage) > FlightBudget()) {
+    // With race.reserve a race during the rounds must leave a whole race's flights after it.
+    if (summary_.flights + (e_.race.reserve ? 2 * WholeRaceFlights() : stage) > FlightBudget()) {
       return true;
     }
     if (summary_.race_flights + stage > e_.race.share * (summary_.flights + stage)) return true;

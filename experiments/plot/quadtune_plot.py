@@ -34,6 +34,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
 matplotlib.use("Agg")
 import quadtune  # noqa: E402  (experiments/python/quadtune: the store reader)
+import quadtune_methods as qm  # noqa: E402  (method names, colours, final values)
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.patches import Circle  # noqa: E402
 
@@ -248,10 +249,18 @@ def plot_flights(directories, out_dir):
     return [topdown, density, table]
 
 
-COLORS = {"default": "tab:green", "random": "tab:gray", "pso": "tab:purple", "bo": "tab:blue",
-          "bo_pso": "tab:red"}
-LABELS = {"default": "Default", "random": "Random", "pso": "PSO only", "bo": "BO only",
-          "bo_pso": "BO+PSO"}
+class _Colours(dict):
+    """Method key -> colour, from quadtune_methods (shared with tuning.md and the report)."""
+
+    def __missing__(self, key):
+        return qm.colour(key)
+
+    def get(self, key, default=None):
+        return qm.colour(key)
+
+
+COLORS = _Colours()
+LABELS = qm.LABELS
 
 
 def mean_std(values):
@@ -299,8 +308,9 @@ def load_run(path):
             t["short_before"].append(t["shorts"])
             # Failed: the flight did not finish (any state but ok and collision: timeout,
             # stalled, solver_failure, diverged, error, ...) or scored the failure value.
-            t["long_failed"].append(state not in ("ok", "collision") or value >= failure_value)
-            t["failed"] += status != "ok"
+            failed = state not in ("ok", "collision") or value >= failure_value
+            t["long_failed"].append(failed)
+            t["failed"] += failed
     con.close()
     return [t for t in trials.values() if t["long"]]
 
@@ -325,16 +335,13 @@ def iterations_to_fraction(values, fraction=0.9):
 
 
 def method_order(trials):
-    order = []
-    for m in ["default", "random", "pso", "bo", "bo_pso"] + [t["method"] for t in trials]:
-        if m not in order and any(t["method"] == m for t in trials):
-            order.append(m)
-    return order
+    return qm.order(t["method"] for t in trials)
 
 
 def final_value(t):
-    """A trial's final value: best f_l found, or for the defaults the mean f_l of their flights."""
-    return statistics.fmean(t["long"]) if t["method"] == "default" else min(t["long"])
+    """A trial's final value (quadtune_methods.final_value): best f_l found, or for the defaults
+    the mean f_l of their flights."""
+    return qm.final_value(t["method"], t["long"])
 
 
 def mean_ci95(values):
@@ -476,7 +483,7 @@ def plot_run(directory, out_dir=None):
                            "ticks in the top strip", xy=(0, 1.18), xycoords="axes fraction",
                            fontsize=11, weight="bold")
     # (C) the short-term search of BO+PSO: best f_s so far against the re-solves it took.
-    bottom = grid[2, :].subgridspec(1, 2, wspace=0.3)
+    bottom = grid[2, :].subgridspec(1, 2, wspace=0.45)
     ax_c = fig.add_subplot(bottom[0, 0])
     shorts = [t for t in trials if t["short_values"]]
     for t in shorts:
@@ -487,7 +494,7 @@ def plot_run(directory, out_dir=None):
         ax_c.set_xscale("log")  # most of the search's progress is in its first re-solves
         ax_c.set_yscale("log")
         _plain_log_ticks(ax_c.yaxis)
-        ax_c.set_title("(C) BO+PSO: best f_s so far, one line per repeat", loc="left",
+        ax_c.set_title("(C) BO+PSO: best f_s so far per repeat", loc="left",
                        fontsize=11, weight="bold")
     else:
         ax_c.text(0.5, 0.5, "no θ_s candidates in this run", ha="center", va="center",
@@ -509,7 +516,7 @@ def plot_run(directory, out_dir=None):
     ax_d.set_yticklabels([LABELS.get(m, m) for m in ranked])
     ax_d.set_ylim(-0.6, len(ranked) - 0.4)
     ax_d.set_xlabel("final f_l (s): best of the trial; Default: mean of its flights")
-    ax_d.set_title("(D) final values: mean ± 95% CI, dots: repeats", loc="left", fontsize=11,
+    ax_d.set_title("(D) final values: mean ± 95% CI", loc="left", fontsize=11,
                    weight="bold")
     ax_d.grid(alpha=0.3, axis="x")
     out_dir = out_dir or directory
@@ -536,9 +543,12 @@ def plot_run(directory, out_dir=None):
         w.writerow(["method", "repeats", "flights", "final_mean", "final_std", "final_min",
                      "best_at_10pct", "best_at_25pct", "flights_to_90pct", "resolves",
                      "failed", "p_vs_default", "p_vs_bo_pso", "best_params"])
-        f.write("Final value: best f_l of the trial (Default: mean f_l of its flights). Early "
-                "columns: mean best f_l after 10% and 25% of the flights. p: two-sided "
-                "Mann–Whitney U test of the final values over repeats.\n\n")
+        f.write("Final value: best f_l of the trial's flights, tuning and racing flights "
+                "(Default: mean f_l of its flights). Early columns: mean best f_l after 10% and "
+                "25% of the flights. p: two-sided Mann–Whitney U test of the final values over "
+                "repeats. Failed: flights that did not finish (state timeout, stalled, diverged, "
+                "solver_failure, error, ...). Best parameters: the best trial's best flight."
+                "\n\n")
         f.write("| method | repeats | flights | final f_l (mean ± std) | min | after 10% | "
                 "after 25% | flights to 90% of optimum | re-solves | failed | "
                 "p vs Default | p vs BO+PSO | best parameters |\n")
@@ -559,7 +569,14 @@ def plot_run(directory, out_dir=None):
             w.writerow([r["method"], r["repeats"], r["flights"], m, s, min(r["finals"]),
                         r["early10"], r["early25"], r["k90"], r["shorts"], r["failed"], pd_, pb,
                         r["params"]])
-    return [figure, table, csv_path] + plot_validation(directory, out_dir)
+    validation = plot_validation(directory, out_dir)
+    store = os.path.join(directory, "results.sqlite")
+    con = quadtune.connect(store)
+    tuned = qm.tuned_parameters(con, store)
+    con.close()
+    with open(table, "a") as f:
+        f.write("\n" + qm.parameters_markdown(tuned))
+    return [figure, table, csv_path] + validation
 
 
 def plot_validation(directory, out_dir=None):
@@ -595,7 +612,7 @@ def plot_validation(directory, out_dir=None):
             w.writerow(qv.csv_row(r))
     fig, (ax_a, ax_b) = plt.subplots(1, 2, figsize=(11, 3.8),
                                      gridspec_kw={"width_ratios": [1.2, 1]})
-    ranked = sorted(rows, key=lambda r: r["mean"])
+    ranked = sorted(rows, key=lambda r: r["mean"], reverse=True)  # the best at the top
     ys = list(range(len(ranked)))
     for y, r in zip(ys, ranked):
         c = COLORS.get(r["method"], "0.3")

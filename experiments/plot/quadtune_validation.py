@@ -14,9 +14,7 @@ try:
 except ImportError:  # pragma: no cover - python3-scipy is installed by scripts/setup.sh
     _stats = None
 
-LABELS = {"default": "Default", "random": "Random", "pso": "PSO only", "bo": "BO only",
-          "bo_pso": "BO+PSO"}
-ORDER = ["default", "random", "pso", "bo", "bo_pso"]
+from quadtune_methods import LABELS, ORDER  # noqa: E402,F401  (one naming of the methods)
 
 
 def read_store(con, path):
@@ -55,7 +53,10 @@ def paired_p(diffs):
     diffs = [d for d in diffs if d == d]
     if _stats is None or len(diffs) < 2 or all(d == 0 for d in diffs):
         return float("nan")
-    return float(_stats.wilcoxon(diffs, alternative="two-sided").pvalue)
+    import warnings
+    with warnings.catch_warnings():  # ties or zero differences: scipy's normal approximation
+        warnings.simplefilter("ignore", UserWarning)
+        return float(_stats.wilcoxon(diffs, alternative="two-sided").pvalue)
 
 
 def near_bounds(params, space, fraction=0.02):
@@ -140,19 +141,28 @@ def markdown(rows, maps):
         "Wilcoxon signed-rank test of the per-map paired differences. Near a bound: parameters "
         "within 2% of a bound (↓ lower, ↑ upper) in any recommended point.".format(maps),
         "",
-        "| method | points | defaults handed back | flights | mean f_l ± 95% CI | Δ vs Default: mean, median | completed | "
-        "collision-free | emergency stops | p vs Default | p vs BO+PSO | near a bound |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| " + " | ".join(HEADER) + " |",
+        "|---" * len(HEADER) + "|",
     ]
-    for r in rows:
-        lines.append("| {} | {} | {} | {} | {} ± {} | {}, {} | {}/{} | {}/{} | {:.0f} | {} | {} | {} |".format(
-            LABELS.get(r["method"], r["method"]), r["points"],
-            r["fallback"] if r["method"] != "default" else "–", r["flights"], fmt(r["mean"]),
-            fmt(r["ci"]), fmt(r["diff_default"]), fmt(r["median_diff_default"]), r["completed"],
-            r["flights"],
-            r["collision_free"], r["flights"], r["emergency_stops"], fmt(r["p_default"], 3),
-            fmt(r["p_bopso"], 3), ", ".join(r["near_bounds"]) or "none"))
+    lines += ["| " + " | ".join(cells(r)) + " |" for r in rows]
     return "\n".join(lines) + "\n"
+
+
+HEADER = ["method", "points", "defaults handed back", "flights", "mean f_l ± 95% CI",
+          "Δ vs Default: mean, median", "completed", "collision-free", "emergency stops",
+          "p vs Default", "p vs BO+PSO", "near a bound"]
+
+
+def cells(r):
+    """One method's row of the validation table as printed (tuning.md and the report)."""
+    return [LABELS.get(r["method"], r["method"]), str(r["points"]),
+            str(r["fallback"]) if r["method"] != "default" else "–", str(r["flights"]),
+            "{} ± {}".format(fmt(r["mean"]), fmt(r["ci"])),
+            "{}, {}".format(fmt(r["diff_default"]), fmt(r["median_diff_default"])),
+            "{}/{}".format(r["completed"], r["flights"]),
+            "{}/{}".format(r["collision_free"], r["flights"]),
+            "{:.0f}".format(r["emergency_stops"]), fmt(r["p_default"], 3), fmt(r["p_bopso"], 3),
+            ", ".join(r["near_bounds"]) or "none"]
 
 
 CSV_FIELDS = ["method", "points", "fallback", "flights", "mean", "ci", "diff_default", "median_diff_default",

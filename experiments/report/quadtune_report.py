@@ -7,7 +7,9 @@ to replay into DIR/report_flights/.
 
 The page holds the data as JSON and inlines plotly.js (charts) and three.js (3-D replay) from
 experiments/report/js/node_modules (installed by scripts/setup.sh with `npm ci`; another folder:
-$QUADTUNE_REPORT_JS). Standard library only.
+$QUADTUNE_REPORT_JS). Python 3 with numpy, scipy and yaml (Debian: python3-numpy,
+python3-scipy, python3-yaml); the method names and colours, the final values and the tables
+come from experiments/plot (quadtune_methods, quadtune_validation), as in tuning.md.
 """
 
 import argparse
@@ -23,7 +25,14 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "python"))
+# The figure scripts' folder (method names, colours, tables): beside this one, or the folder of
+# $QUADTUNE_PLOT_SCRIPT when that names the figure script elsewhere.
+sys.path.insert(0, os.path.join(HERE, "..", "plot"))
+if os.environ.get("QUADTUNE_PLOT_SCRIPT"):
+    sys.path.insert(0, os.path.dirname(os.path.abspath(os.environ["QUADTUNE_PLOT_SCRIPT"])))
+sys.path.insert(0, HERE)
 import quadtune  # noqa: E402  (experiments/python/quadtune: the store reader)
+import quadtune_methods as qm  # noqa: E402  (experiments/plot: method names, colours, finals)
 
 
 def fail(message):
@@ -73,64 +82,135 @@ def percentile(values, q):
     return s[lo] + (s[hi] - s[lo]) * (pos - lo)
 
 
-def ranks(values):
-    """Ranks 1..n, ties sharing their mean rank."""
-    order = sorted(range(len(values)), key=lambda i: values[i])
-    r = [0.0] * len(values)
-    i = 0
-    while i < len(order):
-        j = i
-        while j + 1 < len(order) and values[order[j + 1]] == values[order[i]]:
-            j += 1
-        for k in range(i, j + 1):
-            r[order[k]] = (i + j) / 2.0 + 1.0
-        i = j + 1
-    return r
+def finite(v):
+    """v as a float, None for NaN or infinity (JSON has neither)."""
+    return None if v is None or v != v or v in (math.inf, -math.inf) else float(v)
 
 
-def spearman(x, y):
-    """Spearman's rank correlation; None when either side is constant or n < 3."""
-    if len(x) < 3:
+def space_of(path):
+    """The experiment's parameter box [{name, lower, upper, log}] (empty when not stored)."""
+    import quadtune_validation as qv
+    config = quadtune.experiment(path).get("config")
+    return qv.space_of(config) if config else []
+
+
+# The least number of evaluations an importance estimate is made from.
+MIN_IMPORTANCE_N = 12
+# Short-term evaluations used for the f_s importance at most (a seeded sample).
+MAX_SHORT_N = 250
+
+
+def importance_of(label, objective, rows, space, seed, contour=False):
+    """Sobol' indices of a surrogate of log(value) over `rows` (quadtune_importance), and with
+    `contour` the partial dependence of the surrogate's value on its two most important
+    parameters; None with fewer than MIN_IMPORTANCE_N rows."""
+    import numpy as np
+    import quadtune_importance as qi
+    names = [p for p in space if all(isinstance(r.get(p["name"]), (int, float)) for r in rows)]
+    rows = [r for r in rows if r["value"] > 0]
+    if len(rows) < MIN_IMPORTANCE_N or not names:
         return None
-    rx, ry = ranks(x), ranks(y)
-    mx, my = sum(rx) / len(rx), sum(ry) / len(ry)
-    sxy = sum((a - mx) * (b - my) for a, b in zip(rx, ry))
-    sxx = sum((a - mx) ** 2 for a in rx)
-    syy = sum((b - my) ** 2 for b in ry)
-    if sxx == 0 or syy == 0:
+    X = np.column_stack([qi.scale([r[p["name"]] for r in rows], p["lower"], p["upper"], p["log"])
+                         for p in names])
+    result = qi.importance(X, [r["value"] for r in rows], seed)
+    out = {"store": label, "objective": objective, "n": result["n"],
+           "loo_r2": finite(result["loo_r2"]),
+           "parameters": [p["name"] for p in names],
+           "first": [finite(v) for v in result["first"]],
+           "total": [finite(v) for v in result["total"]]}
+    if contour and len(names) >= 2:
+        i, j = [int(k) for k in np.argsort(-result["total"])[:2]]
+        model = result["surrogate"]
+        grid, values = qi.partial_dependence(model.predict, len(names), i, j, seed=seed + 2)
+        px, py = names[i], names[j]
+        out["contour"] = {
+            "x": px["name"], "y": py["name"], "log_x": px["log"], "log_y": py["log"],
+            "xs": [finite(v) for v in qi.unscale(grid, px["lower"], px["upper"], px["log"])],
+            "ys": [finite(v) for v in qi.unscale(grid, py["lower"], py["upper"], py["log"])],
+            "z": [[finite(math.exp(v)) for v in row] for row in values],
+            "points": {"x": [r[px["name"]] for r in rows], "y": [r[py["name"]] for r in rows],
+                       "value": [r["value"] for r in rows],
+                       "method": [r["method"] for r in rows]}}
+    return out
+
+
+def validation_data(label, path):
+    """The held-out validation of a store: the rows and the table cells of tuning.md's
+    validation table (quadtune_validation), and every validation flight; None without any."""
+    import quadtune_validation as qv
+    con = quadtune.connect(path)
+    try:
+        flights = qv.read_store(con, path)
+        config = con.execute("SELECT config FROM experiment ORDER BY id LIMIT 1").fetchone()
+    finally:
+        con.close()
+    if not flights:
         return None
-    return sxy / math.sqrt(sxx * syy)
+    rows = qv.summarise(flights, qv.space_of(config[0]) if config else [])
+    return {"store": label, "maps": len({f["map"] for f in flights}), "header": qv.HEADER,
+            "cells": [qv.cells(r) for r in rows],
+            "rows": [{"method": r["method"], "mean": finite(r["mean"]), "ci": finite(r["ci"]),
+                      "flights": r["flights"], "collision_free": r["collision_free"],
+                      "completed": r["completed"], "p_default": finite(r["p_default"]),
+                      "diff_default": finite(r["diff_default"])} for r in rows],
+            "flights": [{"method": f["method"], "repeat": f["repeat"], "map": f["map"],
+                         "value": f["value"], "state": f["state"]} for f in flights]}
+
+
+def parameter_data(label, path):
+    """The tuned-parameter table of a store as tuning.md prints it (quadtune_methods)."""
+    con = quadtune.connect(path)
+    try:
+        tuned = qm.tuned_parameters(con, path)
+    finally:
+        con.close()
+    if not tuned["points"] and not tuned["parameters"]:
+        return None
+    header, cells = qm.parameter_cells(tuned)
+    return {"store": label, "header": header, "cells": cells,
+            "points": [{"method": p["method"], "repeat": p["repeat"], "source": p["source"]}
+                       for p in tuned["points"]]}
+
+
+EVALUATION_FIELDS = ["id", "kind", "method", "repeat", "trial_id", "iteration", "value", "state",
+                     "message", "n_c"]
 
 
 def run_data(directory):
     stores = stores_under(directory)
     several = len(stores) > 1
     series, finals, flights, importance = [], [], [], []
-    params_order = []
+    evaluations, validation, parameter_tables = [], [], []
+    params_order, methods_seen = [], []
     experiment_names = []
-    for label, path in stores:
+    for number, (label, path) in enumerate(stores):
         exp = quadtune.experiment(path)
         experiment_names.append(exp.get("name", "?"))
         by_kind = quadtune.rows(path)
         names, _ = quadtune.parameter_names(path)
+        space = space_of(path)
         for n in names.get("long", []):
             if n not in params_order:
                 params_order.append(n)
-        # Convergence: best f_l so far against flights, per trial; median and range per method.
+        # Every flight of a trial in the order flown (tuning and racing flights): convergence
+        # and final values (quadtune_methods.final_value, as tuning.md and tuning.png).
         per_method = {}
-        for r in by_kind["long"]:
+        for r in sorted(by_kind["long"] + by_kind["race"], key=lambda r: r["id"]):
             per_method.setdefault(r["method"], {}).setdefault(r["trial_id"], []).append(r)
-        for method, trials in per_method.items():
+        for method in qm.order(per_method):
+            trials = per_method[method]
+            if method not in methods_seen:
+                methods_seen.append(method)
             name = f"{label} · {method}" if several else method
             curves, final = [], []
             for rows in trials.values():
-                rows.sort(key=lambda r: (r["iteration"], r["index"]))
                 best, curve = math.inf, []
                 for r in rows:
                     best = min(best, r["value"])
                     curve.append(best)
                 curves.append(curve)
-                final.append({"repeat": rows[0]["repeat"], "value": best})
+                final.append({"repeat": rows[0]["repeat"],
+                              "value": qm.final_value(method, [r["value"] for r in rows])})
             n = max(len(c) for c in curves)
             x, med, lo, hi = [], [], [], []
             for k in range(n):
@@ -139,27 +219,49 @@ def run_data(directory):
                 med.append(percentile(vals, 0.5))
                 lo.append(min(vals))
                 hi.append(max(vals))
-            series.append({"name": name, "x": x, "median": med, "lo": lo, "hi": hi,
-                           "trials": len(curves)})
-            finals.append({"name": name, "values": final})
+            series.append({"name": name, "method": method, "store": label, "x": x, "median": med,
+                           "lo": lo, "hi": hi, "trials": len(curves)})
+            finals.append({"name": name, "method": method, "store": label, "values": final})
         for r in by_kind["long"]:
             flights.append({"series": f"{label} · {r['method']}" if several else r["method"],
-                            "id": r["id"], "value": r["value"], "status": r["status"],
-                            "state": r["state"], "message": r["message"],
+                            "method": r["method"], "id": r["id"], "value": r["value"],
+                            "status": r["status"], "state": r["state"], "message": r["message"],
                             "params": {p: r[p] for p in names.get("long", []) if p in r}})
-        # Importance proxy: |Spearman ρ| of each parameter with the objective, per kind, over
-        # the successful evaluations only (state ok).
-        for kind, objective in (("long", "f_l (flights)"), ("short", "f_s (re-solves)")):
-            ok = [r for r in by_kind[kind] if r["state"] == "ok"]
-            for p in names.get(kind, []):
-                pairs = [(r[p], r["value"]) for r in ok if isinstance(r.get(p), (int, float))]
-                rho = spearman([a for a, _ in pairs], [b for _, b in pairs])
-                if rho is not None:
-                    importance.append({"store": label, "objective": objective, "parameter": p,
-                                       "rho": rho, "n": len(pairs)})
+        for kind in ("long", "race", "validation", "short"):
+            for r in by_kind[kind]:
+                if r["method"] not in methods_seen:
+                    methods_seen.append(r["method"])
+                evaluations.append([label] + [r.get(k) for k in EVALUATION_FIELDS])
+        # Importance: Sobol' indices of a surrogate fitted to the flights that finished (state ok
+        # or collision: timeouts, stalls and other failures score the failure value) and to the
+        # successful re-solves (state ok), a seeded sample of at most MAX_SHORT_N.
+        finished = [r for r in by_kind["long"] + by_kind["race"]
+                    if r["state"] in ("ok", "collision")]
+        imp = importance_of(label, "f_l (flights that finished)", finished, space,
+                            seed=1000 * number + 1, contour=True)
+        if imp:
+            importance.append(imp)
+        ok_short = [r for r in by_kind["short"] if r["state"] == "ok"]
+        if len(ok_short) > MAX_SHORT_N:
+            import random
+            ok_short = random.Random(1000 * number + 7).sample(ok_short, MAX_SHORT_N)
+        imp = importance_of(label, "f_s (successful re-solves)", ok_short, space,
+                            seed=1000 * number + 11)
+        if imp:
+            importance.append(imp)
+        v = validation_data(label, path)
+        if v:
+            validation.append(v)
+        t = parameter_data(label, path)
+        if t:
+            parameter_tables.append(t)
     return {"series": series, "finals": finals, "flights": flights, "importance": importance,
             "parameters": params_order, "stores": [s[0] for s in stores],
-            "experiments": experiment_names}
+            "experiments": experiment_names, "methods": qm.table(methods_seen),
+            "final_value": qm.FINAL_VALUE, "validation": validation,
+            "parameters_caption": qm.PARAMETERS_CAPTION,
+            "parameter_tables": parameter_tables,
+            "evaluations": {"fields": ["store"] + EVALUATION_FIELDS, "rows": evaluations}}
 
 
 # ---------------------------------------------------------------------------------------------

@@ -5,16 +5,19 @@ import * as THREE from "three";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
 
 const data = JSON.parse(document.getElementById("qt-data").textContent);
-const palette = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2",
-                 "#7f7f7f", "#bcbd22", "#17becf"];
 const plotConfig = { responsive: true, displaylogo: false };
 const fragment = new URLSearchParams(window.location.hash.slice(1));
-const colourOf = {};
-
-function colour(name) {
-  if (!(name in colourOf)) colourOf[name] = palette[Object.keys(colourOf).length % palette.length];
-  return colourOf[name];
-}
+// One naming and one colour per method, from the data (experiments/plot/quadtune_methods.py,
+// shared with the PNG figures and tuning.md).
+const methodInfo = {};
+for (const m of (data.runs && data.runs.methods) || []) methodInfo[m.key] = m;
+const label = (method) => (methodInfo[method] ? methodInfo[method].label : method);
+const colour = (method) => (methodInfo[method] ? methodInfo[method].colour : "#444444");
+const several = () => data.runs.stores.length > 1;
+// Stores of a study: one line style each (the colour stays the method's).
+const dashOf = (store) => ["solid", "dash", "dot", "dashdot", "longdash"][
+    Math.max(0, data.runs.stores.indexOf(store)) % 5];
+const seriesName = (store, method) => (several() ? `${store} · ${label(method)}` : label(method));
 
 function logScaleFits(values) {
   const pos = values.filter((v) => v > 0);
@@ -26,45 +29,166 @@ function withAlpha(hex, alpha) {
   return `rgba(${(n >> 16) & 255},${(n >> 8) & 255},${n & 255},${alpha})`;
 }
 
+/// A value axis: logarithmic with ticks at 1, 2 and 5 per decade when the values span more
+/// than a factor 50, linear otherwise.
+function valueAxis(values) {
+  if (!logScaleFits(values)) return { type: "linear" };
+  const lo = Math.floor(Math.log10(Math.min(...values))), hi = Math.ceil(Math.log10(Math.max(...values)));
+  const tickvals = [];
+  for (let e = lo; e <= hi; e++) for (const m of [1, 2, 5]) tickvals.push(m * 10 ** e);
+  return { type: "log", tickvals, ticktext: tickvals.map((v) => String(+v.toPrecision(3))) };
+}
+
+function fmt(v, digits = 2) { return v === null || v === undefined ? "–" : (+v).toFixed(digits); }
+
+/// A table of strings (header, rows) into `table`; the first cell of each row gets the colour
+/// dot of `methods[k]` when given.
+function fillTable(table, header, rows, methods) {
+  table.innerHTML = "";
+  const head = table.createTHead().insertRow();
+  for (const h of header) { const th = document.createElement("th"); th.textContent = h; head.appendChild(th); }
+  const body = table.createTBody();
+  rows.forEach((row, k) => {
+    const tr = body.insertRow();
+    row.forEach((cell, i) => {
+      const td = tr.insertCell();
+      if (i === 0 && methods && methods[k]) {
+        const dot = document.createElement("span");
+        dot.className = "method-dot";
+        dot.style.background = colour(methods[k]);
+        td.appendChild(dot);
+      }
+      td.appendChild(document.createTextNode(cell));
+    });
+  });
+}
+
 // ---------------------------------------------------------------------------------------------
 // Charts
+
+function drawValidation(runs) {
+  const box = document.getElementById("qt-validation-tables");
+  const traces = [];
+  const names = [];
+  for (const v of runs.validation) {
+    const ranked = [...v.rows].sort((a, b) => b.mean - a.mean);  // plotly draws the first at the bottom
+    for (const r of ranked) {
+      const name = seriesName(v.store, r.method) +
+          (r.method === "default" || r.p_default === null ? "" : ` (p = ${fmt(r.p_default, 3)})`);
+      names.push(name);
+      const own = v.flights.filter((f) => f.method === r.method);
+      traces.push({
+        type: "scatter", mode: "markers", x: own.map((f) => f.value), y: own.map(() => name),
+        marker: { size: 6, color: withAlpha(colour(r.method), 0.45) }, showlegend: false,
+        text: own.map((f) => `repeat ${f.repeat}, map ${f.map}, ${f.state}`), hoverinfo: "x+text",
+        yaxis: "y", xaxis: "x",
+      });
+      traces.push({
+        type: "scatter", mode: "markers", name, x: [r.mean], y: [name], showlegend: false,
+        marker: { symbol: "diamond", size: 13, color: colour(r.method), line: { color: "#222", width: 1 } },
+        error_x: { type: "data", array: [r.ci === null ? 0 : r.ci], thickness: 2.5, width: 8,
+                   color: colour(r.method) },
+        text: [`mean ${fmt(r.mean)} ± ${fmt(r.ci)} (95% CI), ${r.flights} flights` +
+               (r.method === "default" ? "" : `, Δ vs Default ${fmt(r.diff_default)}, p = ${fmt(r.p_default, 3)}`)],
+        hoverinfo: "text",
+      });
+      traces.push({
+        type: "bar", orientation: "h", x: [r.collision_free / r.flights], y: [name], xaxis: "x2", yaxis: "y",
+        marker: { color: colour(r.method) }, showlegend: false,
+        text: [`${r.collision_free}/${r.flights}`],
+        textposition: "inside", insidetextanchor: "start", hoverinfo: "text",
+      });
+    }
+    const wrap = document.createElement("div");
+    if (several()) {
+      const h = document.createElement("h3");
+      h.textContent = v.store;
+      wrap.appendChild(h);
+    }
+    const table = document.createElement("table");
+    table.className = "data";
+    table.id = `qt-validation-table-${v.store}`;
+    table.dataset.store = v.store;
+    fillTable(table, v.header, v.cells, v.rows.map((r) => r.method));
+    wrap.appendChild(table);
+    box.appendChild(wrap);
+  }
+  document.getElementById("qt-validation-caption").textContent = runs.validation.map(
+      (v) => `${several() ? v.store + ": " : ""}${v.maps} held-out maps`).join("; ") + ".";
+  const height = Math.max(220, 120 + 42 * names.length);
+  document.getElementById("qt-validation").style.height = `${height}px`;
+  const all = runs.validation.flatMap((v) => v.flights.map((f) => f.value));
+  Plotly.newPlot("qt-validation", traces, {
+    margin: { t: 30, r: 10, l: 160 }, showlegend: false,
+    xaxis: { domain: [0, 0.68], title: { text: "f_l on held-out maps (mean, 95% CI; dots: flights)" },
+             ...valueAxis(all) },
+    xaxis2: { domain: [0.74, 1], range: [0, 1], title: { text: "collision-free share" } },
+    yaxis: { automargin: true, categoryorder: "array", categoryarray: names },
+  }, plotConfig);
+}
+
+function drawParameters(runs) {
+  const box = document.getElementById("qt-parameter-tables");
+  document.getElementById("qt-parameters-caption").textContent = runs.parameters_caption;
+  for (const t of runs.parameter_tables) {
+    const wrap = document.createElement("div");
+    if (several()) {
+      const h = document.createElement("h3");
+      h.textContent = t.store;
+      wrap.appendChild(h);
+    }
+    const table = document.createElement("table");
+    table.className = "data";
+    table.id = `qt-parameter-table-${t.store}`;
+    table.dataset.store = t.store;
+    fillTable(table, t.header, t.cells);
+    // The trial columns' heads take their method's colour.
+    const heads = table.tHead.rows[0].cells;
+    t.points.forEach((p, k) => { heads[3 + k].style.color = colour(p.method); });
+    heads[2].style.color = colour("default");
+    wrap.appendChild(table);
+    box.appendChild(wrap);
+  }
+}
 
 function drawConvergence(runs) {
   const traces = [];
   const all = [];
   for (const s of runs.series) {
-    const c = colour(s.name);
+    const c = colour(s.method);
+    const name = seriesName(s.store, s.method);
     all.push(...s.lo, ...s.hi);
     traces.push({ x: s.x.concat([...s.x].reverse()), y: s.hi.concat([...s.lo].reverse()),
-                  fill: "toself", fillcolor: withAlpha(c, 0.15), line: { width: 0 },
-                  hoverinfo: "skip", showlegend: false, legendgroup: s.name, type: "scatter" });
-    traces.push({ x: s.x, y: s.median, name: `${s.name} (${s.trials} repeat${s.trials > 1 ? "s" : ""})`,
-                  legendgroup: s.name, line: { color: c, width: 2.5, shape: "hv" },
+                  fill: "toself", fillcolor: withAlpha(c, 0.15), line: { width: 0 }, mode: "lines",
+                  hoverinfo: "skip", showlegend: false, legendgroup: name, type: "scatter" });
+    traces.push({ x: s.x, y: s.median, name: `${name} (${s.trials} repeat${s.trials > 1 ? "s" : ""})`,
+                  legendgroup: name, line: { color: c, width: 2.5, shape: "hv", dash: dashOf(s.store) },
                   mode: "lines+markers", type: "scatter" });
   }
   Plotly.newPlot("qt-convergence", traces, {
     margin: { t: 40, r: 10 }, legend: { orientation: "h", x: 0, y: 1.02, yanchor: "bottom" },
     xaxis: { title: { text: "flights" }, tick0: 1,
              dtick: Math.max(1, Math.ceil(Math.max(...runs.series.map((s) => s.x.length)) / 12)) },
-    yaxis: { title: { text: "best f_l so far" }, type: logScaleFits(all) ? "log" : "linear" },
+    yaxis: { title: { text: "best f_l so far" }, ...valueAxis(all) },
   }, plotConfig);
 }
 
 function drawFinals(runs) {
+  document.getElementById("qt-final-definition").textContent = runs.final_value;
   const median = (v) => { const s = [...v].sort((a, b) => a - b); const m = (s.length - 1) / 2;
                           return (s[Math.floor(m)] + s[Math.ceil(m)]) / 2; };
   const ranked = runs.finals.map((f) => ({ ...f, vals: f.values.map((v) => v.value) }))
-                            .map((f) => ({ ...f, med: median(f.vals) }))
+                            .map((f) => ({ ...f, med: median(f.vals), label: seriesName(f.store, f.method) }))
                             .sort((a, b) => b.med - a.med);  // plotly draws the first at the bottom
-  const names = ranked.map((f) => f.name);
+  const names = ranked.map((f) => f.label);
   const traces = [{
     type: "scatter", mode: "markers", name: "median", y: names, x: ranked.map((f) => f.med),
-    marker: { symbol: "diamond", size: 13, color: ranked.map((f) => colour(f.name)) },
+    marker: { symbol: "diamond", size: 13, color: ranked.map((f) => colour(f.method)) },
     error_x: { type: "data", symmetric: false, array: ranked.map((f) => Math.max(...f.vals) - f.med),
                arrayminus: ranked.map((f) => f.med - Math.min(...f.vals)), thickness: 2, width: 6,
                color: "#444" },
   }, {
-    type: "scatter", mode: "markers", name: "repeats", y: ranked.flatMap((f) => f.vals.map(() => f.name)),
+    type: "scatter", mode: "markers", name: "repeats", y: ranked.flatMap((f) => f.vals.map(() => f.label)),
     x: ranked.flatMap((f) => f.vals), marker: { size: 7, color: "rgba(0,0,0,0.55)" },
     text: ranked.flatMap((f) => f.values.map((v) => `repeat ${v.repeat}`)),
   }];
@@ -73,27 +197,149 @@ function drawFinals(runs) {
   document.getElementById("qt-finals").style.height = `${height}px`;
   Plotly.newPlot("qt-finals", traces, {
     margin: { t: 40, r: 10, l: 160 }, legend: { orientation: "h", x: 0, y: 1.02, yanchor: "bottom" },
-    xaxis: { title: { text: "final best f_l" }, type: logScaleFits(all) ? "log" : "linear" },
+    xaxis: { title: { text: "final f_l" }, ...valueAxis(all) },
     yaxis: { automargin: true },
   }, plotConfig);
 }
 
-function drawImportance(runs) {
+function evaluationRows(runs) {
+  const fields = runs.evaluations.fields;
+  return runs.evaluations.rows.map((r) => Object.fromEntries(fields.map((f, i) => [f, r[i]])));
+}
+
+function drawEcdf(runs, kind) {
+  const rows = evaluationRows(runs).filter((r) => (kind === "validation" ? r.kind === "validation"
+                                                                          : r.kind === "long" || r.kind === "race"));
   const groups = {};
-  for (const r of runs.importance) {
-    const key = runs.stores.length > 1 ? `${r.store} · ${r.objective}` : r.objective;
-    (groups[key] = groups[key] || []).push(r);
+  for (const r of rows) (groups[`${r.store}\u0000${r.method}`] = groups[`${r.store}\u0000${r.method}`] || []).push(r);
+  const traces = [];
+  for (const method of runs.methods.map((m) => m.key)) {
+    for (const store of runs.stores) {
+      const rs = groups[`${store}\u0000${method}`];
+      if (!rs) continue;
+      const v = rs.map((r) => r.value).sort((a, b) => a - b);
+      traces.push({ type: "scatter", mode: "lines", name: `${seriesName(store, method)} (${v.length})`,
+                    x: v, y: v.map((_, k) => (k + 1) / v.length), line: { shape: "hv", width: 2.2,
+                    color: colour(method), dash: dashOf(store) } });
+    }
   }
-  const traces = Object.entries(groups).map(([key, rs]) => ({
-    type: "bar", orientation: "h", name: key, y: rs.map((r) => r.parameter),
-    x: rs.map((r) => Math.abs(r.rho)),
-    marker: { color: colour(key), opacity: rs.map((r) => (r.n < 10 ? 0.35 : 1)) },
-    text: rs.map((r) => `ρ = ${r.rho.toFixed(2)}, n = ${r.n}`), hoverinfo: "text+y",
-  }));
-  Plotly.newPlot("qt-importance", traces, {
-    margin: { t: 40, r: 10 }, legend: { orientation: "h", x: 0, y: 1.02, yanchor: "bottom" }, barmode: "group", xaxis: { title: { text: "|Spearman ρ|" }, range: [0, 1] },
-    yaxis: { automargin: true },
+  const all = rows.map((r) => r.value);
+  Plotly.react("qt-ecdf", traces, {
+    margin: { t: 40, r: 10 }, legend: { orientation: "h", x: 0, y: 1.02, yanchor: "bottom" },
+    xaxis: { title: { text: "f_l" }, ...valueAxis(all) },
+    yaxis: { title: { text: "share of flights with f_l ≤ x" }, range: [0, 1.02] },
   }, plotConfig);
+}
+
+function drawImportance(runs) {
+  // One panel per objective (and store), side by side: S_T as bars, S_1 as diamonds.
+  const traces = [];
+  const captions = [];
+  const layout = { margin: { t: 60, r: 10 }, legend: { orientation: "h", x: 0, y: 1.1, yanchor: "bottom" },
+                   annotations: [] };
+  const n = runs.importance.length;
+  const gap = 0.06;
+  runs.importance.forEach((imp, k) => {
+    const key = several() ? `${imp.store} · ${imp.objective}` : imp.objective;
+    const ax = k === 0 ? "" : String(k + 1);
+    const width = (1 - gap * (n - 1)) / n;
+    layout[`xaxis${ax}`] = { domain: [k * (width + gap), k * (width + gap) + width], range: [0, 1],
+                             title: { text: "Sobol' index" }, anchor: `y${ax}` };
+    layout[`yaxis${ax}`] = { automargin: true, autorange: "reversed", anchor: `x${ax}` };
+    layout.annotations.push({ text: `${key}: n = ${imp.n}, R² = ${fmt(imp.loo_r2)}`, showarrow: false,
+                              xref: "paper", yref: "paper", x: k * (width + gap), xanchor: "left",
+                              y: 1.0, yanchor: "bottom", font: { size: 12 } });
+    traces.push({
+      type: "bar", orientation: "h", name: "total S_T", y: imp.parameters, x: imp.total,
+      xaxis: `x${ax}`, yaxis: `y${ax}`, marker: { color: "#555555" }, showlegend: k === 0,
+      text: imp.parameters.map((p, i) => `S_T = ${fmt(imp.total[i])}, S_1 = ${fmt(imp.first[i])}`),
+      hoverinfo: "text+y", textposition: "none",
+    });
+    traces.push({
+      type: "scatter", mode: "markers", name: "first order S_1", y: imp.parameters,
+      x: imp.first.map((v) => Math.max(0, v)), xaxis: `x${ax}`, yaxis: `y${ax}`,
+      marker: { symbol: "diamond", size: 11, color: "#ff7f0e", line: { color: "#222", width: 1 } },
+      showlegend: k === 0, hoverinfo: "skip",
+    });
+    captions.push(`${key}: n = ${imp.n}, R² = ${fmt(imp.loo_r2)}`);
+  });
+  document.getElementById("qt-importance-caption").textContent =
+      n ? captions.join("; ") + "."
+        : "Too few evaluations for an importance estimate (at least 12 that finished).";
+  if (!n) { document.getElementById("qt-importance").style.display = "none"; return; }
+  Plotly.newPlot("qt-importance", traces, layout, plotConfig);
+}
+
+function drawContour(runs) {
+  const imp = runs.importance.find((i) => i.contour);
+  const div = document.getElementById("qt-contour");
+  if (!imp) {
+    div.style.display = "none";
+    document.getElementById("qt-contour-caption").textContent =
+        "No surrogate of f_l (too few flights that finished): no contour.";
+    return;
+  }
+  const c = imp.contour;
+  const traces = [{
+    type: "contour", x: c.xs, y: c.ys, z: c.z, colorscale: "Viridis", reversescale: true,
+    contours: { coloring: "heatmap", showlabels: true }, colorbar: { title: { text: "f_l" } },
+    hovertemplate: `${c.x} = %{x:.3g}<br>${c.y} = %{y:.3g}<br>f_l ≈ %{z:.3g}<extra></extra>`,
+  }];
+  for (const method of runs.methods.map((m) => m.key)) {
+    const idx = c.points.method.map((m, k) => (m === method ? k : -1)).filter((k) => k >= 0);
+    if (!idx.length) continue;
+    traces.push({ type: "scatter", mode: "markers", name: label(method),
+                  x: idx.map((k) => c.points.x[k]), y: idx.map((k) => c.points.y[k]),
+                  text: idx.map((k) => `f_l = ${c.points.value[k].toPrecision(4)}`),
+                  marker: { color: colour(method), size: 7, line: { color: "#fff", width: 1 } } });
+  }
+  Plotly.newPlot(div, traces, {
+    margin: { t: 40, r: 10 }, legend: { orientation: "h", x: 0, y: 1.02, yanchor: "bottom" },
+    xaxis: { title: { text: c.x }, type: c.log_x ? "log" : "linear" },
+    yaxis: { title: { text: c.y }, type: c.log_y ? "log" : "linear" },
+  }, plotConfig);
+}
+
+const EVALUATION_LIMIT = 500;
+
+function setUpEvaluations(runs) {
+  const rows = evaluationRows(runs);
+  const box = document.getElementById("qt-eval-filters");
+  const filters = {};
+  const keys = ["kind", "method", "state", "repeat"];
+  if (several()) keys.unshift("store");
+  for (const key of keys) {
+    const values = [...new Set(rows.map((r) => r[key]))].filter((v) => v !== null && v !== undefined);
+    values.sort((a, b) => (typeof a === "number" ? a - b : String(a).localeCompare(String(b))));
+    const lab = document.createElement("label");
+    lab.textContent = `${key} `;
+    const select = document.createElement("select");
+    select.id = `qt-eval-${key}`;
+    select.add(new Option("all", ""));
+    for (const v of values) select.add(new Option(key === "method" ? label(v) : String(v), String(v)));
+    if (key === "kind" && values.includes("long")) select.value = "long";
+    select.addEventListener("change", render);
+    lab.appendChild(select);
+    box.appendChild(lab);
+    filters[key] = select;
+  }
+  const table = document.getElementById("qt-evaluations");
+  function render() {
+    const shown = rows.filter((r) => keys.every((k) => filters[k].value === "" || String(r[k]) === filters[k].value));
+    document.getElementById("qt-eval-count").textContent =
+        `${shown.length} of ${rows.length} evaluations match` +
+        (shown.length > EVALUATION_LIMIT ? ` (the first ${EVALUATION_LIMIT} shown)` : "") +
+        `; ${shown.filter((r) => r.state === "ok").length} of them ok.`;
+    const header = (several() ? ["store"] : []).concat(["id", "kind", "method", "repeat", "iteration", "value", "state", "reason"]);
+    const cells = shown.slice(0, EVALUATION_LIMIT).map((r) => (several() ? [r.store] : []).concat([
+      String(r.id), r.kind, label(r.method), r.repeat === null ? "–" : String(r.repeat), String(r.iteration),
+      (+r.value).toPrecision(5), r.state,
+      (r.message || "") + (r.n_c ? `${r.message ? ", " : ""}n_c = ${r.n_c}` : "")]));
+    fillTable(table, header, cells);
+    for (const tr of table.tBodies[0].rows) tr.cells[tr.cells.length - 1].className = "reason";
+    table.dataset.rows = String(shown.length);
+  }
+  render();
 }
 
 function drawSlices(runs) {
@@ -109,9 +355,10 @@ function drawSlices(runs) {
       if (f.params[p] === undefined) continue;
       (bySeries[f.series] = bySeries[f.series] || []).push(f);
     }
-    const traces = Object.entries(bySeries).map(([name, fs]) => ({
-      type: "scatter", mode: "markers", name, x: fs.map((f) => f.params[p]),
-      y: fs.map((f) => f.value), marker: { color: colour(name), size: 7, opacity: 0.8 },
+    const traces = Object.entries(bySeries).map(([series, fs]) => ({
+      type: "scatter", mode: "markers", name: several() ? series.replace(fs[0].method, label(fs[0].method)) : label(fs[0].method),
+      x: fs.map((f) => f.params[p]),
+      y: fs.map((f) => f.value), marker: { color: colour(fs[0].method), size: 7, opacity: 0.8 },
       text: fs.map((f) => `evaluation ${f.id}`), showlegend: p === runs.parameters[0],
     }));
     Plotly.newPlot(div, traces, {
@@ -131,7 +378,9 @@ function drawParcoords(runs) {
   const dims = runs.parameters.map((p) => ({ label: p, values: flights.map((f) => f.params[p]) }));
   if (series.length > 1) {
     dims.unshift({ label: "method", values: flights.map((f) => series.indexOf(f.series)),
-                   tickvals: series.map((_, i) => i), ticktext: series });
+                   tickvals: series.map((_, i) => i),
+                   ticktext: series.map((s) => { const f = flights.find((x) => x.series === s);
+                                                 return several() ? s.replace(f.method, label(f.method)) : label(f.method); }) });
   }
   dims.push({ label: "log10 f_l", values: logv });
   Plotly.newPlot("qt-parcoords", [{
@@ -350,7 +599,7 @@ function describe(flight) {
                 ["plans", `${s.plans} (failed ${s.failed_plans})`],
                 ["mean speed", `${(+s.mean_speed).toFixed(2)} m/s`]];
   if (s.stored) {
-    rows.unshift(["stored flight", `${s.stored.method}, evaluation ${s.stored.evaluation}, ` +
+    rows.unshift(["stored flight", `${label(s.stored.method)}, evaluation ${s.stored.evaluation}, ` +
                                    `f_l = ${(+s.stored.value).toPrecision(5)}`]);
     rows.push(["parameters", Object.entries(s.stored.params).map(([k, v]) => `${k} = ${(+v).toPrecision(4)}`).join(", ")]);
     rows.push(["seeds", `map ${s.stored.map_seed}, flight ${s.stored.flight_seed}`]);
@@ -368,8 +617,8 @@ function setUpReplay(flights) {
   const replay = new Replay(document.getElementById("qt-scene"));
   const select = document.getElementById("qt-flight");
   flights.forEach((f, k) => {
-    const label = f.summary.stored ? `${f.name}: ${f.summary.stored.method}` : f.name;
-    select.add(new Option(label, String(k)));
+    const name = f.summary.stored ? `${f.name}: ${label(f.summary.stored.method)}` : f.name;
+    select.add(new Option(name, String(k)));
   });
   const scrub = document.getElementById("qt-scrub");
   const choose = (k) => {
@@ -399,13 +648,28 @@ function setUpReplay(flights) {
 const runs = data.runs;
 const subtitle = document.getElementById("qt-subtitle");
 if (runs && runs.series.length > 0) {
+  const flown = evaluationRows(runs).filter((r) => r.kind !== "short");
+  const ok = flown.filter((f) => f.state === "ok").length;
+  const kinds = ["long", "race", "validation"].map((k) => [k, flown.filter((r) => r.kind === k).length]);
   subtitle.textContent = `${data.kind} of ${[...new Set(runs.experiments)].join(", ")}: ` +
-      `${runs.stores.length} store${runs.stores.length > 1 ? "s" : ""}, ${runs.flights.length} flights`;
+      `${runs.stores.length} store${runs.stores.length > 1 ? "s" : ""}, ${flown.length} flights ` +
+      `(${kinds.filter(([, c]) => c).map(([k, c]) => `${c} ${{ long: "tuning", race: "racing", validation: "held-out" }[k]}`).join(", ")}), ` +
+      `${ok} of them ok; ${runs.methods.map((m) => m.label).join(", ")}`;
+  if (runs.validation.length) drawValidation(runs);
+  else document.getElementById("qt-validation-section").style.display = "none";
+  if (runs.parameter_tables.length) drawParameters(runs);
+  else document.getElementById("qt-parameters-section").style.display = "none";
   drawConvergence(runs);
   drawFinals(runs);
+  const ecdfKind = document.getElementById("qt-ecdf-kind");
+  if (!runs.validation.length) ecdfKind.disabled = true;
+  ecdfKind.addEventListener("change", () => drawEcdf(runs, ecdfKind.value));
+  drawEcdf(runs, "tuning");
   drawImportance(runs);
+  drawContour(runs);
   drawSlices(runs);
   drawParcoords(runs);
+  setUpEvaluations(runs);
 } else {
   document.getElementById("qt-run-sections").style.display = "none";
   subtitle.textContent = data.kind === "flight" ? "a single flight" : "no flights stored";
@@ -422,7 +686,8 @@ if (data.replays.length > 0) {
 }
 // Test hook: where the charts and the 3-D view lie on the page (CSS pixels, page coordinates).
 const boxes = {};
-for (const id of ["qt-convergence", "qt-finals", "qt-importance", "qt-slices", "qt-parcoords", "qt-scene"]) {
+for (const id of ["qt-validation", "qt-convergence", "qt-finals", "qt-ecdf", "qt-importance", "qt-contour",
+                  "qt-slices", "qt-parcoords", "qt-scene"]) {
   const r = document.getElementById(id).getBoundingClientRect();
   if (r.width > 0) boxes[id] = [r.left + window.scrollX, r.top + window.scrollY, r.width, r.height].map(Math.round);
 }
