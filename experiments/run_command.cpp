@@ -32,6 +32,7 @@
 #include "quadtune/engine/store/column_json.hpp"
 #include "quadtune/engine/store/result_store.hpp"
 #include "quadtune/engine/tuning/scheduler.hpp"
+#include "quadtune/engine/tuning/summary_json.hpp"
 #include "quadtune/engine/tuning/tuner.hpp"
 #include "result_dir.hpp"
 #include "soak.hpp"
@@ -125,24 +126,12 @@ int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& sto
            int queries_per_eval) {
   namespace fs = std::filesystem;
   if (tty) std::fprintf(stderr, "\n");
-  nlohmann::json j;
-  j["status"] = quadtune::ToString(s.status);
-  j["wall_s"] = s.wall_s;
-  j["threads"] = s.threads;
-  if (s.ranks > 1) j["ranks"] = s.ranks;
-  j["flights"] = s.flights;
-  j["resolves"] = s.resolves;
-  j["worlds"] = s.worlds;
   for (const auto& t : s.trials) {
     spdlog::info(
         "{} repeat {}: best f_l {:.3f} after {} flights, {} θ_s candidates ({} "
         "re-solves), {} failed, {} replayed",
         t.method, t.repeat, t.best_value, t.flights, t.short_evals,
         static_cast<long>(t.short_evals) * queries_per_eval, t.failed, t.replayed);
-    nlohmann::json tj =
-        engine::ToJson(t, engine::TrialSummaryColumns(), engine::JsonReals::kNumbers);
-    tj["resolves"] = static_cast<long>(t.short_evals) * queries_per_eval;
-    j["trials"].push_back(tj);
   }
   for (const auto& v : s.validation) {
     spdlog::info(
@@ -150,17 +139,8 @@ int Finish(const engine::RunSummary& s, const RunArgs& a, const std::string& sto
         "collision-free, {} emergency stops",
         v.method, v.repeat >= 0 ? fmt::format(" repeat {}", v.repeat) : std::string(), v.mean_value,
         v.flights, v.completed, v.collision_free, v.emergency_stops);
-    nlohmann::json vj;
-    vj["method"] = v.method;
-    vj["repeat"] = v.repeat;
-    vj["params"] = v.params;
-    vj["flights"] = v.flights;
-    vj["mean_value"] = v.mean_value;
-    vj["completed"] = v.completed;
-    vj["collision_free"] = v.collision_free;
-    vj["emergency_stops"] = v.emergency_stops;
-    j["validation"].push_back(vj);
   }
+  const nlohmann::json j = engine::SummaryJson(s, queries_per_eval);
   std::ofstream(fs::path(a.out) / "summary.json") << j.dump(1) << '\n';
   if (s.ranks > 1) {
     spdlog::info(

@@ -86,8 +86,9 @@ const Fields<RaceOptions>& RaceFields() {
                   "`budget.flights`")
           .Flag("reserve", &R::reserve,
                 "whole races only: a race starts only when all the flights it may need fit the "
-                "flights left, and tuning rounds stop where one whole race no longer would, so "
-                "the trial's last flights race its best points (`share` does not limit those)")
+                "flights left (during the tuning rounds, with a second whole race after it), and "
+                "the rounds stop where one whole race no longer would, so the trial's last "
+                "flights race its best points (`share` does not limit those)")
           .Flag("incumbent_short", &R::incumbent_short,
                 "`bo_pso`: each θ_l also challenges with the incumbent's θ_s, besides PSO's best, "
                 "and the `two_part` model works in the whole space")

@@ -64,6 +64,18 @@ r = quadtune.load("run/results.sqlite")
 assert len(r.long) == 3, f"{len(r.long)} tuning flights, expected 3"
 print("install_tool: quadtune.load read", len(r.long), "tuning flights")
 EOF
+"$python" - "$prefix/$pydir" <<'EOF' || fail "the installed compiled module quadtune._core did not tune"
+import sys
+import quadtune
+import quadtune._core as core
+assert core.__file__.startswith(sys.argv[1]), f"quadtune._core came from {core.__file__}"
+study = quadtune.BayesOpt({"x": (-2.0, 2.0)}, seed=3)
+for _ in range(8):
+    x = study.ask()
+    study.tell(x, (x["x"] - 0.5) ** 2)
+assert abs(study.best.params["x"] - 0.5) < 0.5, study.best
+print("install_tool: the installed quadtune._core tuned x to", study.best.params["x"])
+EOF
 # The install is relocatable: moved elsewhere, the program finds everything under its new prefix.
 mv "$prefix" "$work/moved"
 moved=$work/moved

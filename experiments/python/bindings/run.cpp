@@ -13,6 +13,7 @@
 #include "quadtune/common/error.hpp"
 #include "quadtune/engine/experiment/experiment.hpp"
 #include "quadtune/engine/store/column_json.hpp"
+#include "quadtune/engine/tuning/summary_json.hpp"
 #include "quadtune/engine/tuning/tuner.hpp"
 
 namespace quadtune::python {
@@ -35,33 +36,6 @@ ActiveRun& Active() {
   return *run;
 }
 
-/// The outcome as summary.json of `quadtune run` has it.
-std::string SummaryJson(const engine::RunSummary& s) {
-  nlohmann::json j;
-  j["status"] = ToString(s.status);
-  j["wall_s"] = s.wall_s;
-  j["threads"] = s.threads;
-  j["flights"] = s.flights;
-  j["resolves"] = s.resolves;
-  j["worlds"] = s.worlds;
-  j["trials"] = nlohmann::json::array();
-  for (const auto& t : s.trials) {
-    j["trials"].push_back(
-        engine::ToJson(t, engine::TrialSummaryColumns(), engine::JsonReals::kNumbers));
-  }
-  j["validation"] = nlohmann::json::array();
-  for (const auto& v : s.validation) {
-    j["validation"].push_back({{"method", v.method},
-                               {"repeat", v.repeat},
-                               {"params", v.params},
-                               {"flights", v.flights},
-                               {"mean_value", v.mean_value},
-                               {"completed", v.completed},
-                               {"collision_free", v.collision_free},
-                               {"emergency_stops", v.emergency_stops}});
-  }
-  return j.dump();
-}
 
 /// The progress callback of RunOptions: calls `progress` (may be None) with a dict under the
 /// GIL; a Python exception in it (KeyboardInterrupt included) stops the run and is kept in
@@ -113,7 +87,7 @@ std::string Run(const std::string& source, bool is_file, const std::string& orig
     options.cancel = &active.cancel;
     options.on_progress = ProgressCallback(progress, &error);
     const engine::RunSummary s = engine::RunExperiment(experiment, options);
-    summary = SummaryJson(s);
+    summary = engine::SummaryJson(s, experiment.budget.queries_per_eval).dump();
   }
   if (error) throw std::move(*error);
   const std::lock_guard lock(active.failure_mutex);

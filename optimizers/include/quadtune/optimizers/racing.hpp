@@ -55,9 +55,10 @@ struct RaceOptions {
   /// A race starts after a round of the method when its first stage keeps the flights spent
   /// racing within this share of the flights flown so far (tuning and racing), in (0, 1).
   double share = 0.5;
-  /// Whole races only: a race starts only when every flight it may need fits the flights left,
-  /// and tuning rounds stop where the flights left would no longer hold one whole race, so the
-  /// trial's last flights go to races (then `share` no longer limits them).
+  /// Whole races only: a race starts only when every flight it may need fits the flights left
+  /// (during the tuning rounds, with a second whole race after it), and the rounds stop where the
+  /// flights left would no longer hold one whole race, so the trial's last flights go to races
+  /// (then `share` no longer limits them).
   bool reserve = false;
   /// bo_pso: each θ_l is also raced with the incumbent's θ_s (after the one with PSO's best
   /// θ_s), and the two_part model works in the whole space, so a θ_s that PSO prefers for its
