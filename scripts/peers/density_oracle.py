@@ -2,9 +2,10 @@
 """A density study's tuned points beside an oracle grid flown on the same held-out maps.
 
 For a finished `quadtune study` over `planner.layout_file` (experiments/density_study*.yaml),
-each sweep point's oracle is the best v_des × h_pl grid point (the other parameters at their
-defaults) flown through `quadtune evaluate` on the study's held-out maps, with the map and flight
-seeds of its validation, so every flight pairs map by map with the study's. Writes, replacing
+each sweep point's oracle is the best point of a grid (by default v_des × h_pl; `--grid
+NAME=V1,V2,…` per axis, the other parameters at their defaults) flown through `quadtune evaluate`
+on the study's held-out maps, with the map and flight seeds of its validation, so every flight
+pairs map by map with the study's. Writes, replacing
 the rows of this planner and these spacings, OUT/heldout.csv, OUT/summary.csv and
 OUT/summary.md (as scripts/peers/peers.py does: mean f_l, collision-free rate, share of the
 oracle's gain, trials handing back the defaults), OUT/heldout_<planner>_free_gap_<spacing>.png and
@@ -67,20 +68,18 @@ def study_rows(study_dir, label, planner):
     return rows
 
 
-def cached_oracle(a, experiment, maps, sets, label):
+def cached_oracle(a, axes, experiment, maps, sets, label):
     """peers.oracle, kept in WORK/<planner>_<label>/oracle.json and reused while the
     experiment, sets, maps and grids are the same (the flights are deterministic)."""
     work = os.path.join(a.work, "{}_{}".format(a.planner, label))
     path = os.path.join(work, "oracle.json")
-    key = dict(experiment=experiment, sets=sets, maps=maps, v_grid=a.v_grid, h_grid=a.h_grid)
+    key = dict(experiment=experiment, sets=sets, maps=maps, grid=axes)
     if os.path.exists(path):
         with open(path) as f:
             cached = json.load(f)
-        if cached["key"] == key:
+        if cached["key"] == json.loads(json.dumps(key)):
             return cached["best"], cached["rows"], [tuple(g) for g in cached["grid"]]
-    best, rows, grid = peers.oracle(experiment, maps, sets,
-                                    [float(v) for v in a.v_grid.split(",")],
-                                    [float(h) for h in a.h_grid.split(",")])
+    best, rows, grid = peers.oracle(experiment, maps, sets, axes)
     os.makedirs(work, exist_ok=True)
     with open(path, "w") as f:
         json.dump(dict(key=key, best=best, rows=rows, grid=grid), f)
@@ -92,27 +91,25 @@ def main(argv):
     ap.add_argument("study_file")
     ap.add_argument("--study", required=True, help="the finished `quadtune study` directory")
     ap.add_argument("--planner", required=True)
-    ap.add_argument("--v-grid", default="2,2.5,3,3.5,4,4.5,5")
-    ap.add_argument("--h-grid", default="6,7.5,9")
+    ap.add_argument("--grid", action="append", metavar="NAME=V1,V2,…",
+                    help="an axis of the oracle grid (default: v_des=2,2.5,…,5 and h_pl=6,7.5,9)")
     ap.add_argument("--out", required=True)
     ap.add_argument("--work", default="results/peers_oracle",
                     help="where the oracle grids' flights are kept for reuse")
     a = ap.parse_args(argv)
+    axes = peers.grid_axes(a.grid, ["v_des=2,2.5,3,3.5,4,4.5,5", "h_pl=6,7.5,9"])
     experiment, shared, points = study_points(a.study_file)
     defaults = {p["name"]: p["default"] for p in peerlib.box(experiment)}
     for label, sets in points:
         rows = study_rows(a.study, label, a.planner)
         maps = len({r["map_index"] for r in rows})
-        best, best_rows, grid = cached_oracle(a, experiment, maps, shared + sets, label)
+        best, best_rows, grid = cached_oracle(a, axes, experiment, maps, shared + sets, label)
         spacing = float(label)
         rows += [dict(r, planner=a.planner, spacing=spacing, tuner="oracle", repeat=0)
                  for r in best_rows]
         os.makedirs(a.out, exist_ok=True)
-        with open(os.path.join(a.out, "oracle_grid_{}_free_gap_{}.csv".format(a.planner, label)),
-                  "w") as f:
-            f.write("v_des,h_pl,mean_f_l\n")
-            for v, h, m in grid:
-                f.write("{},{},{}\n".format(v, h, m))
+        peers.write_grid(os.path.join(a.out, "oracle_grid_{}_free_gap_{}.csv".format(
+            a.planner, label)), axes, grid)
         summary = peers.summarise(rows, defaults)
         peers.write(a.out, a.planner, "free_gap", spacing, rows, summary)
         peers.figure(summary, os.path.join(a.out, "heldout_{}_free_gap_{}.png".format(a.planner, label)),

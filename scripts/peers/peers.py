@@ -20,6 +20,7 @@ OUT/heldout_<planner>_<forest>_<spacing>.png.
 """
 import argparse
 import csv
+import itertools
 import json
 import math
 import os
@@ -104,19 +105,42 @@ def peers(experiment, repeats, budget, sets, work):
         return [(tuner, r, job.result()["params"]) for tuner, r, job in jobs]
 
 
-def oracle(experiment, maps, sets, v_grid, h_grid):
-    """Every grid point's held-out flights; returns (best point, its rows, table of means)."""
+def grid_axes(specs, default):
+    """The oracle grid's axes from `--grid NAME=V1,V2,…` options (`default` when none), as
+    [(name, [values])]; the grid is every combination of the axes' values."""
+    axes = []
+    for spec in specs or default:
+        name, sep, values = spec.partition("=")
+        if not sep or not name or not values:
+            raise SystemExit("--grid {!r}: expected NAME=V1,V2,… (e.g. v_des=2,3,4)".format(spec))
+        try:
+            axes.append((name, [float(v) for v in values.split(",")]))
+        except ValueError:
+            raise SystemExit("--grid {!r}: the values must be numbers".format(spec))
+    return axes
+
+
+def oracle(experiment, maps, sets, axes):
+    """Every grid point's held-out flights (the other parameters at their defaults); returns
+    (best point, its rows, table of (value per axis…, mean f_l))."""
     table = []
     best = None
-    for v in v_grid:
-        for h in h_grid:
-            point = {"v_des": v, "h_pl": h}
-            rows = held_out(experiment, point, maps, sets)
-            mean = statistics.fmean(r["f_l"] for r in rows)
-            table.append((v, h, mean))
-            if best is None or mean < best[2]:
-                best = (point, rows, mean)
+    for values in itertools.product(*(v for _, v in axes)):
+        point = {name: value for (name, _), value in zip(axes, values)}
+        rows = held_out(experiment, point, maps, sets)
+        mean = statistics.fmean(r["f_l"] for r in rows)
+        table.append(tuple(values) + (mean,))
+        if best is None or mean < best[2]:
+            best = (point, rows, mean)
     return best[0], best[1], table
+
+
+def write_grid(path, axes, table):
+    """The oracle grid's table as CSV: one column per axis, then mean_f_l."""
+    with open(path, "w") as f:
+        f.write(",".join([name for name, _ in axes] + ["mean_f_l"]) + "\n")
+        for row in table:
+            f.write(",".join(str(x) for x in row) + "\n")
 
 
 def signed_rank_p(a, b):
@@ -257,8 +281,8 @@ def main(argv):
     ap.add_argument("--maps", type=int, default=None,
                     help="held-out maps (default: the experiment's validation.maps)")
     ap.add_argument("--set", action="append", default=[], help="KEY=VALUE for the experiment")
-    ap.add_argument("--v-grid", default="1.5,2,2.5,3,3.5,4,4.5,5")
-    ap.add_argument("--h-grid", default="6,7.5,9")
+    ap.add_argument("--grid", action="append", metavar="NAME=V1,V2,…",
+                    help="an axis of the oracle grid (default: v_des=1.5,2,…,5 and h_pl=6,7.5,9)")
     ap.add_argument("--no-peers", action="store_true", help="the oracle and the store only")
     ap.add_argument("--out", required=True)
     a = ap.parse_args(argv)
@@ -279,14 +303,10 @@ def main(argv):
     for (tuner, repeat), flights in sorted(store_flights(a.store).items()):
         add(tuner, repeat, flights)
     print("store: {} held-out flights".format(len(rows)), flush=True)
-    best, best_rows, grid = oracle(a.experiment, maps, a.set,
-                                   [float(v) for v in a.v_grid.split(",")],
-                                   [float(h) for h in a.h_grid.split(",")])
+    axes = grid_axes(a.grid, ["v_des=1.5,2,2.5,3,3.5,4,4.5,5", "h_pl=6,7.5,9"])
+    best, best_rows, grid = oracle(a.experiment, maps, a.set, axes)
     add("oracle", 0, best_rows)
-    with open(os.path.join(work, "oracle_grid.csv"), "w") as f:
-        f.write("v_des,h_pl,mean_f_l\n")
-        for v, h, m in grid:
-            f.write("{},{},{}\n".format(v, h, m))
+    write_grid(os.path.join(work, "oracle_grid.csv"), axes, grid)
     print("oracle: {} (mean f_l {:.2f})".format(best, statistics.fmean(
         r["f_l"] for r in best_rows)), flush=True)
     if not a.no_peers:

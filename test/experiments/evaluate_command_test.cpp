@@ -5,10 +5,12 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -143,6 +145,69 @@ TEST(Peers, IraceTunesThroughEvaluate) {
   ASSERT_TRUE(j.is_object());
   EXPECT_EQ(j["tuner"], "irace");
   ExpectInsideToyBox(j["params"]);
+}
+
+// scripts/peers/density_oracle.py on a toy study swept over two values: its grid (named on the
+// command line) flies the study's held-out maps with their seeds, so the grid point at the
+// defaults reproduces the study's own held-out flights of the defaults, and the oracle is the
+// grid's best point.
+TEST(Peers, DensityOracleFliesItsGridOnTheStudysHeldOutMaps) {
+  const fs::path dir = Fresh("density_oracle");
+  std::ofstream(dir / "study.yaml")
+      << "name: toy_density\nseed: 5\nexperiment: " << ToyExperimentFile() << "\n"
+      << "override: {name: toy_density, methods: [bo], repeats: 1}\n"
+      << "sweep: {key: planner.toy.gates, values: [4, 8], labels: [\"4\", \"8\"]}\n"
+      << "validation: {flights: 3}\n";
+  const fs::path study = dir / "study";
+  ASSERT_EQ(RunQuadtune("--log-level warn study --no-plot --quiet " + (dir / "study.yaml").string() +
+                            " --out " + study.string(),
+                        dir / "study.log"),
+            0)
+      << ReadText(dir / "study.log");
+  const fs::path out = dir / "out";
+  const std::string cmd = "cd '" + std::string(QUADTUNE_SOURCE_DIR) + "' && QUADTUNE='" +
+                          test::QuadtuneBinary() +
+                          "' /usr/bin/python3 scripts/peers/density_oracle.py '" +
+                          (dir / "study.yaml").string() + "' --study '" + study.string() +
+                          "' --planner toy --grid speed=2,2.5 --grid margin=0.2,0.5 --out '" +
+                          out.string() + "' --work '" + (dir / "work").string() + "' > '" +
+                          (dir / "oracle.log").string() + "' 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << ReadText(dir / "oracle.log");
+  const auto validation = ReadCsv(study / "validation.csv");
+  const auto heldout = ReadCsv(out / "heldout.csv");
+  for (const std::string label : {"4", "8"}) {
+    const auto grid = ReadCsv(out / ("oracle_grid_toy_free_gap_" + label + ".csv"));
+    ASSERT_EQ(grid.size(), 4u) << label;
+    double best = 1e300, at_defaults = -1.0;
+    for (const auto& g : grid) {
+      const double mean = std::stod(g.at("mean_f_l"));
+      best = std::min(best, mean);
+      if (std::stod(g.at("speed")) == 2.0 && std::stod(g.at("margin")) == 0.5) at_defaults = mean;
+    }
+    // The study's held-out flights of the defaults, and its held-out map seeds.
+    std::vector<double> defaults;
+    std::multiset<std::string> seeds;
+    for (const auto& v : validation) {
+      if (v.at("label") != label || v.at("method") != "default") continue;
+      defaults.push_back(std::stod(v.at("f_l")));
+      seeds.insert(v.at("map_seed"));
+    }
+    ASSERT_EQ(defaults.size(), 3u) << label;
+    double mean_defaults = 0.0;
+    for (double d : defaults) mean_defaults += d / 3.0;
+    EXPECT_NEAR(at_defaults, mean_defaults, 1e-4) << label;  // validation.csv holds 4 decimals
+    std::vector<double> oracle;
+    std::multiset<std::string> oracle_seeds;
+    for (const auto& h : heldout) {
+      if (h.at("tuner") != "oracle" || std::stod(h.at("spacing")) != std::stod(label)) continue;
+      oracle.push_back(std::stod(h.at("f_l")));
+      oracle_seeds.insert(h.at("map_seed"));
+    }
+    ASSERT_EQ(oracle.size(), 3u) << label;
+    EXPECT_EQ(oracle_seeds, seeds) << label;
+    EXPECT_NEAR((oracle[0] + oracle[1] + oracle[2]) / 3.0, best, 1e-6) << label;
+    EXPECT_LE(best, mean_defaults + 1e-9) << label;
+  }
 }
 
 }  // namespace
