@@ -44,4 +44,30 @@ Trajectory BrakingTrajectory(const Eigen::Vector3d& p0, const Eigen::Vector3d& v
                                                Eigen::Vector3d::Zero(), T)});
 }
 
+std::optional<Trajectory> StopAndGo(const std::vector<Eigen::Vector3d>& path,
+                                    const Eigen::Vector3d& p0, const Eigen::Vector3d& v0,
+                                    const Eigen::Vector3d& a0, double v_peak, double a_max) {
+  QT_DEMAND(v_peak > 0.0 && std::isfinite(v_peak), "stop-and-go speed must be positive");
+  QT_DEMAND(a_max > 0.0 && std::isfinite(a_max), "stop-and-go a_max must be positive");
+  std::vector<double> durations;
+  std::vector<Trajectory::Coefficients> pieces;
+  Eigen::Vector3d p = p0;
+  Eigen::Vector3d v = v0;
+  Eigen::Vector3d a = a0;
+  const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
+  for (std::size_t i = 1; i < path.size(); ++i) {
+    const double length = (path[i] - p).norm();
+    if (length < 1e-6) continue;
+    const double T =
+        std::max({1.875 * length / v_peak, std::sqrt(10.0 / std::sqrt(3.0) * length / a_max), 0.1});
+    pieces.push_back(QuinticBoundaryValue(p, v, a, path[i], zero, zero, T));
+    durations.push_back(T);
+    p = path[i];
+    v = zero;
+    a = zero;
+  }
+  if (pieces.empty()) return std::nullopt;
+  return Trajectory(std::move(durations), std::move(pieces));
+}
+
 }  // namespace quadtune::planning

@@ -20,7 +20,10 @@ Planner BuildIpopt(const YamlMap& p, const std::string& base_dir) {
 }
 
 Planner BuildEgo(const YamlMap& p, const std::string& base_dir) {
-  return Planner{EgoPlanner{{ClosedLoopOptions::FromYaml(p, base_dir), planning::EgoOptions{}}}};
+  ClosedLoopOptions options = ClosedLoopOptions::FromYaml(p, base_dir);
+  planning::EgoOptions ego;
+  ego.stop_and_go = options.ego_stop_and_go;
+  return Planner{EgoPlanner{{std::move(options), ego}}};
 }
 
 bool ValidName(const std::string& name) {

@@ -206,6 +206,19 @@ const Fields<ClosedLoopSection>& ClosedLoopFields() {
               },
               [](YAML::Emitter& out, const S& s) {
                 out << YAML::Key << "safety_nets" << YAML::Value << s.safety_nets;
+              })
+          .Custom(
+              {"ego_stop_and_go", "bool", "false", "",
+               "ego: a re-plan from rest whose every attempt failed flies the front end's path "
+               "stop-and-go, judged by the back end's check (the ipopt planner always does, "
+               "unless `safety_nets` is false)"},
+              [](const YamlMap& p, S& s) {
+                s.options.ego_stop_and_go = p.Bool("ego_stop_and_go", s.options.ego_stop_and_go);
+              },
+              [](YAML::Emitter& out, const S& s) {
+                if (s.options.ego_stop_and_go) {
+                  out << YAML::Key << "ego_stop_and_go" << YAML::Value << true;
+                }
               });
   return fields;
 }

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "quadtune/common/error.hpp"
+#include "quadtune/planning/quintic.hpp"
 
 namespace quadtune::planning {
 
@@ -586,9 +587,24 @@ PlanOutcome EgoBackend::Solve(const PlanningQuery& query, const PlannerParams& p
   return out;
 }
 
-std::optional<PlanResult> EgoBackend::Fallback(const PlanningQuery&, const PlannerParams&,
-                                               double) const {
-  return std::nullopt;
+std::optional<PlanResult> EgoBackend::Fallback(const PlanningQuery& query,
+                                               const PlannerParams& params, double speed) const {
+  QT_DEMAND(speed > 0.0 && std::isfinite(speed), "stop-and-go speed must be positive");
+  if (!options_.stop_and_go) return std::nullopt;
+  PlanResult result;
+  std::optional<Trajectory> trajectory =
+      StopAndGo(query.initial_path_W, query.p0_W, query.v0_W, query.a0_W,
+                std::min(speed, params.v_des), params.a_max);
+  if (query.occupancy == nullptr || !trajectory) {
+    result.status = PlanStatus::kInvalidInput;
+    result.message = query.occupancy == nullptr ? "stop-and-go: the query holds no occupancy map"
+                                                : "stop-and-go: the front end's path has no length";
+    return result;
+  }
+  result.trajectory = std::move(*trajectory);
+  result.cost.jerk = result.trajectory.JerkEnergy();
+  (void)CheckCurve(*query.occupancy, params, options_, &result);
+  return result;
 }
 
 }  // namespace quadtune::planning

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <optional>
 #include <random>
 #include <thread>
 #include <vector>
@@ -257,6 +259,44 @@ TEST(EgoSolve, ConcurrentResolvesEqualSerialOnesBitForBit) {
       EXPECT_EQ(a.result.min_clearance, b.result.min_clearance);
     }
   }
+}
+
+// A drone stopped just short of the pillar (where it braked) gets away by the fallback: the
+// front end's path flown stop-and-go, judged by the back end's own check, ends at rest at the
+// path's end and keeps to the path's segments.
+TEST(EgoFallback, FliesTheFrontEndsPathStopAndGoFromRestNextToAnObstacle) {
+  PillarScene s;
+  PlanningQuery q = s.Query(Eigen::Vector3d(2.45, 0.0, 1.2), Eigen::Vector3d::Zero(),
+                            Eigen::Vector3d(6, 0.0, 1.2));
+  ASSERT_GE(q.initial_path_W.size(), 2u);
+  EXPECT_FALSE(EgoBackend().Fallback(q, s.params, 1.0).has_value()) << "off by default";
+  EgoOptions options;
+  options.stop_and_go = true;
+  const EgoBackend backend(options);
+  const std::optional<PlanResult> r = backend.Fallback(q, s.params, 1.0);
+  ASSERT_TRUE(r.has_value());
+  ASSERT_TRUE(r->Ok()) << r->message;
+  const Trajectory& t = r->trajectory;
+  EXPECT_LT((t.Position(0.0) - q.p0_W).norm(), 1e-9);
+  EXPECT_LT((t.Position(t.Duration()) - q.initial_path_W.back()).norm(), 1e-9);
+  EXPECT_LT(t.Velocity(t.Duration()).norm(), 1e-9);
+  EXPECT_LE(r->max_speed, 1.0 + 1e-6);
+  // Every sample lies on a segment of the path (from p0 to the path's later points).
+  std::vector<Eigen::Vector3d> corners = {q.p0_W};
+  corners.insert(corners.end(), q.initial_path_W.begin() + 1, q.initial_path_W.end());
+  for (double time = 0.0; time <= t.Duration(); time += 0.02) {
+    const Eigen::Vector3d p = t.Position(time);
+    double nearest = 1e9;
+    for (std::size_t k = 1; k < corners.size(); ++k) {
+      const Eigen::Vector3d d = corners[k] - corners[k - 1];
+      const double u = std::clamp((p - corners[k - 1]).dot(d) / d.squaredNorm(), 0.0, 1.0);
+      nearest = std::min(nearest, (p - corners[k - 1] - u * d).norm());
+    }
+    EXPECT_LT(nearest, 1e-6) << "t = " << time;
+  }
+  PlanningQuery no_map = q;
+  no_map.occupancy.reset();
+  EXPECT_EQ(backend.Fallback(no_map, s.params, 1.0)->status, PlanStatus::kInvalidInput);
 }
 
 TEST(EgoSolve, QueryWithoutOccupancyIsInvalidInput) {

@@ -7,9 +7,10 @@
 ///
 /// - IpoptBackend (ipopt/ipopt_backend.hpp): the minimum-jerk Ipopt optimiser on the query's
 ///   distance-field snapshot (SolveQuery, with its retries), and the stop-and-go fallback
-///   (StopAndGoAlongPath, ipopt/stop_and_go.hpp);
+///   (StopAndGoAlongPath, ipopt/stop_and_go.hpp, on quintic.hpp's StopAndGo);
 /// - EgoBackend (ego/ego_optimizer.hpp): EGO-Planner's B-spline optimiser on the query's
-///   occupancy snapshot, solved by L-BFGS; no fallback.
+///   occupancy snapshot, solved by L-BFGS; with EgoOptions::stop_and_go, the same stop-and-go
+///   fallback (quintic.hpp's StopAndGo) judged by its own check.
 ///
 /// This header and the rest of the planning core name no back end's types: the back ends live in
 /// their own folders beside the core and include it, never the other way round.

@@ -50,6 +50,9 @@ struct ClosedLoopOptions {
   sim::MissionKind mission = sim::MissionKind::kGoAndReturn;  ///< over the layout's start and goal
   sim::FlightOptions flight;        ///< flight settings (max_time, …)
   planning::PlannerParams base;          ///< fixed parameters and defaults of the tunables
+  /// ego: a re-plan from (nearly) rest whose every attempt failed flies the front end's path
+  /// stop-and-go instead (planning::EgoBackend::Fallback); the ipopt planner always does.
+  bool ego_stop_and_go = false;
 
   /// Reads an experiment's `planner:` map (ClosedLoopFields); relative file names resolve as
   /// ResolvePath does against `base_dir`. `extra_keys` are further keys the caller reads itself
@@ -70,7 +73,7 @@ struct ClosedLoopSection {
 };
 
 /// The keys of the `planner:` map: type, drone, layout | layout_file, world, mission, max_time,
-/// fixed, safety_nets. Reading checks the fixed parameters only key by key; FromYaml then checks
+/// fixed, safety_nets, ego_stop_and_go. Reading checks the fixed parameters only key by key; FromYaml then checks
 /// them together (PlannerParams::Validate, CheckParams).
 const Fields<ClosedLoopSection>& ClosedLoopFields();
 

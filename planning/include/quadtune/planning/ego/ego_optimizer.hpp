@@ -73,6 +73,8 @@ struct EgoOptions {
   double limit_tolerance = 0.05;   ///< relative tolerance on v_des and a_max, >= 0
   double gamma_search_margin = 1.5;  ///< A* box widening for Γ (m), [0, 50]
   int gamma_max_expansions = 20000;  ///< A* expansions for one Γ, >= 1
+  /// EgoBackend::Fallback flies the front end's path stop-and-go; off: it has no fallback.
+  bool stop_and_go = false;
 
   /// Throws ConfigError(origin, key, allowed range) for the first bad field.
   void Validate(const std::string& origin = "") const;
@@ -179,7 +181,9 @@ struct EgoSolveStats {
 
 /// The EGO back end (see trajectory_backend.hpp). Solve() runs SolveEgo up to params.max_attempts
 /// times, attempt k with time_scale = 1/retry_slowdown^k (LocalPlannerOptions), until one passes
-/// the check; no fallback (a failed plan leaves the FSM's emergency stop to act).
+/// the check. With EgoOptions::stop_and_go, Fallback() flies the front end's path stop-and-go
+/// (StopAndGo, quintic.hpp), judged by the same check: a drone stopped where every optimised
+/// curve fails (next to an obstacle it braked for) gets away along the path; without, nullopt.
 class EgoBackend final : public TrajectoryBackend {
  public:
   /// Validates `options`.
