@@ -114,6 +114,23 @@ Fields<ClosedLoopSection> AddClosedLoopKeys(Fields<ClosedLoopSection> f) {
   return f;
 }
 
+/// The keys of one back end only (ignored by the others).
+Fields<ClosedLoopSection> AddBackendKeys(Fields<ClosedLoopSection> f) {
+  using S = ClosedLoopSection;
+  f.Custom(
+      {"ego_stop_and_go", "bool", "false", "",
+       "ego: a re-plan from rest whose every attempt failed flies the front end's path "
+       "stop-and-go, judged by the back end's check (the ipopt planner always does, unless "
+       "`safety_nets` is false)"},
+      [](const YamlMap& p, S& s) {
+        s.options.ego_stop_and_go = p.Bool("ego_stop_and_go", s.options.ego_stop_and_go);
+      },
+      [](YAML::Emitter& out, const S& s) {
+        if (s.options.ego_stop_and_go) out << YAML::Key << "ego_stop_and_go" << YAML::Value << true;
+      });
+  return f;
+}
+
 }  // namespace
 
 const Fields<ClosedLoopSection>& ClosedLoopFields() {
@@ -121,7 +138,7 @@ const Fields<ClosedLoopSection>& ClosedLoopFields() {
   // world and fixed are written by nothing here: WorldOptions and PlannerParams have no writer.
   const auto unwritten = [](YAML::Emitter&, const S&) {};
   static const Fields<S> fields =
-      AddClosedLoopKeys(Fields<S>())
+      AddBackendKeys(AddClosedLoopKeys(Fields<S>()))
           .Custom(
               {"type", "string", "`ipopt`",
                "a registered type: `ipopt`, `ego`, or one a program registers "
@@ -206,19 +223,6 @@ const Fields<ClosedLoopSection>& ClosedLoopFields() {
               },
               [](YAML::Emitter& out, const S& s) {
                 out << YAML::Key << "safety_nets" << YAML::Value << s.safety_nets;
-              })
-          .Custom(
-              {"ego_stop_and_go", "bool", "false", "",
-               "ego: a re-plan from rest whose every attempt failed flies the front end's path "
-               "stop-and-go, judged by the back end's check (the ipopt planner always does, "
-               "unless `safety_nets` is false)"},
-              [](const YamlMap& p, S& s) {
-                s.options.ego_stop_and_go = p.Bool("ego_stop_and_go", s.options.ego_stop_and_go);
-              },
-              [](YAML::Emitter& out, const S& s) {
-                if (s.options.ego_stop_and_go) {
-                  out << YAML::Key << "ego_stop_and_go" << YAML::Value << true;
-                }
               });
   return fields;
 }
