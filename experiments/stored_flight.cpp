@@ -12,6 +12,7 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <yaml-cpp/yaml.h>
 #include <set>
 
 #include "quadtune/common/error.hpp"
@@ -192,6 +193,8 @@ struct TidyRows {
   std::map<std::string, std::vector<Row>> by_kind;
   /// Per kind, per object column: the keys met, in order.
   std::map<std::string, std::vector<std::vector<std::string>>> keys;
+  /// The experiment's integer parameters (`type: integer`), typed "integer" in params_<name>.
+  std::map<std::string, std::string> param_types;
 
   void Add(const std::string& kind, Row r) {
     auto& kind_keys = keys[kind];
@@ -206,12 +209,33 @@ struct TidyRows {
   }
 };
 
+/// name → "integer" for each parameter of an experiment config with `type: integer`; empty when
+/// the config is not YAML of that shape.
+std::map<std::string, std::string> IntegerParameters(const std::string& config) {
+  std::map<std::string, std::string> types;
+  try {
+    const YAML::Node parameters = YAML::Load(config)["parameters"];
+    if (!parameters.IsSequence()) return types;
+    for (const auto& p : parameters) {
+      if (p.IsMap() && p["name"] && p["type"] && p["type"].as<std::string>() == "integer") {
+        types[p["name"].as<std::string>()] = "integer";
+      }
+    }
+  } catch (const YAML::Exception&) {
+    types.clear();  // not the YAML an experiment is: no parameter typed
+  }
+  return types;
+}
+
 TidyRows ReadTidyRows(const std::string& store) {
   const ReadOnlyStore db(store);
   TidyRows out;
   for (const auto& c : engine::EvaluationColumns().List()) {
     if (c.type == ColumnType::kObject) out.objects.push_back(&c);
   }
+  db.Query("SELECT config FROM experiment ORDER BY id LIMIT 1", [&](sqlite3_stmt* s) {
+    out.param_types = IntegerParameters(Text(s, 0));
+  });
   std::int64_t number = 0;
   db.Query(
       "SELECT e.id, t.repeat, t.map_seed, " + engine::EvaluationSqlColumns("e.") +
@@ -252,6 +276,7 @@ void WriteTidyFile(const TidyRows& rows, const std::string& kind, const std::str
   for (const auto& c : TidyColumns()) header += (header.empty() ? "" : ",") + c;
   for (std::size_t k = 0; k < rows.objects.size(); ++k) {
     types.push_back(KeyTypesOf(*rows.objects[k]));
+    if (rows.objects[k]->name == "params") types.back().insert(rows.param_types.begin(), rows.param_types.end());
     for (const auto& n : keys[k]) {
       header += ',';
       header += Cell(rows.objects[k]->prefix + n);

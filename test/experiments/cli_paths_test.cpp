@@ -512,7 +512,8 @@ TEST(CliMpi, BuildWithoutMpiRefusesAMultiProcessLaunch) {
 // succeeded. The tidy tables are typed the same way in the CSV and in quadtune.load: Optuna's
 // leading columns (number, ..., datetime_start, datetime_complete, duration, state), then the
 // store's own column list (stored_column) under its tidy names, params_* and terms_*; integral
-// terms as integers, flags as booleans, timestamps as UTC datetimes, best_params as a mapping.
+// terms and integer parameters as integers, flags as booleans, timestamps as UTC datetimes,
+// best_params as a mapping.
 TEST(CliStoredStates, EachFailureIsNamedInTheTidyExportPythonAndReport) {
   const fs::path dir = Fresh("stored_states");
   struct Planted {
@@ -577,6 +578,10 @@ TEST(CliStoredStates, EachFailureIsNamedInTheTidyExportPythonAndReport) {
       if (i > 0) EXPECT_LT(std::stoi(flights[i - 1].at("number")), std::stoi(f.at("number")));
       EXPECT_EQ(f.at("state"), p.state);
       EXPECT_EQ(f.at("state_reason").rfind(p.message, 0), 0u) << f.at("state_reason");
+      // The experiment's integer parameter (tiny: n_pol; toy: max_iter) as a whole number.
+      const std::string integer = p.experiment == tiny ? "params_n_pol" : "params_max_iter";
+      EXPECT_EQ(f.at(integer).find_first_not_of("0123456789"), std::string::npos)
+          << integer << " " << f.at(integer);
       if (p.name == "error") continue;  // no terms: the flight raised
       EXPECT_EQ(f.at("terms_completed"), p.state == "collision" ? "true" : "false");
       EXPECT_EQ(f.at("terms_n_c").find_first_not_of("0123456789"), std::string::npos)
@@ -598,7 +603,8 @@ TEST(CliStoredStates, EachFailureIsNamedInTheTidyExportPythonAndReport) {
         "print(l['state'].dtype, l['number'].dtype, l['trial_id'].dtype, l['map_seed'].dtype, "
         "l['datetime_start'].dtype, l['duration'].dtype, "
         "l.get('terms_n_c', l['number']).dtype, "
-        "l.get('terms_completed', l['state_reason'].isna().astype('boolean')).dtype); "
+        "l.get('terms_completed', l['state_reason'].isna().astype('boolean')).dtype, "
+        "l.get('params_n_pol', l.get('params_max_iter')).dtype); "
         "print(sorted(n for t in r[:6] for n in t['number']) == list(range(sum(map(len, "
         "r[:6])))), "
         "all(b is None or isinstance(b, dict) for b in r.trials['best_params']), "
@@ -608,7 +614,7 @@ TEST(CliStoredStates, EachFailureIsNamedInTheTidyExportPythonAndReport) {
         << ReadText(py);
     EXPECT_EQ(ReadText(py), listed + "\n['" + p.state + "']\nTrue\n" +
                                 "category Int64 Int64 UInt64 datetime64[ns, UTC] float64 Int64 "
-                                "boolean\nTrue True datetime64[ns, UTC]\n0\n");
+                                "boolean Int64\nTrue True datetime64[ns, UTC]\n0\n");
   }
 }
 

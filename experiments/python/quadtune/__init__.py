@@ -17,7 +17,8 @@ evaluation table's columns as the store lists them in its `stored_column` table 
 the C++ list, EvaluationColumns in engine/store/result_store.cpp) under their tidy names (TIDY_NAMES:
 `status` left out, `message` as state_reason, `wall_s` as duration, `started` and `finished` as
 datetime_start and datetime_complete), then params_<name> per parameter and terms_<name> per
-objective term. Integers are Int64, seeds UInt64, enums (method, kind, state) categoricals,
+objective term. Integers (integer parameters included) are Int64, seeds UInt64, enums (method,
+kind, state) categoricals,
 timestamps UTC datetimes, and the terms the list types (n_c, plans, ... integers; completed,
 success, ... booleans) Int64 and boolean. `state` says what became of an evaluation: ok,
 collision, timeout, stalled, diverged, solver_failure, error, incomplete, cancelled; state_reason
@@ -303,6 +304,18 @@ def _trials_frame(path, pd):
     return df
 
 
+def integer_parameters(path):
+    """The names of the experiment's integer parameters (`type: integer` in its stored config);
+    their params_<name> columns are Int64. Empty when the config cannot be read as YAML."""
+    try:
+        import yaml  # Debian: python3-yaml
+        doc = yaml.safe_load(experiment(path).get("config") or "") or {}
+        return [p["name"] for p in doc.get("parameters", []) or []
+                if isinstance(p, dict) and p.get("type") == "integer" and "name" in p]
+    except Exception:  # an experiment row without a readable config: nothing to type
+        return []
+
+
 def load(path):
     """Results of the store at `path` as typed pandas DataFrames (see the module
     documentation)."""
@@ -313,12 +326,21 @@ def load(path):
     fixed = TIDY_KEYS + [tidy_name(c.name) for c in listed
                          if c.type != "object" and tidy_name(c.name) is not None]
 
+    integers = integer_parameters(path)
+
     def frame(kind):
         names = list(fixed)
         for c in listed:
             if c.type == "object":
                 names += [c.prefix + k for k in keys.get(kind, {}).get(c.name, [])]
-        return _typed(pd.DataFrame(by_kind.get(kind, []), columns=names), pd, listed)
+        df = _typed(pd.DataFrame(by_kind.get(kind, []), columns=names), pd, listed)
+        for name in integers:
+            if "params_" + name in df.columns:
+                try:
+                    df["params_" + name] = df["params_" + name].astype("Int64")
+                except (TypeError, ValueError):
+                    pass  # a value that is not whole: left as numbers
+        return df
 
     return Results(long=frame("long"), short=frame("short"), validation=frame("validation"),
                    recheck=frame("recheck"), race=frame("race"), incumbent=frame("incumbent"),
