@@ -43,6 +43,25 @@ function fmt(v, digits = 2) { return v === null || v === undefined ? "–" : (+v
 
 /// A table of strings (header, rows) into `table`; the first cell of each row gets the colour
 /// dot of `methods[k]` when given.
+// One store's table (id `${prefix}-${store}`) appended to `box`, under the store's name when the
+// page shows several stores; returns the table.
+function storeTable(box, prefix, store, header, cells, methods) {
+  const wrap = document.createElement("div");
+  if (several()) {
+    const h = document.createElement("h3");
+    h.textContent = store;
+    wrap.appendChild(h);
+  }
+  const table = document.createElement("table");
+  table.className = "data";
+  table.id = `${prefix}-${store}`;
+  table.dataset.store = store;
+  fillTable(table, header, cells, methods);
+  wrap.appendChild(table);
+  box.appendChild(wrap);
+  return table;
+}
+
 function fillTable(table, header, rows, methods) {
   table.innerHTML = "";
   const head = table.createTHead().insertRow();
@@ -99,19 +118,7 @@ function drawValidation(runs) {
         textposition: "inside", insidetextanchor: "start", hoverinfo: "text",
       });
     }
-    const wrap = document.createElement("div");
-    if (several()) {
-      const h = document.createElement("h3");
-      h.textContent = v.store;
-      wrap.appendChild(h);
-    }
-    const table = document.createElement("table");
-    table.className = "data";
-    table.id = `qt-validation-table-${v.store}`;
-    table.dataset.store = v.store;
-    fillTable(table, v.header, v.cells, v.rows.map((r) => r.method));
-    wrap.appendChild(table);
-    box.appendChild(wrap);
+    storeTable(box, "qt-validation-table", v.store, v.header, v.cells, v.rows.map((r) => r.method));
   }
   document.getElementById("qt-validation-caption").textContent = runs.validation.map(
       (v) => `${several() ? v.store + ": " : ""}${v.maps} held-out maps`).join("; ") + ".";
@@ -131,23 +138,11 @@ function drawParameters(runs) {
   const box = document.getElementById("qt-parameter-tables");
   document.getElementById("qt-parameters-caption").textContent = runs.parameters_caption;
   for (const t of runs.parameter_tables) {
-    const wrap = document.createElement("div");
-    if (several()) {
-      const h = document.createElement("h3");
-      h.textContent = t.store;
-      wrap.appendChild(h);
-    }
-    const table = document.createElement("table");
-    table.className = "data";
-    table.id = `qt-parameter-table-${t.store}`;
-    table.dataset.store = t.store;
-    fillTable(table, t.header, t.cells);
+    const table = storeTable(box, "qt-parameter-table", t.store, t.header, t.cells);
     // The trial columns' heads take their method's colour.
     const heads = table.tHead.rows[0].cells;
     t.points.forEach((p, k) => { heads[3 + k].style.color = colour(p.method); });
     heads[2].style.color = colour("default");
-    wrap.appendChild(table);
-    box.appendChild(wrap);
   }
 }
 
