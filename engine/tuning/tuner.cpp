@@ -946,7 +946,7 @@ class Trial {
   }
 
   /// The space the challenger model works in: bo_pso's θ_l (its challengers share the best
-  /// θ_s), else the tuned space.
+  /// θ_s), else (and with race.incumbent_short) the tuned space.
   [[nodiscard]] const optimizers::ParameterSpace& ModelSpace() const {
     const bool long_only = method_ == Method::kBoPso && !e_.race.incumbent_short;
     return long_only ? bo_pso_.long_space : e_.space;

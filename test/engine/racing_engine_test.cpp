@@ -120,6 +120,36 @@ TEST(Racing, ReserveRunsOnlyWholeRacesAndEndsTheTrialRacing) {
   EXPECT_GT(cut_without, 0) << "without reserve some race of these trials is cut by the budget";
 }
 
+// race.incumbent_short: bo_pso also races a θ_l of BO's with the incumbent's θ_s (challengers
+// whose θ_s is the incumbent's and whose θ_l is not); without it every challenger carries PSO's
+// best θ_s.
+TEST(Racing, IncumbentShortRacesBosThetaLWithTheIncumbentsThetaS) {
+  const auto count = [](const std::string& name, const std::string& race) {
+    RunOptions o;
+    const RunSummary s = RunRacing(name, RacingToy("[bo_pso]", race), &o);
+    EXPECT_EQ(s.status, RunStatus::kCompleted);
+    int with_incumbents = 0;
+    for (const auto& [id, r] : RowsByTrial(o.store_path)) {
+      nlohmann::json incumbent = nlohmann::json::parse(r.race.front().params);  // the defaults
+      for (const auto& outcome : r.incumbent) {
+        for (const auto& row : r.race) {
+          if (row.iteration != outcome.iteration || TermOf(row, "challenger") != 1.0) continue;
+          const auto c = nlohmann::json::parse(row.params);
+          const bool same_short = c["gain"] == incumbent["gain"] && c["max_iter"] == incumbent["max_iter"];
+          const bool same_long = c["speed"] == incumbent["speed"] && c["margin"] == incumbent["margin"];
+          with_incumbents += same_short && !same_long;
+          break;
+        }
+        incumbent = nlohmann::json::parse(outcome.params);
+      }
+    }
+    return with_incumbents;
+  };
+  const std::string race = "{enabled: true, first_maps: 2, max_maps: 8, challenger: two_part, share: 0.9";
+  EXPECT_EQ(count("race_short_off", race + "}"), 0);
+  EXPECT_GT(count("race_short_on", race + ", incumbent_short: true}"), 0);
+}
+
 TEST(Racing, IncumbentAndChallengerFlyTheSameRaceMaps) {
   RunOptions o;
   const Experiment e = RacingToy();
