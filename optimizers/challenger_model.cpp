@@ -15,6 +15,7 @@ namespace {
 constexpr double kPriorWeight = 1.0;  // n₀
 constexpr int kFitRestarts = 2;
 constexpr double kMaxShape = 2.0;  // cap of a lengthscale that shapes the failure kernel
+constexpr int kCoordinateSteps = 16;  // a coordinate pass of ProposeChallenger: 17 values
 constexpr std::array kFailureScales = {1.0 / 32, 1.0 / 16, 1.0 / 8, 1.0 / 4, 1.0 / 2, 1.0};
 
 }  // namespace
@@ -135,6 +136,64 @@ ChallengerEstimate ChallengerModel::Estimate(const Eigen::VectorXd& u, double re
   }
   e.score = e.pass_probability * e.improvement;
   return e;
+}
+
+std::optional<Proposal> ProposeChallenger(
+    const ChallengerModel& model, const std::vector<Eigen::VectorXd>& starts, double reference,
+    int maps, int failures, Rng& rng, const std::function<Eigen::VectorXd(Eigen::VectorXd)>& snap,
+    const std::function<bool(const Eigen::VectorXd&)>& excluded, const ProposalSearch& search) {
+  QT_DEMAND(!starts.empty(), "ProposeChallenger needs a start");
+  const Eigen::Index dim = starts.front().size();
+  std::vector<Proposal> pool;
+  Eigen::VectorXd lo = Eigen::VectorXd::Zero(dim);
+  Eigen::VectorXd hi = Eigen::VectorXd::Ones(dim);
+  if (search.center.size() == dim) {
+    lo = (search.center.array() - search.radius).max(0.0).matrix();
+    hi = (search.center.array() + search.radius).min(1.0).matrix();
+  }
+  auto score = [&](Eigen::VectorXd u) -> std::optional<Proposal> {
+    u = snap(u.cwiseMax(lo).cwiseMin(hi));
+    if (excluded(u)) return std::nullopt;
+    Proposal p{u, model.Estimate(u, reference, maps, failures)};
+    return p;
+  };
+  std::optional<Proposal> first = score(starts.front());  // climbed from in any case
+  for (const auto& s : starts) {
+    if (auto p = score(s)) pool.push_back(std::move(*p));
+  }
+  for (int i = 0; i < search.random_points; ++i) {
+    Eigen::VectorXd u(dim);
+    for (Eigen::Index k = 0; k < dim; ++k) u[k] = Uniform(rng, lo[k], hi[k]);
+    if (auto p = score(std::move(u))) pool.push_back(std::move(*p));
+  }
+  const auto better = [](const Proposal& a, const Proposal& b) {
+    return a.estimate.score > b.estimate.score;
+  };
+  std::stable_sort(pool.begin(), pool.end(), better);
+  pool.resize(std::min(pool.size(), static_cast<std::size_t>(search.climbs)));
+  if (first) pool.push_back(std::move(*first));
+  for (Proposal& climb : pool) {
+    for (double step : {0.2, 0.1, 0.05, 0.025}) {
+      for (int t = 0; t < search.tries_per_step; ++t) {
+        Eigen::VectorXd u = climb.u;
+        for (Eigen::Index k = 0; k < dim; ++k) u[k] = std::clamp(Normal(rng, u[k], step), 0.0, 1.0);
+        auto p = score(std::move(u));
+        if (p && better(*p, climb)) climb = std::move(*p);
+      }
+    }
+    // One coordinate at a time over its extent (the one-exchange neighbourhood).
+    for (Eigen::Index k = 0; k < dim; ++k) {
+      for (int i = 0; i <= kCoordinateSteps; ++i) {
+        Eigen::VectorXd u = climb.u;
+        u[k] = lo[k] + (hi[k] - lo[k]) * i / kCoordinateSteps;
+        auto p = score(std::move(u));
+        if (p && better(*p, climb)) climb = std::move(*p);
+      }
+    }
+  }
+  std::stable_sort(pool.begin(), pool.end(), better);
+  if (pool.empty() || !(pool.front().estimate.score > 0.0)) return std::nullopt;
+  return pool.front();
 }
 
 }  // namespace quadtune::optimizers

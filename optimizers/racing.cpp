@@ -92,6 +92,18 @@ const Fields<RaceOptions>& RaceFields() {
           .Flag("incumbent_short", &R::incumbent_short,
                 "`bo_pso`: each θ_l also challenges with the incumbent's θ_s, besides PSO's best, "
                 "and the `two_part` model works in the whole space")
+          .Flag("propose", &R::propose,
+                "`two_part`: the model also proposes a point no flight has flown (a local search "
+                "of its score from the incumbent and the flown points, and random points); it "
+                "races when it scores higher than every flown point not raced yet")
+          .Number("propose_radius", &R::propose_radius, Range{0.0, 1.0, true, false},
+                  "with `propose`: the proposed point lies within this distance of the "
+                  "incumbent in every coordinate of the unit cube (1: anywhere)")
+          .Number("failure_margin", &R::failure_margin, Range::Closed(0.0, 1.0),
+                  "a challenger that wins its race replaces the incumbent only when its failure "
+                  "probability under the `two_part` failure model, fit to every flight of the "
+                  "trial (its race flights included), exceeds the incumbent's by at most this "
+                  "(1: no such check)")
           .Flag("tell", &R::tell,
                 "race flights are told to the method's surrogate (`bo`, `bo_pso`: observations "
                 "of the points flown), so repeats correct what one lucky flight suggested")

@@ -962,12 +962,7 @@ class Trial {
   /// one's estimate is kept for the race's stored outcome.
   std::vector<ParamValues> ByTwoPartModel(const std::vector<ParamValues>& points) {
     challenger_estimate_.reset();
-    optimizers::ChallengerModel model(ModelSpace().Dim(),
-                                      DeriveSeed(seed_, {0xc4, static_cast<std::uint64_t>(summary_.races)}),
-                                      e_.bo.gp);
-    std::vector<optimizers::ChallengerObservation> observations;
-    for (const Flown& f : every_flight_) observations.push_back({ModelUnit(f.params), f.value, f.failed});
-    model.Fit(observations);
+    const optimizers::ChallengerModel model = FittedModel(0xc4);
     double reference = std::numeric_limits<double>::infinity();
     double sd = 0.0;
     if (!model.PredictFinished(ModelUnit(incumbent_), &reference, &sd)) return points;
@@ -982,7 +977,63 @@ class Trial {
     std::vector<ParamValues> out;
     for (const auto& [estimate, i] : scored) out.push_back(points[i]);
     challenger_estimate_ = scored.front().first;
+    if (e_.race.propose) {
+      if (auto p = Proposed(model, reference); p && p->estimate.score > challenger_estimate_->score) {
+        out.insert(out.begin(), FromModelUnit(p->u));
+        challenger_estimate_ = p->estimate;
+      }
+    }
     return out;
+  }
+
+  /// A ChallengerModel of ModelSpace() fit to every flight of the trial (race flights included),
+  /// seeded by `tag` and the races so far.
+  [[nodiscard]] optimizers::ChallengerModel FittedModel(std::uint64_t tag) const {
+    optimizers::ChallengerModel model(
+        ModelSpace().Dim(), DeriveSeed(seed_, {tag, static_cast<std::uint64_t>(summary_.races)}),
+        e_.bo.gp);
+    std::vector<optimizers::ChallengerObservation> observations;
+    for (const Flown& f : every_flight_) observations.push_back({ModelUnit(f.params), f.value, f.failed});
+    model.Fit(observations);
+    return model;
+  }
+
+  /// race.failure_margin: a winner's failure probability under a ChallengerModel fit to every
+  /// flight, its race flights included, may exceed the incumbent's by at most the margin (its
+  /// failing neighbours count against it where its own few race maps cannot). Sets the two
+  /// probabilities.
+  bool WithinFailureMargin(const ParamValues& challenger, double* p_challenger,
+                           double* p_incumbent) const {
+    const optimizers::ChallengerModel model = FittedModel(0xc6);
+    *p_challenger = model.FailureProbability(ModelUnit(challenger));
+    *p_incumbent = model.FailureProbability(ModelUnit(incumbent_));
+    return *p_challenger <= *p_incumbent + e_.race.failure_margin;
+  }
+
+  /// race.propose: the model's own point (optimizers::ProposeChallenger), searched from the
+  /// incumbent and every flown point; points near a raced one are not proposed.
+  std::optional<optimizers::Proposal> Proposed(const optimizers::ChallengerModel& model,
+                                               double reference) const {
+    const optimizers::ParameterSpace& space = ModelSpace();
+    std::vector<Eigen::VectorXd> starts{ModelUnit(incumbent_)};
+    for (const Flown& f : every_flight_) starts.push_back(ModelUnit(f.params));
+    Rng rng(DeriveSeed(seed_, {0xc5, static_cast<std::uint64_t>(summary_.races)}));
+    optimizers::ProposalSearch search;
+    search.center = starts.front();
+    search.radius = e_.race.propose_radius;
+    return optimizers::ProposeChallenger(
+        model, starts, reference, e_.race.max_maps, e_.race.failures, rng,
+        [&](Eigen::VectorXd u) { return space.SnapUnit(u); },
+        [&](const Eigen::VectorXd& u) { return NearAny(raced_, Unit(FromModelUnit(u))); }, search);
+  }
+
+  /// A point of ModelSpace()'s unit cube as the parameters a race flies: bo_pso's θ_l with
+  /// PSO's best θ_s, else the tuned point over the trial's defaults.
+  [[nodiscard]] ParamValues FromModelUnit(const Eigen::VectorXd& u) const {
+    const optimizers::ParameterSpace& space = ModelSpace();
+    const ParamValues named = space.ToNamed(space.FromUnit(u));
+    if (&space == &bo_pso_.long_space) return Merge(Merge(bo_pso_defaults_, BestShort()), named);
+    return Merge(TrialDefaults(), named);
   }
 
   /// One flight of a race: who flies which race map.
@@ -1066,8 +1117,15 @@ class Trial {
       Report();  // after each stage: a long race shows progress, and a cut can fall inside it
       return true;
     };
-    const auto d = optimizers::RunRace(e_.race, &incumbent_samples_, &samples, extend);
+    auto d = optimizers::RunRace(e_.race, &incumbent_samples_, &samples, extend);
     if (cancelled) return false;
+    if (d.verdict == optimizers::RaceVerdict::kAccept && e_.race.failure_margin < 1.0) {
+      gate_ = {0.0, 0.0};
+      if (!WithinFailureMargin(challenger, &gate_->first, &gate_->second)) {
+        d.verdict = optimizers::RaceVerdict::kReject;
+        d.reason = "fails more often than the incumbent by the model";
+      }
+    }
     if (d.verdict == optimizers::RaceVerdict::kAccept) {
       incumbent_ = std::move(challenger);
       incumbent_samples_ = std::move(samples);
@@ -1091,6 +1149,11 @@ class Trial {
                          {"incumbent_maps", static_cast<double>(incumbent_samples_.size())},
                          {"flight_no", summary_.flights}};
     if (d.stopped) o.objective.terms["stopped"] = 1.0;  // cut by the budget before its verdict
+    if (gate_) {
+      o.objective.terms["gate_p_fail"] = gate_->first;
+      o.objective.terms["gate_p_fail_incumbent"] = gate_->second;
+      gate_.reset();
+    }
     if (challenger_estimate_) {
       o.objective.terms["challenger_p_fail"] = challenger_estimate_->failure_probability;
       o.objective.terms["challenger_mean"] = challenger_estimate_->mean;
@@ -1219,6 +1282,7 @@ class Trial {
   std::vector<Eigen::VectorXd> raced_;  // unit-cube points raced (and the first incumbent)
   std::vector<Flown> every_flight_;     // tuning and race flights, failed as a race counts it
   std::optional<optimizers::ChallengerEstimate> challenger_estimate_;  // two_part: the last one
+  std::optional<std::pair<double, double>> gate_;  // failure_margin: p of challenger, incumbent
 };
 
 }  // namespace

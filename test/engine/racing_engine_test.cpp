@@ -282,6 +282,62 @@ TEST(Racing, TwoPartChallengersAreScoredStoredAndResumedIdentically) {
   EXPECT_GE(scored, 2);
 }
 
+// race.propose: the two_part model races points of its own, which no tuning flight flew, within
+// propose_radius of the incumbent; without it every challenger is a flown point; a run cut
+// inside such a race resumes to the same store.
+TEST(Racing, ProposedChallengersAreNewPointsNearTheIncumbentAndResumeIdentically) {
+  const auto count = [](const std::string& name, const std::string& race) {
+    RunOptions o;
+    const RunSummary s = RunRacing(name, RacingToy("[bo, random]", race), &o);
+    EXPECT_EQ(s.status, RunStatus::kCompleted);
+    int proposed = 0;
+    for (const auto& [id, r] : RowsByTrial(o.store_path)) {
+      std::set<nlohmann::json> flown;
+      for (const auto& row : r.tuning) flown.insert(nlohmann::json::parse(row.params));
+      for (const auto& row : r.race) {
+        if (TermOf(row, "challenger") != 1.0) continue;
+        proposed += flown.count(nlohmann::json::parse(row.params)) == 0 ? 1 : 0;
+      }
+    }
+    return proposed;
+  };
+  const std::string race = "{enabled: true, first_maps: 2, max_maps: 8, challenger: two_part, share: 0.9";
+  EXPECT_EQ(count("race_propose_off", race + "}"), 0);
+  EXPECT_GT(count("race_propose_on", race + ", propose: true}"), 0);
+  const Experiment e = RacingToy("[bo, random]", race + ", propose: true, propose_radius: 0.3}");
+  const auto r = test::CutThenResume(e, test::TempDir("race_propose_resume"), 6);
+  ASSERT_EQ(r.resumed.status, RunStatus::kCompleted);
+  EXPECT_EQ(test::Deterministic(r.part), test::Deterministic(r.full));
+}
+
+// race.failure_margin: a race won on the maps is checked against the failure model; each checked
+// race stores both probabilities, and a winner kept them within the margin, a loser did not.
+TEST(Racing, FailureMarginChecksEveryWinnerAgainstTheModel) {
+  const auto checked = [](const std::string& name, const std::string& race) {
+    RunOptions o;
+    const RunSummary s = RunRacing(name, RacingToy("[bo, random, bo_pso]", race), &o);
+    EXPECT_EQ(s.status, RunStatus::kCompleted);
+    int n = 0;
+    for (const auto& [id, r] : RowsByTrial(o.store_path)) {
+      for (const auto& row : r.incumbent) {
+        const auto terms = nlohmann::json::parse(row.terms);
+        if (!terms.contains("gate_p_fail")) continue;
+        ++n;
+        const double margin = terms["gate_p_fail"].get<double>() - terms["gate_p_fail_incumbent"].get<double>();
+        if (terms["accepted"].get<double>() == 1.0) {
+          EXPECT_LE(margin, 0.01);
+        } else {
+          EXPECT_GT(margin, 0.01);
+        }
+      }
+    }
+    return n;
+  };
+  const std::string race = "{enabled: true, first_maps: 2, max_maps: 8, challenger: two_part, share: 0.9";
+  EXPECT_EQ(checked("race_margin_off", race + "}"), 0);
+  EXPECT_GT(checked("race_margin_on", race + ", failure_margin: 0.01}"), 0);
+}
+
 TEST(Racing, ExperimentFileRulesAreChecked) {
   EXPECT_TRUE(quadtune::test::ThrowsConfigError(
       [] { (void)RacingToy("[bo]", "{enabled: true, first_maps: 8, max_maps: 4}"); },

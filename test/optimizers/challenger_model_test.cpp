@@ -90,6 +90,79 @@ TEST(ChallengerModel, PicksTheFastPointThatSurvivesARace) {
   EXPECT_GE(inside, 18);
 }
 
+/// Synthetic() in three dimensions: the last two do not matter, the third takes 4 integer cells.
+std::vector<ChallengerObservation> Synthetic3(std::uint64_t seed) {
+  Rng rng(seed + 100);
+  std::vector<ChallengerObservation> obs;
+  for (auto& o : Synthetic(seed)) {
+    Eigen::VectorXd u(3);
+    u << o.u[0], Uniform01(rng), (std::floor(Uniform01(rng) * 4.0) + 0.5) / 4.0;
+    obs.push_back({u, o.value, o.failed});
+  }
+  return obs;
+}
+
+Eigen::VectorXd SnapCells(Eigen::VectorXd u) {
+  u = u.cwiseMax(0.0).cwiseMin(1.0);
+  u[2] = (std::min(std::floor(u[2] * 4.0), 3.0) + 0.5) / 4.0;
+  return u;
+}
+
+TEST(ChallengerModel, ProposalBeatsItsStartsInsideItsTrustRegion) {
+  // The proposal scores at least as high as any start in the trust region and within 10% of the
+  // best point of a grid along the first coordinate (a search, not an exact maximum), lies in
+  // the trust region, has its integer coordinate on a cell
+  // centre, and is never a point the caller excludes (raced already).
+  for (std::uint64_t seed = 1; seed <= 10; ++seed) {
+    ChallengerModel model(3, seed);
+    const auto obs = Synthetic3(seed);
+    model.Fit(obs);
+    const Eigen::Vector3d incumbent(0.2, 0.5, 0.125);
+    std::vector<Eigen::VectorXd> starts{incumbent};
+    for (const auto& o : obs) starts.push_back(o.u);
+    double reference = 0.0;
+    double sd = 0.0;
+    ASSERT_TRUE(model.PredictFinished(incumbent, &reference, &sd));
+    ProposalSearch search;
+    search.center = incumbent;
+    search.radius = 0.25;
+    const auto band = [](const Eigen::VectorXd& u) { return u[0] > 0.35 && u[0] < 0.42; };
+    Rng rng(seed);
+    const auto p = ProposeChallenger(model, starts, reference, 12, 0, rng, SnapCells, band, search);
+    ASSERT_TRUE(p.has_value());
+    EXPECT_LE((p->u - incumbent).cwiseAbs().maxCoeff(), 0.25 + 1e-12) << "seed " << seed;
+    EXPECT_DOUBLE_EQ(p->u[2], SnapCells(p->u)[2]);
+    EXPECT_FALSE(band(p->u));
+    EXPECT_DOUBLE_EQ(p->estimate.score, model.Estimate(p->u, reference, 12, 0).score);
+    for (const auto& u : starts) {
+      if ((u - incumbent).cwiseAbs().maxCoeff() > 0.25 || band(u)) continue;
+      EXPECT_GE(p->estimate.score, model.Estimate(u, reference, 12, 0).score) << "seed " << seed;
+    }
+    double grid_best = 0.0;
+    for (int k = 0; k <= 10; ++k) {
+      Eigen::Vector3d u = incumbent;
+      u[0] = 0.045 * k;  // [0, 0.45]: the trust region's extent in the first coordinate
+      if (!band(u)) grid_best = std::max(grid_best, model.Estimate(u, reference, 12, 0).score);
+    }
+    EXPECT_GE(p->estimate.score, 0.9 * grid_best) << "seed " << seed;
+  }
+}
+
+TEST(ChallengerModel, SameSeedSameProposal) {
+  ChallengerModel model(3, 4);
+  const auto obs = Synthetic3(4);
+  model.Fit(obs);
+  std::vector<Eigen::VectorXd> starts;
+  for (const auto& o : obs) starts.push_back(o.u);
+  const auto none = [](const Eigen::VectorXd&) { return false; };
+  Rng a(11);
+  Rng b(11);
+  const auto pa = ProposeChallenger(model, starts, 30.0, 12, 0, a, SnapCells, none);
+  const auto pb = ProposeChallenger(model, starts, 30.0, 12, 0, b, SnapCells, none);
+  ASSERT_TRUE(pa && pb);
+  EXPECT_EQ(pa->u, pb->u);
+}
+
 TEST(ChallengerModel, SameObservationsSameEstimates) {
   ChallengerModel a(1, 3);
   ChallengerModel b(1, 3);

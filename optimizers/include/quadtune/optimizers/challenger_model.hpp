@@ -25,7 +25,11 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
+#include <optional>
 #include <vector>
+
+#include "quadtune/common/random.hpp"
 
 #include "quadtune/optimizers/gaussian_process.hpp"
 
@@ -80,6 +84,36 @@ class ChallengerModel {
   double failure_rate_ = 0.5;  // r̄
   Eigen::VectorXd failure_inv_l_;  // inverse lengthscales of the failure kernel
 };
+
+/// How ProposeChallenger searches the unit cube.
+struct ProposalSearch {
+  int random_points = 256;  ///< uniform points scored besides the starts
+  int climbs = 8;           ///< best points (starts and random ones) climbed from
+  int tries_per_step = 12;  ///< perturbations per step size of a climb
+  /// A trust region: every point within `radius` of `center` in each coordinate (the whole
+  /// cube when `center` is empty).
+  Eigen::VectorXd center;
+  double radius = 1.0;
+};
+
+/// A point the model proposes of its own.
+struct Proposal {
+  Eigen::VectorXd u;
+  ChallengerEstimate estimate;
+};
+
+/// The point of [0, 1]^dim with the highest Estimate score that a search finds: the `starts`
+/// (e.g. the incumbent and the flown points) and `search.random_points` uniform points are
+/// scored, and the first start and the best `search.climbs` of them climb by Gaussian steps of standard deviation
+/// 0.2, 0.1, 0.05 and 0.025 (`search.tries_per_step` each, a better score kept), then one
+/// coordinate at a time over 17 values of its extent — the local search of SMAC's acquisition
+/// optimiser. Every point is first mapped by `snap` (to a
+/// representable point) after being clamped into `search`'s trust region; points for which `excluded` holds (raced already) are never proposed.
+/// Empty when no point has a positive score.
+std::optional<Proposal> ProposeChallenger(
+    const ChallengerModel& model, const std::vector<Eigen::VectorXd>& starts, double reference,
+    int maps, int failures, Rng& rng, const std::function<Eigen::VectorXd(Eigen::VectorXd)>& snap,
+    const std::function<bool(const Eigen::VectorXd&)>& excluded, const ProposalSearch& search = {});
 
 /// P(X <= k) for X ~ Binomial(n, p), n >= 0.
 double BinomialCdf(int k, int n, double p);

@@ -64,6 +64,16 @@ struct RaceOptions {
   /// θ_s), and the two_part model works in the whole space, so a θ_s that PSO prefers for its
   /// f_s but that fails flights does not sink every challenger.
   bool incumbent_short = false;
+  /// two_part: the model also proposes a point of its own (ProposeChallenger: a local search of
+  /// its score from the incumbent and the flown points), which races when it scores higher than
+  /// every flown point not raced yet.
+  bool propose = false;
+  /// A winner's failure probability under the two_part model fit to every flight of the trial
+  /// may exceed the incumbent's by at most this (1: no such check).
+  double failure_margin = 1.0;
+  /// With `propose`: the proposal lies within this distance of the incumbent in every
+  /// coordinate of the unit cube (a trust region; 1: anywhere).
+  double propose_radius = 1.0;
   /// Race flights are told to the method's surrogate (bo, bo_pso: observations of the points
   /// flown, so repeats show the GP what one lucky flight hides).
   bool tell = true;
