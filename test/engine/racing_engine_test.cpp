@@ -48,6 +48,15 @@ RunSummary RunRacing(const std::string& name, const Experiment& e, RunOptions* o
   return RunExperiment(e, *o);
 }
 
+/// Runs RacingToy(methods, race) to completion into a fresh store; its rows by trial.
+std::map<std::int64_t, Rows> RacedRows(const std::string& name, const std::string& methods,
+                                       const std::string& race) {
+  RunOptions o;
+  const RunSummary s = RunRacing(name, RacingToy(methods, race), &o);
+  EXPECT_EQ(s.status, RunStatus::kCompleted);
+  return RowsByTrial(o.store_path);
+}
+
 TEST(Racing, EveryFlightCountsAgainstTheBudget) {
   RunOptions o;
   const RunSummary s = RunRacing("race_budget", RacingToy(), &o);
@@ -125,11 +134,8 @@ TEST(Racing, ReserveRunsOnlyWholeRacesAndEndsTheTrialRacing) {
 // best θ_s.
 TEST(Racing, IncumbentShortRacesBosThetaLWithTheIncumbentsThetaS) {
   const auto count = [](const std::string& name, const std::string& race) {
-    RunOptions o;
-    const RunSummary s = RunRacing(name, RacingToy("[bo_pso]", race), &o);
-    EXPECT_EQ(s.status, RunStatus::kCompleted);
     int with_incumbents = 0;
-    for (const auto& [id, r] : RowsByTrial(o.store_path)) {
+    for (const auto& [id, r] : RacedRows(name, "[bo_pso]", race)) {
       nlohmann::json incumbent = nlohmann::json::parse(r.race.front().params);  // the defaults
       for (const auto& outcome : r.incumbent) {
         for (const auto& row : r.race) {
@@ -287,11 +293,8 @@ TEST(Racing, TwoPartChallengersAreScoredStoredAndResumedIdentically) {
 // inside such a race resumes to the same store.
 TEST(Racing, ProposedChallengersAreNewPointsNearTheIncumbentAndResumeIdentically) {
   const auto count = [](const std::string& name, const std::string& race) {
-    RunOptions o;
-    const RunSummary s = RunRacing(name, RacingToy("[bo, random]", race), &o);
-    EXPECT_EQ(s.status, RunStatus::kCompleted);
     int proposed = 0;
-    for (const auto& [id, r] : RowsByTrial(o.store_path)) {
+    for (const auto& [id, r] : RacedRows(name, "[bo, random]", race)) {
       std::set<nlohmann::json> flown;
       for (const auto& row : r.tuning) flown.insert(nlohmann::json::parse(row.params));
       for (const auto& row : r.race) {
@@ -314,11 +317,8 @@ TEST(Racing, ProposedChallengersAreNewPointsNearTheIncumbentAndResumeIdentically
 // race stores both probabilities, and a winner kept them within the margin, a loser did not.
 TEST(Racing, FailureMarginChecksEveryWinnerAgainstTheModel) {
   const auto checked = [](const std::string& name, const std::string& race) {
-    RunOptions o;
-    const RunSummary s = RunRacing(name, RacingToy("[bo, random, bo_pso]", race), &o);
-    EXPECT_EQ(s.status, RunStatus::kCompleted);
     int n = 0;
-    for (const auto& [id, r] : RowsByTrial(o.store_path)) {
+    for (const auto& [id, r] : RacedRows(name, "[bo, random, bo_pso]", race)) {
       for (const auto& row : r.incumbent) {
         const auto terms = nlohmann::json::parse(row.terms);
         if (!terms.contains("gate_p_fail")) continue;
