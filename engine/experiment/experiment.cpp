@@ -273,6 +273,9 @@ void ReadRace(const YamlMap& map, Experiment& e) {
     r.Fail("max_maps", std::to_string(e.race.max_maps) + " is below first_maps (" +
                            std::to_string(e.race.first_maps) + "); give max_maps >= first_maps");
   }
+  if (e.race.propose && e.race.challenger != optimizers::ChallengerRule::kTwoPart) {
+    r.Fail("propose", "true needs challenger: two_part (the model that proposes the point)");
+  }
   if (e.race.enabled && e.recommend.candidates > 0) {
     r.Fail("enabled", "true hands back the race's incumbent, so recommend.candidates must be 0 "
                       "(it is " + std::to_string(e.recommend.candidates) + ")");

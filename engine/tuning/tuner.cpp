@@ -948,8 +948,12 @@ class Trial {
   /// The space the challenger model works in: bo_pso's θ_l (its challengers share the best
   /// θ_s), else (and with race.incumbent_short) the tuned space.
   [[nodiscard]] const optimizers::ParameterSpace& ModelSpace() const {
-    const bool long_only = method_ == Method::kBoPso && !e_.race.incumbent_short;
-    return long_only ? bo_pso_.long_space : e_.space;
+    return ModelIsLongOnly() ? bo_pso_.long_space : e_.space;
+  }
+
+  /// The challenger model works in bo_pso's θ_l only (see ModelSpace()).
+  [[nodiscard]] bool ModelIsLongOnly() const {
+    return method_ == Method::kBoPso && !e_.race.incumbent_short;
   }
 
   /// `p` in the unit cube of ModelSpace().
@@ -1032,7 +1036,7 @@ class Trial {
   [[nodiscard]] ParamValues FromModelUnit(const Eigen::VectorXd& u) const {
     const optimizers::ParameterSpace& space = ModelSpace();
     const ParamValues named = space.ToNamed(space.FromUnit(u));
-    if (&space == &bo_pso_.long_space) return Merge(Merge(bo_pso_defaults_, BestShort()), named);
+    if (ModelIsLongOnly()) return Merge(Merge(bo_pso_defaults_, BestShort()), named);
     return Merge(TrialDefaults(), named);
   }
 

@@ -351,6 +351,9 @@ TEST(Racing, ExperimentFileRulesAreChecked) {
       "race.enabled", {"recommend.candidates"}));
   EXPECT_TRUE(quadtune::test::ThrowsConfigError([] { (void)RacingToy("[bo]", "{alpha: 0.7}"); },
                                       "race.alpha", {"0.7"}));
+  EXPECT_TRUE(quadtune::test::ThrowsConfigError(
+      [] { (void)RacingToy("[bo]", "{enabled: true, propose: true}"); }, "race.propose",
+      {"two_part"}));
 }
 
 }  // namespace
