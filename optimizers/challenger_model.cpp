@@ -1,10 +1,12 @@
 #include "quadtune/optimizers/challenger_model.hpp"
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <array>
 #include <limits>
 #include <cmath>
 #include <numbers>
+#include <span>
 
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/random.hpp"
@@ -12,7 +14,10 @@
 namespace quadtune::optimizers {
 namespace {
 
-constexpr double kPriorWeight = 1.0;  // n₀
+constexpr double kConstantPriorWeight = 1.0;  // n₀ of FailurePrior::kConstant
+constexpr std::array kLogisticPriorWeights = {1.0, 4.0, 16.0};  // n₀ of kLogistic
+constexpr double kLogisticRidge = 0.1;  // penalty ½ λ ‖β‖² of the logistic prior
+constexpr int kLogisticIterations = 30;
 constexpr int kFitRestarts = 2;
 constexpr double kMaxShape = 2.0;  // cap of a lengthscale that shapes the failure kernel
 constexpr int kCoordinateSteps = 16;  // a coordinate pass of ProposeChallenger: 17 values
@@ -42,10 +47,12 @@ double ExpectedImprovementBelow(double reference, double mean, double sd) {
   return std::max(0.0, sd * (z * cdf + pdf));
 }
 
-ChallengerModel::ChallengerModel(int dim, std::uint64_t seed, GaussianProcessOptions gp)
+ChallengerModel::ChallengerModel(int dim, std::uint64_t seed, GaussianProcessOptions gp,
+                                 FailurePrior prior)
     : dim_(dim),
       seed_(seed),
       gp_(dim, std::move(gp)),
+      prior_(prior),
       failure_inv_l_(Eigen::VectorXd::Constant(dim, 1.0 / gp_.Options().initial_lengthscale)) {}
 
 void ChallengerModel::Fit(const std::vector<ChallengerObservation>& observations) {
@@ -61,7 +68,45 @@ void ChallengerModel::Fit(const std::vector<ChallengerObservation>& observations
   have_gp_ = finished > 0;
   gp_ = GaussianProcess<Matern52Kernel>(dim_, gp_.Options());
   if (have_gp_) FitFinished(finished);
+  FitLogisticPrior();
   ChooseFailureLengthscales();
+}
+
+void ChallengerModel::FitLogisticPrior() {
+  logistic_.resize(0);
+  if (prior_ != FailurePrior::kLogistic || observations_.empty()) return;
+  // Penalised maximum likelihood by Newton's method: the objective is convex, so the iteration
+  // converges from β = 0 with the intercept at the smoothed overall rate.
+  const Eigen::Index n = static_cast<Eigen::Index>(observations_.size());
+  Eigen::MatrixXd x(n, dim_ + 1);
+  Eigen::VectorXd y(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    x(i, 0) = 1.0;
+    x.row(i).tail(dim_) = observations_[static_cast<std::size_t>(i)].u.transpose();
+    y[i] = observations_[static_cast<std::size_t>(i)].failed ? 1.0 : 0.0;
+  }
+  Eigen::VectorXd beta = Eigen::VectorXd::Zero(dim_ + 1);
+  beta[0] = std::log(failure_rate_ / (1.0 - failure_rate_));
+  Eigen::VectorXd ridge = Eigen::VectorXd::Constant(dim_ + 1, kLogisticRidge);
+  ridge[0] = 1e-6;  // the intercept is all but free
+  for (int it = 0; it < kLogisticIterations; ++it) {
+    const Eigen::ArrayXd p = (1.0 / (1.0 + (-(x * beta)).array().exp()));
+    const Eigen::VectorXd gradient =
+        x.transpose() * (p.matrix() - y) + ridge.cwiseProduct(beta);
+    const Eigen::VectorXd w = (p * (1.0 - p)).matrix();
+    Eigen::MatrixXd hessian = x.transpose() * w.asDiagonal() * x;
+    hessian.diagonal() += ridge;
+    const Eigen::VectorXd step = hessian.ldlt().solve(gradient);
+    beta -= step;
+    if (step.cwiseAbs().maxCoeff() < 1e-8) break;
+  }
+  logistic_ = beta;
+}
+
+double ChallengerModel::PriorFailureProbability(const Eigen::VectorXd& u) const {
+  if (logistic_.size() == 0) return failure_rate_;
+  const double eta = logistic_[0] + logistic_.tail(dim_).dot(u);
+  return 1.0 / (1.0 + std::exp(-eta));
 }
 
 void ChallengerModel::FitFinished(Eigen::Index finished) {
@@ -82,8 +127,8 @@ void ChallengerModel::FitFinished(Eigen::Index finished) {
 
 double ChallengerModel::FailureAt(const Eigen::VectorXd& u, const Eigen::VectorXd& inv_l,
                                   std::size_t skip) const {
-  double weight = kPriorWeight;
-  double failures = kPriorWeight * failure_rate_;
+  double weight = prior_weight_;
+  double failures = prior_weight_ * PriorFailureProbability(u);
   for (std::size_t j = 0; j < observations_.size(); ++j) {
     if (j == skip) continue;
     const auto& o = observations_[j];
@@ -99,19 +144,30 @@ void ChallengerModel::ChooseFailureLengthscales() {
   // a direction is flat anyway); their common scale is chosen by the leave-one-out likelihood of
   // the failures, since failures change over shorter distances than flight times do.
   const Eigen::ArrayXd base = gp_.Hyperparameters().log_lengthscales.array().exp().min(kMaxShape);
+  const std::span<const double> weights =
+      logistic_.size() == 0 ? std::span<const double>(&kConstantPriorWeight, 1)
+                            : std::span<const double>(kLogisticPriorWeights);
   double best = -std::numeric_limits<double>::infinity();
-  for (double scale : kFailureScales) {
-    const Eigen::VectorXd inv_l = (1.0 / (scale * base)).matrix();
-    double log_likelihood = 0.0;
-    for (std::size_t j = 0; j < observations_.size(); ++j) {
-      const double p = std::clamp(FailureAt(observations_[j].u, inv_l, j), 1e-6, 1.0 - 1e-6);
-      log_likelihood += std::log(observations_[j].failed ? p : 1.0 - p);
-    }
-    if (log_likelihood > best) {
-      best = log_likelihood;
-      failure_inv_l_ = inv_l;
+  Eigen::VectorXd best_inv_l = failure_inv_l_;
+  double best_weight = weights.front();
+  for (double weight : weights) {
+    prior_weight_ = weight;
+    for (double scale : kFailureScales) {
+      const Eigen::VectorXd inv_l = (1.0 / (scale * base)).matrix();
+      double log_likelihood = 0.0;
+      for (std::size_t j = 0; j < observations_.size(); ++j) {
+        const double p = std::clamp(FailureAt(observations_[j].u, inv_l, j), 1e-6, 1.0 - 1e-6);
+        log_likelihood += std::log(observations_[j].failed ? p : 1.0 - p);
+      }
+      if (log_likelihood > best) {
+        best = log_likelihood;
+        best_inv_l = inv_l;
+        best_weight = weight;
+      }
     }
   }
+  failure_inv_l_ = best_inv_l;
+  prior_weight_ = best_weight;
 }
 
 double ChallengerModel::FailureProbability(const Eigen::VectorXd& u) const {

@@ -76,7 +76,10 @@ const Fields<RaceOptions>& RaceFields() {
           .Integer("failures", &R::failures, Range::Closed(0, 1000),
                    "most race maps a challenger may fail (collide or not finish) and still win, "
                    "whatever the incumbent did; it must also fail no more maps than the "
-                   "incumbent on the shared maps")
+                   "incumbent on the shared maps, give or take `failure_excess`")
+          .Integer("failure_excess", &R::failure_excess, Range::Closed(0, 1000),
+                   "how many more of the shared maps a challenger may fail than the incumbent "
+                   "fails (0: no more); `failures` still bounds its own")
           .Number("alpha", &R::alpha, Range{0.0, 0.5, true, false},
                   "one-sided level of Wilcoxon's signed-rank test on the paired differences of "
                   "f_l that a challenger must pass to replace the incumbent")
@@ -113,7 +116,13 @@ const Fields<RaceOptions>& RaceFields() {
                   "`two_part`, the highest chance of flying `max_maps` maps within `failures` "
                   "failures times expected improvement on the incumbent, from a GP on the "
                   "finished flights and a kernel failure rate fit to every flight, race flights "
-                  "included");
+                  "included")
+          .Choice("failure_prior", &R::failure_prior,
+                  "what the kernel failure rate of `two_part` and `failure_margin` shrinks "
+                  "towards: `constant`, the trial's overall failure rate, weight one flight; "
+                  "`logistic`, a logistic regression of failure on the parameters, weight 1, 4 "
+                  "or 16 flights by leave-one-out likelihood, so a point's few clean flights do "
+                  "not hide the failures of the faster points around it");
   return fields;
 }
 
@@ -157,7 +166,7 @@ RaceDecision JudgeRace(const std::vector<RaceSample>& incumbent,
   if (!(d.mean_difference < 0.0)) {
     d.verdict = RaceVerdict::kReject;
     d.reason = "not better on average";
-  } else if (d.challenger_only_failures > d.incumbent_only_failures ||
+  } else if (d.challenger_only_failures > d.incumbent_only_failures + options.failure_excess ||
              d.challenger_failures > options.failures) {
     d.verdict = RaceVerdict::kReject;
     d.reason = "fails more maps";

@@ -995,7 +995,7 @@ class Trial {
   [[nodiscard]] optimizers::ChallengerModel FittedModel(std::uint64_t tag) const {
     optimizers::ChallengerModel model(
         ModelSpace().Dim(), DeriveSeed(seed_, {tag, static_cast<std::uint64_t>(summary_.races)}),
-        e_.bo.gp);
+        e_.bo.gp, e_.race.failure_prior);
     std::vector<optimizers::ChallengerObservation> observations;
     for (const Flown& f : every_flight_) observations.push_back({ModelUnit(f.params), f.value, f.failed});
     model.Fit(observations);

@@ -10,9 +10,12 @@ the rows of this planner and these spacings, OUT/heldout.csv, OUT/summary.csv an
 OUT/summary.md (as scripts/peers/peers.py does: mean f_l, collision-free rate, share of the
 oracle's gain, trials handing back the defaults), OUT/heldout_<planner>_free_gap_<spacing>.png and
 OUT/oracle_grid_<planner>_free_gap_<spacing>.csv, all under the forest label `free_gap`.
+With `--peers LABEL`, Optuna's TPE sampler and irace also tune that sweep point `--repeats`
+times with a study trial's flight budget (scripts/peers/peers.py), and their recommended points
+fly the same held-out maps.
 
     scripts/peers/density_oracle.py experiments/density_study.yaml --study results/density \
-        --planner ipopt --out docs/results/peers
+        --planner ipopt --out docs/results/peers [--peers 1.3 --repeats 5]
 """
 import argparse
 import csv
@@ -49,6 +52,17 @@ def study_points(study_file):
     points = [(label, ["{}={}".format(sweep["key"], value)])
               for label, value in zip(labels, sweep["values"])]
     return experiment, shared, points
+
+
+def study_budget(study_file, experiment):
+    """Flights of one study trial: the study's `override.budget.flights`, else the experiment's."""
+    with open(study_file) as f:
+        doc = yaml.safe_load(f)
+    flights = doc.get("override", {}).get("budget", {}).get("flights")
+    if flights is None:
+        with open(experiment) as f:
+            flights = yaml.safe_load(f)["budget"]["flights"]
+    return int(flights)
 
 
 def study_rows(study_dir, label, planner):
@@ -96,6 +110,9 @@ def main(argv):
     ap.add_argument("--out", required=True)
     ap.add_argument("--work", default="results/peers_oracle",
                     help="where the oracle grids' flights are kept for reuse")
+    ap.add_argument("--peers", action="append", default=[], metavar="LABEL",
+                    help="a sweep point where Optuna TPE and irace tune too (repeatable)")
+    ap.add_argument("--repeats", type=int, default=5, help="repeats of each peer with --peers")
     a = ap.parse_args(argv)
     axes = peers.grid_axes(a.grid, ["v_des=2,2.5,3,3.5,4,4.5,5", "h_pl=6,7.5,9"])
     experiment, shared, points = study_points(a.study_file)
@@ -107,6 +124,15 @@ def main(argv):
         spacing = float(label)
         rows += [dict(r, planner=a.planner, spacing=spacing, tuner="oracle", repeat=0)
                  for r in best_rows]
+        if label in a.peers:
+            work = os.path.join(a.work, "{}_{}".format(a.planner, label), "peers")
+            os.makedirs(work, exist_ok=True)
+            budget = study_budget(a.study_file, experiment)
+            for tuner, repeat, point in peers.peers(experiment, a.repeats, budget, shared + sets,
+                                                    work):
+                rows += [dict(r, planner=a.planner, spacing=spacing, tuner=tuner, repeat=repeat)
+                         for r in peers.held_out(experiment, point, maps, shared + sets)]
+                print("{} m: {} repeat {}: {}".format(label, tuner, repeat, point), flush=True)
         os.makedirs(a.out, exist_ok=True)
         peers.write_grid(os.path.join(a.out, "oracle_grid_{}_free_gap_{}.csv".format(
             a.planner, label)), axes, grid)

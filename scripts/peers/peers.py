@@ -77,10 +77,10 @@ def run_optuna(experiment, repeat, budget, sets, out_dir):
         return json.load(f)
 
 
-def run_irace(experiment, repeat, budget, box_file, out_dir):
+def run_irace(experiment, repeat, budget, box_file, sets, out_dir):
     out = os.path.join(out_dir, "irace_r{}.json".format(repeat))
     cmd = ["Rscript", os.path.join(HERE, "irace_tune.R"), experiment, str(repeat), str(budget),
-           str(2000 + repeat), out, box_file]
+           str(2000 + repeat), out, box_file] + list(sets)
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL,
                    env=dict(os.environ, QUADTUNE=peerlib.QUADTUNE))
     with open(out) as f:
@@ -101,7 +101,7 @@ def peers(experiment, repeats, budget, sets, work):
             jobs.append(("optuna_tpe", r, pool.submit(run_optuna, experiment, r, budget, sets,
                                                       work)))
             jobs.append(("irace", r, pool.submit(run_irace, experiment, r, budget, box_file,
-                                                 work)))
+                                                 sets, work)))
         return [(tuner, r, job.result()["params"]) for tuner, r, job in jobs]
 
 

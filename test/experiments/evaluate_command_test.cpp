@@ -139,23 +139,33 @@ TEST(Peers, IraceTunesThroughEvaluate) {
   std::ofstream(dir / "box.tsv") << "name\tlower\tupper\tlog\tinteger\ngain\t0.05\t1.5\t0\t0\n"
                                     "max_iter\t2\t40\t0\t1\nspeed\t0.5\t6.0\t0\t0\n"
                                     "margin\t0.0\t3.0\t0\t0\n";
-  const auto j = RunPeer("Rscript scripts/peers/irace_tune.R " + ToyExperimentFile() + " 0 80 3 " +
-                             (dir / "out.json").string() + " " + (dir / "box.tsv").string(),
-                         dir);
+  const std::string irace = "Rscript scripts/peers/irace_tune.R " + ToyExperimentFile() +
+                            " 0 80 3 " + (dir / "out.json").string() + " " +
+                            (dir / "box.tsv").string();
+  const auto j = RunPeer(irace + " planner.toy.gates=8", dir);
   ASSERT_TRUE(j.is_object());
   EXPECT_EQ(j["tuner"], "irace");
   ExpectInsideToyBox(j["params"]);
+  // The KEY=VALUE after the box reach every flight: an out-of-range one stops the tuning with
+  // quadtune's error naming the key.
+  const std::string bad = "cd '" + std::string(QUADTUNE_SOURCE_DIR) + "' && QUADTUNE='" +
+                          test::QuadtuneBinary() + "' " + irace + " planner.toy.gates=-1 > '" +
+                          (dir / "bad.log").string() + "' 2>&1";
+  EXPECT_NE(std::system(bad.c_str()), 0);
+  EXPECT_NE(ReadText(dir / "bad.log").find("planner.toy.gates"), std::string::npos)
+      << ReadText(dir / "bad.log");
 }
 
 // scripts/peers/density_oracle.py on a toy study swept over two values: its grid (named on the
 // command line) flies the study's held-out maps with their seeds, so the grid point at the
 // defaults reproduces the study's own held-out flights of the defaults, and the oracle is the
-// grid's best point.
+// grid's best point. With `--peers 8`, irace and Optuna tune that point with a study trial's
+// budget and fly the same held-out maps; the other point has no peer rows.
 TEST(Peers, DensityOracleFliesItsGridOnTheStudysHeldOutMaps) {
   const fs::path dir = Fresh("density_oracle");
   std::ofstream(dir / "study.yaml")
       << "name: toy_density\nseed: 5\nexperiment: " << ToyExperimentFile() << "\n"
-      << "override: {name: toy_density, methods: [bo], repeats: 1}\n"
+      << "override: {name: toy_density, methods: [bo], repeats: 1, budget: {flights: 30}}\n"
       << "sweep: {key: planner.toy.gates, values: [4, 8], labels: [\"4\", \"8\"]}\n"
       << "validation: {flights: 3}\n";
   const fs::path study = dir / "study";
@@ -169,7 +179,8 @@ TEST(Peers, DensityOracleFliesItsGridOnTheStudysHeldOutMaps) {
                           test::QuadtuneBinary() +
                           "' /usr/bin/python3 scripts/peers/density_oracle.py '" +
                           (dir / "study.yaml").string() + "' --study '" + study.string() +
-                          "' --planner toy --grid speed=2,2.5 --grid margin=0.2,0.5 --out '" +
+                          "' --planner toy --grid speed=2,2.5 --grid margin=0.2,0.5 --peers 8 "
+                          "--repeats 1 --out '" +
                           out.string() + "' --work '" + (dir / "work").string() + "' > '" +
                           (dir / "oracle.log").string() + "' 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << ReadText(dir / "oracle.log");
@@ -207,6 +218,15 @@ TEST(Peers, DensityOracleFliesItsGridOnTheStudysHeldOutMaps) {
     EXPECT_EQ(oracle_seeds, seeds) << label;
     EXPECT_NEAR((oracle[0] + oracle[1] + oracle[2]) / 3.0, best, 1e-6) << label;
     EXPECT_LE(best, mean_defaults + 1e-9) << label;
+    for (const std::string peer : {"irace", "optuna_tpe"}) {
+      std::multiset<std::string> peer_seeds;
+      for (const auto& h : heldout) {
+        if (h.at("tuner") == peer && std::stod(h.at("spacing")) == std::stod(label)) {
+          peer_seeds.insert(h.at("map_seed"));
+        }
+      }
+      EXPECT_EQ(peer_seeds, label == "8" ? seeds : std::multiset<std::string>{}) << label << peer;
+    }
   }
 }
 

@@ -173,5 +173,49 @@ TEST(ChallengerModel, SameObservationsSameEstimates) {
   EXPECT_EQ(a.Estimate(u, 30.0, 12, 0).score, b.Estimate(u, 30.0, 12, 0).score);
 }
 
+/// 60 flights at uniform points of [0, 0.7] × [0, 1] failing with probability q(u) = 0.5 u₀ (the
+/// second coordinate does not matter): the trial has not yet flown the fastest part of the box.
+std::vector<ChallengerObservation> SlowHalf(std::uint64_t seed) {
+  Rng rng(seed + 300);
+  std::vector<ChallengerObservation> obs;
+  for (int i = 0; i < 60; ++i) {
+    Eigen::VectorXd u(2);
+    u << 0.7 * Uniform01(rng), Uniform01(rng);
+    const bool failed = Uniform01(rng) < 0.5 * u[0];
+    obs.push_back({u, failed ? 1000.0 : 30.0 - 15.0 * u[0] + Normal(rng, 0.0, 2.0), failed});
+  }
+  return obs;
+}
+
+TEST(ChallengerModel, LogisticPriorExtrapolatesTheFailureTrend) {
+  // At u = (0.95, 0.5), beyond every flight, q = 0.475; the constant prior says the trial's
+  // overall rate (about 0.17), the logistic one carries the trend in u₀ on. Over 20 seeds the
+  // logistic estimate there is higher in at least 18 and its mean error at most two thirds of
+  // the constant prior's; at u = (0.05, 0.5), inside the flights, both are near q = 0.025.
+  const Eigen::Vector2d beyond(0.95, 0.5);
+  int higher = 0;
+  double error_constant = 0.0;
+  double error_logistic = 0.0;
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    const auto obs = SlowHalf(seed);
+    ChallengerModel constant(2, seed);
+    ChallengerModel logistic(2, seed, {}, FailurePrior::kLogistic);
+    constant.Fit(obs);
+    logistic.Fit(obs);
+    const double pc = constant.FailureProbability(beyond);
+    const double pl = logistic.FailureProbability(beyond);
+    higher += pl > pc ? 1 : 0;
+    error_constant += std::abs(pc - 0.475);
+    error_logistic += std::abs(pl - 0.475);
+    EXPECT_LT(logistic.FailureProbability(Eigen::Vector2d(0.05, 0.5)), 0.15) << "seed " << seed;
+    // The constant prior is the overall rate, everywhere.
+    EXPECT_DOUBLE_EQ(constant.PriorFailureProbability(beyond),
+                     constant.PriorFailureProbability(Eigen::Vector2d(0.05, 0.5)));
+  }
+  EXPECT_GE(higher, 18);
+  EXPECT_LE(error_logistic, error_constant * 2.0 / 3.0)
+      << "mean errors " << error_logistic / 20 << " against " << error_constant / 20;
+}
+
 }  // namespace
 }  // namespace quadtune::optimizers

@@ -83,6 +83,21 @@ TEST(JudgeRace, AppliesEachRule) {
   d = JudgeRace(inc, Samples({20, 21, 19, 20, 22, 20, 18, 21}, {false, true, false, false}), 8, o);
   EXPECT_EQ(d.verdict, RaceVerdict::kReject);
   EXPECT_EQ(d.challenger_only_failures, 1);
+  // With one failure allowed, both in all and beyond the incumbent's, the same race is won, and
+  // a second failure loses it again.
+  o.failures = 1;
+  o.failure_excess = 1;
+  EXPECT_EQ(JudgeRace(inc, Samples({20, 21, 19, 20, 22, 20, 18, 21}, {false, true}), 8, o).verdict,
+            RaceVerdict::kAccept);
+  EXPECT_EQ(JudgeRace(inc, Samples({20, 21, 19, 20, 22, 20, 18, 21}, {false, true, true}), 8, o)
+                .verdict,
+            RaceVerdict::kReject);
+  o.failure_excess = 2;
+  EXPECT_EQ(JudgeRace(inc, Samples({20, 21, 19, 20, 22, 20, 18, 21}, {false, true, true}), 8, o)
+                .verdict,
+            RaceVerdict::kReject);  // `failures` still bounds its own
+  o.failures = 0;
+  o.failure_excess = 0;
   // A challenger failing a map is turned away even when the incumbent failed another one:
   // its own failures are bounded by `failures` (0).
   auto inc_other = inc;

@@ -9,11 +9,16 @@
 ///  - Failure part: the probability that a flight at u fails, as a kernel-weighted Beta-Bernoulli
 ///    estimate with the finished part's lengthscales,
 ///      p(u) = (n₀ r̄ + Σ_j k(u, u_j) y_j) / (n₀ + Σ_j k(u, u_j)),
-///    y_j = 1 for a failed observation, k the Matérn 5/2 correlation (1 at distance 0), r̄ =
-///    (F + ½) / (N + 1) the smoothed failure rate of all N observations (F failed), n₀ = 1 the
-///    prior's weight in observations. The kernel's lengthscales are the finished part's (each
-///    capped at 2) times one scale in {1/32, …, 1/2, 1}, the one whose leave-one-out
-///    predictions of the failures are most likely.
+///    y_j = 1 for a failed observation, k the Matérn 5/2 correlation (1 at distance 0), r̄ the
+///    prior mean and n₀ its weight in observations. With FailurePrior::kConstant, r̄ =
+///    (F + ½) / (N + 1), the smoothed failure rate of all N observations (F failed), and n₀ = 1.
+///    With FailurePrior::kLogistic, r̄(u) = σ(β₀ + βᵀu), a logistic regression on all
+///    observations (ridge penalty ½‖β‖², intercept free, fit by Newton's method): a trend that
+///    extrapolates, so a point whose own few flights were clean still inherits the failures of
+///    the faster points around it; n₀ is then one of {1, 4, 16}, chosen with the kernel scale.
+///    The kernel's lengthscales are the finished part's (each capped at 2) times one scale in
+///    {1/32, …, 1/2, 1}, the one whose leave-one-out predictions of the failures are most
+///    likely (with the logistic prior fit once to all observations).
 ///  - Score of a candidate u against a reference value f_ref (the incumbent's predicted value):
 ///      score(u) = P(Binomial(m, p(u)) <= a) · E[max(0, f_ref − f(u))],
 ///    the chance that the point flies the m maps a race asks without more than a failures (so a
@@ -24,11 +29,13 @@
 /// Thread safety: one thread at a time per instance; instances are independent.
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <optional>
 #include <vector>
 
+#include "quadtune/common/enum_names.hpp"
 #include "quadtune/common/random.hpp"
 
 #include "quadtune/optimizers/gaussian_process.hpp"
@@ -52,10 +59,21 @@ struct ChallengerEstimate {
   double score = 0.0;                ///< pass_probability · improvement
 };
 
+/// The prior mean of the failure part (see the file comment).
+enum class FailurePrior {
+  kConstant,  ///< the smoothed failure rate of all observations, weight 1
+  kLogistic,  ///< a logistic regression on the point, weight chosen by leave-one-out
+};
+constexpr auto EnumNames(FailurePrior) {
+  return std::array{EnumName{FailurePrior::kConstant, "constant"},
+                    EnumName{FailurePrior::kLogistic, "logistic"}};
+}
+
 class ChallengerModel {
  public:
   /// A model over [0, 1]^dim (dim >= 1); `seed` drives the hyperparameter fit's restarts.
-  ChallengerModel(int dim, std::uint64_t seed, GaussianProcessOptions gp = {});
+  ChallengerModel(int dim, std::uint64_t seed, GaussianProcessOptions gp = {},
+                  FailurePrior prior = FailurePrior::kConstant);
 
   /// Fits both parts to `observations` (each u of size dim). With no finished observation the
   /// finished part is absent and every improvement is 0.
@@ -63,6 +81,8 @@ class ChallengerModel {
 
   /// p(u) (see the file comment); r̄ with no observation at all is ½.
   [[nodiscard]] double FailureProbability(const Eigen::VectorXd& u) const;
+  /// The prior mean r̄(u) that p(u) shrinks towards.
+  [[nodiscard]] double PriorFailureProbability(const Eigen::VectorXd& u) const;
   /// Posterior mean and standard deviation of the finished part at u; false when absent.
   bool PredictFinished(const Eigen::VectorXd& u, double* mean, double* sd) const;
   /// The estimate at u against `reference`, for a race of `maps` flights allowing `failures`.
@@ -71,6 +91,7 @@ class ChallengerModel {
 
  private:
   void FitFinished(Eigen::Index finished);
+  void FitLogisticPrior();
   void ChooseFailureLengthscales();
   /// p at u with inverse lengthscales inv_l, leaving observation `skip` out (none when >= size).
   [[nodiscard]] double FailureAt(const Eigen::VectorXd& u, const Eigen::VectorXd& inv_l,
@@ -81,7 +102,10 @@ class ChallengerModel {
   GaussianProcess<Matern52Kernel> gp_;
   bool have_gp_ = false;
   std::vector<ChallengerObservation> observations_;
-  double failure_rate_ = 0.5;  // r̄
+  FailurePrior prior_;
+  double failure_rate_ = 0.5;  // r̄ of kConstant
+  Eigen::VectorXd logistic_;   // kLogistic: β₀ then β
+  double prior_weight_ = 1.0;  // n₀
   Eigen::VectorXd failure_inv_l_;  // inverse lengthscales of the failure kernel
 };
 

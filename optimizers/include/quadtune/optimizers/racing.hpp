@@ -10,8 +10,9 @@
 /// first_maps, 2·first_maps, … instances up to max_maps:
 ///   - reject when mean(d) >= 0 (the challenger is not better on average so far);
 ///   - reject when the challenger fails on more instances where the incumbent did not than the
-///     other way round (it must not be worse in finish and collision rate), or on more than
-///     `failures` instances in all (an incumbent's bad luck does not excuse a challenger's);
+///     other way round, give or take `failure_excess` (0: it must not be worse in finish and
+///     collision rate), or on more than `failures` instances in all (an incumbent's bad luck
+///     does not excuse a challenger's);
 ///   - before max_maps, otherwise continue on twice as many instances (at most max_maps);
 ///   - at max_maps, accept when Wilcoxon's signed-rank test rejects "no difference" in favour of
 ///     "the challenger is lower" at level `alpha` (one-sided; rank-based, so one unfinished flight
@@ -30,6 +31,7 @@
 
 #include "quadtune/common/enum_names.hpp"
 #include "quadtune/common/fields.hpp"
+#include "quadtune/optimizers/challenger_model.hpp"
 
 namespace quadtune::optimizers {
 
@@ -52,6 +54,8 @@ struct RaceOptions {
   /// Most failed instances a challenger may have in a race, >= 0 (whatever the incumbent's): a
   /// winner's failure rate is then bounded on its own, not only against the incumbent's.
   int failures = 0;
+  /// How many more instances a challenger may fail alone than the incumbent fails alone, >= 0.
+  int failure_excess = 0;
   /// A race starts after a round of the method when its first stage keeps the flights spent
   /// racing within this share of the flights flown so far (tuning and racing), in (0, 1).
   double share = 0.5;
@@ -78,6 +82,8 @@ struct RaceOptions {
   /// flown, so repeats show the GP what one lucky flight hides).
   bool tell = true;
   ChallengerRule challenger = ChallengerRule::kRanked;  ///< how the next challenger is chosen
+  /// two_part: what the failure part shrinks towards (challenger_model.hpp).
+  FailurePrior failure_prior = FailurePrior::kConstant;
 
   friend bool operator==(const RaceOptions&, const RaceOptions&) = default;
 };
