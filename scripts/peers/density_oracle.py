@@ -100,6 +100,24 @@ def cached_oracle(a, axes, experiment, maps, sets, label):
     return best, rows, grid
 
 
+def cached_peers(a, experiment, budget, sets, label):
+    """peers.peers, its points kept in WORK/<planner>_<label>/peers/points.json and reused while
+    the experiment, sets, budget and repeats are the same (the tuners are seeded)."""
+    work = os.path.join(a.work, "{}_{}".format(a.planner, label), "peers")
+    path = os.path.join(work, "points.json")
+    key = dict(experiment=experiment, sets=sets, budget=budget, repeats=a.repeats)
+    if os.path.exists(path):
+        with open(path) as f:
+            cached = json.load(f)
+        if cached["key"] == json.loads(json.dumps(key)):
+            return [tuple(p) for p in cached["points"]]
+    os.makedirs(work, exist_ok=True)
+    points = peers.peers(experiment, a.repeats, budget, sets, work)
+    with open(path, "w") as f:
+        json.dump(dict(key=key, points=points), f)
+    return points
+
+
 def main(argv):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("study_file")
@@ -125,11 +143,8 @@ def main(argv):
         rows += [dict(r, planner=a.planner, spacing=spacing, tuner="oracle", repeat=0)
                  for r in best_rows]
         if label in a.peers:
-            work = os.path.join(a.work, "{}_{}".format(a.planner, label), "peers")
-            os.makedirs(work, exist_ok=True)
             budget = study_budget(a.study_file, experiment)
-            for tuner, repeat, point in peers.peers(experiment, a.repeats, budget, shared + sets,
-                                                    work):
+            for tuner, repeat, point in cached_peers(a, experiment, budget, shared + sets, label):
                 rows += [dict(r, planner=a.planner, spacing=spacing, tuner=tuner, repeat=repeat)
                          for r in peers.held_out(experiment, point, maps, shared + sets)]
                 print("{} m: {} repeat {}: {}".format(label, tuner, repeat, point), flush=True)
