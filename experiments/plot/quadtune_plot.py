@@ -393,6 +393,7 @@ def plot_run(directory, out_dir=None):
         at = lambda k: statistics.fmean(b[min(k, n) - 1] for b in best)  # noqa: E731
         rows.append(dict(method=method, repeats=len(runs), flights=n, finals=finals[method],
                          early10=at(max(1, n // 10)), early25=at(max(1, n // 4)),
+                         k90_each=[iterations_to_fraction(t["long"][:n]) for t in runs],
                          k90=statistics.fmean(iterations_to_fraction(t["long"][:n]) for t in runs),
                          shorts=statistics.fmean(t["shorts"] for t in runs),
                          failed=sum(t["failed"] for t in runs),
@@ -536,39 +537,44 @@ def plot_run(directory, out_dir=None):
         return float(mannwhitneyu(a, b, alternative="two-sided").pvalue)
 
     reference = "bo_pso" if "bo_pso" in finals else None
+    k90_reference = next((r["k90_each"] for r in rows if r["method"] == reference), None)
     table = os.path.join(out_dir, "tuning.md")
     csv_path = os.path.join(out_dir, "tuning.csv")
     with open(table, "w") as f, open(csv_path, "w", newline="") as fc:
         w = csv.writer(fc)
         w.writerow(["method", "repeats", "flights", "final_mean", "final_std", "final_min",
                      "best_at_10pct", "best_at_25pct", "flights_to_90pct", "resolves",
-                     "failed", "p_vs_default", "p_vs_bo_pso", "best_params"])
+                     "failed", "p_vs_default", "p_vs_bo_pso", "p_flights_to_90pct_vs_bo_pso",
+                     "best_params"])
         f.write("Final value: best f_l of the trial's flights, tuning and racing flights "
                 "(Default: mean f_l of its flights). Early columns: mean best f_l after 10% and "
                 "25% of the flights. p: two-sided Mann–Whitney U test of the final values over "
-                "repeats. Failed: flights that did not finish (state timeout, stalled, diverged, "
-                "solver_failure, error, ...). Best parameters: the best trial's best flight."
-                "\n\n")
+                "repeats, and p (flights to 90%) the same test of each trial's flights to 90% "
+                "of its own final value. Failed: flights that did not finish (state timeout, "
+                "stalled, diverged, solver_failure, error, ...). Best parameters: the best "
+                "trial's best flight.\n\n")
         f.write("| method | repeats | flights | final f_l (mean ± std) | min | after 10% | "
                 "after 25% | flights to 90% of optimum | re-solves | failed | "
-                "p vs Default | p vs BO+PSO | best parameters |\n")
-        f.write("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
+                "p vs Default | p vs BO+PSO | p (flights to 90%) vs BO+PSO | best parameters |\n")
+        f.write("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n")
         for r in rows:
             m, s = mean_std(r["finals"])
             pd_ = p_value(r["finals"], finals["default"]) if "default" in finals and \
                 r["method"] != "default" else float("nan")
             pb = p_value(r["finals"], finals[reference]) if reference and \
                 r["method"] != reference else float("nan")
+            pk = p_value(r["k90_each"], k90_reference) if k90_reference and "k90_each" in r \
+                and r["method"] != reference else float("nan")
             fmt_p = lambda p: "–" if p != p else "{:.3f}".format(p)  # noqa: E731
             f.write("| {} | {} | {} | {:.2f} ± {:.2f} | {:.2f} | {:.2f} | {:.2f} | {} | {:.0f} | "
-                    "{} | {} | {} | `{}` |\n".format(
+                    "{} | {} | {} | {} | `{}` |\n".format(
                         LABELS.get(r["method"], r["method"]), r["repeats"], r["flights"], m, s,
                         min(r["finals"]), r["early10"], r["early25"],
                         "–" if r["k90"] != r["k90"] else "{:.1f}".format(r["k90"]),
-                        r["shorts"], r["failed"], fmt_p(pd_), fmt_p(pb), r["params"]))
+                        r["shorts"], r["failed"], fmt_p(pd_), fmt_p(pb), fmt_p(pk), r["params"]))
             w.writerow([r["method"], r["repeats"], r["flights"], m, s, min(r["finals"]),
                         r["early10"], r["early25"], r["k90"], r["shorts"], r["failed"], pd_, pb,
-                        r["params"]])
+                        pk, r["params"]])
     validation = plot_validation(directory, out_dir)
     store = os.path.join(directory, "results.sqlite")
     con = quadtune.connect(store)

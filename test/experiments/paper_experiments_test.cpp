@@ -155,6 +155,15 @@ TEST(PaperExperiments, BenchmarkComparisonScaledDown) {
                 1e-9 * final_mean)
         << m;
     if (m != "default") EXPECT_DOUBLE_EQ(Number(r, "flights_to_90pct"), Mean(k90[m])) << m;
+    // Mann–Whitney of each trial's flights to 90% against BO+PSO's: none for BO+PSO itself, the
+    // defaults, or the same values.
+    const double p90 = Number(r, "p_flights_to_90pct_vs_bo_pso");
+    if (m == "default" || m == "bo_pso" || k90[m] == k90["bo_pso"]) {
+      EXPECT_TRUE(std::isnan(p90)) << m;
+    } else {
+      EXPECT_GT(p90, 0.0) << m;
+      EXPECT_LE(p90, 1.0) << m;
+    }
   }
   EXPECT_EQ(methods, (std::set<std::string>{"default", "random", "pso", "bo", "bo_pso"}));
   const std::string md = ReadText(fs::path(out) / "tuning.md");
