@@ -391,10 +391,10 @@ def plot_run(directory, out_dir=None):
         n = min(len(t["long"]) for t in runs)
         best = [best_so_far(t["long"][:n]) for t in runs]
         at = lambda k: statistics.fmean(b[min(k, n) - 1] for b in best)  # noqa: E731
+        k90_each = [iterations_to_fraction(t["long"][:n]) for t in runs]
         rows.append(dict(method=method, repeats=len(runs), flights=n, finals=finals[method],
                          early10=at(max(1, n // 10)), early25=at(max(1, n // 4)),
-                         k90_each=[iterations_to_fraction(t["long"][:n]) for t in runs],
-                         k90=statistics.fmean(iterations_to_fraction(t["long"][:n]) for t in runs),
+                         k90_each=k90_each, k90=statistics.fmean(k90_each),
                          shorts=statistics.fmean(t["shorts"] for t in runs),
                          failed=sum(t["failed"] for t in runs),
                          params=min(runs, key=lambda t: t["best_value"])["best_params"]))

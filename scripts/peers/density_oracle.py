@@ -82,40 +82,37 @@ def study_rows(study_dir, label, planner):
     return rows
 
 
-def cached_oracle(a, axes, experiment, maps, sets, label):
-    """peers.oracle, kept in WORK/<planner>_<label>/oracle.json and reused while the
-    experiment, sets, maps and grids are the same (the flights are deterministic)."""
-    work = os.path.join(a.work, "{}_{}".format(a.planner, label))
-    path = os.path.join(work, "oracle.json")
-    key = dict(experiment=experiment, sets=sets, maps=maps, grid=axes)
+def cached(path, key, compute):
+    """compute(), kept as JSON in `path` with `key` and reused while the key is the same (the
+    flights and the tuners are seeded, so the same key gives the same result)."""
     if os.path.exists(path):
         with open(path) as f:
-            cached = json.load(f)
-        if cached["key"] == json.loads(json.dumps(key)):
-            return cached["best"], cached["rows"], [tuple(g) for g in cached["grid"]]
-    best, rows, grid = peers.oracle(experiment, maps, sets, axes)
-    os.makedirs(work, exist_ok=True)
+            stored = json.load(f)
+        if stored.get("key") == json.loads(json.dumps(key)) and "value" in stored:
+            return stored["value"]
+    value = compute()
+    os.makedirs(os.path.dirname(path), exist_ok=True)
     with open(path, "w") as f:
-        json.dump(dict(key=key, best=best, rows=rows, grid=grid), f)
-    return best, rows, grid
+        json.dump(dict(key=key, value=value), f)
+    return value
+
+
+def cached_oracle(a, axes, experiment, maps, sets, label):
+    """peers.oracle, kept in WORK/<planner>_<label>/oracle.json."""
+    path = os.path.join(a.work, "{}_{}".format(a.planner, label), "oracle.json")
+    key = dict(experiment=experiment, sets=sets, maps=maps, grid=axes)
+    best, rows, grid = cached(path, key, lambda: list(peers.oracle(experiment, maps, sets, axes)))
+    return best, rows, [tuple(g) for g in grid]
 
 
 def cached_peers(a, experiment, budget, sets, label):
-    """peers.peers, its points kept in WORK/<planner>_<label>/peers/points.json and reused while
-    the experiment, sets, budget and repeats are the same (the tuners are seeded)."""
+    """peers.peers, its points kept in WORK/<planner>_<label>/peers/points.json."""
     work = os.path.join(a.work, "{}_{}".format(a.planner, label), "peers")
-    path = os.path.join(work, "points.json")
     key = dict(experiment=experiment, sets=sets, budget=budget, repeats=a.repeats)
-    if os.path.exists(path):
-        with open(path) as f:
-            cached = json.load(f)
-        if cached["key"] == json.loads(json.dumps(key)):
-            return [tuple(p) for p in cached["points"]]
-    os.makedirs(work, exist_ok=True)
-    points = peers.peers(experiment, a.repeats, budget, sets, work)
-    with open(path, "w") as f:
-        json.dump(dict(key=key, points=points), f)
-    return points
+    os.makedirs(work, exist_ok=True)  # peers.peers writes its box and each tuner's output there
+    points = cached(os.path.join(work, "points.json"), key,
+                    lambda: peers.peers(experiment, a.repeats, budget, sets, work))
+    return [tuple(p) for p in points]
 
 
 def main(argv):
@@ -135,6 +132,7 @@ def main(argv):
     axes = peers.grid_axes(a.grid, ["v_des=2,2.5,3,3.5,4,4.5,5", "h_pl=6,7.5,9"])
     experiment, shared, points = study_points(a.study_file)
     defaults = {p["name"]: p["default"] for p in peerlib.box(experiment)}
+    budget = study_budget(a.study_file, experiment) if a.peers else None
     for label, sets in points:
         rows = study_rows(a.study, label, a.planner)
         maps = len({r["map_index"] for r in rows})
@@ -143,7 +141,6 @@ def main(argv):
         rows += [dict(r, planner=a.planner, spacing=spacing, tuner="oracle", repeat=0)
                  for r in best_rows]
         if label in a.peers:
-            budget = study_budget(a.study_file, experiment)
             for tuner, repeat, point in cached_peers(a, experiment, budget, shared + sets, label):
                 rows += [dict(r, planner=a.planner, spacing=spacing, tuner=tuner, repeat=repeat)
                          for r in peers.held_out(experiment, point, maps, shared + sets)]
