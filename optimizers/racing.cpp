@@ -107,6 +107,11 @@ const Fields<RaceOptions>& RaceFields() {
                   "probability under the `two_part` failure model, fit to every flight of the "
                   "trial (its race flights included), exceeds the incumbent's by at most this "
                   "(1: no such check)")
+          .Integer("backoff", &R::backoff, Range::Closed(0, 10),
+                   "a challenger turned away after failing a race map, while faster than the "
+                   "incumbent on the maps neither side failed, is followed by the point halfway "
+                   "between it and the incumbent in the unit cube, then halfway again, up to this "
+                   "many halvings (0: none)")
           .Flag("tell", &R::tell,
                 "race flights are told to the method's surrogate (`bo`, `bo_pso`: observations "
                 "of the points flown), so repeats correct what one lucky flight suggested")

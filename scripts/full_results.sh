@@ -6,7 +6,8 @@
 #
 #   bash scripts/full_results.sh                 # everything
 #   bash scripts/full_results.sh benchmark adapt # only these (benchmark benchmark_ego
-#                                                # benchmark_jc density density_ego planners
+#                                                # benchmark_ce benchmark_jc density
+#                                                # density_ego planners
 #                                                # definition speed sweep adapt refinement
 #                                                # scaling mpi)
 set -euo pipefail
@@ -62,6 +63,11 @@ run_benchmark() { tuning benchmark experiments/benchmark.yaml; }
 run_benchmark_jc() {  # BO+PSO with the clearance term in f_s, against the same defaults
   tuning benchmark_jc experiments/benchmark.yaml --set objective.short_term.w_c=0.1 \
     --set 'methods=[default, bo_pso]'
+}
+
+run_benchmark_ce() {  # BO alone and BO+PSO with the changing-environment f_s (predicts f_l)
+  tuning benchmark_ce experiments/benchmark.yaml \
+    --set objective.short_term.kind=changing_environment --set 'methods=[default, bo, bo_pso]'
 }
 
 run_benchmark_ego() { tuning benchmark_ego experiments/benchmark_ego.yaml; }  # EGO back end
@@ -143,7 +149,7 @@ run_mpi() {  # 2 ranks × 1 thread against 1 rank × 2 threads, same experiment,
 }
 
 steps=("$@")
-((${#steps[@]} > 0)) || steps=(benchmark benchmark_ego density density_ego planners definition speed sweep
+((${#steps[@]} > 0)) || steps=(benchmark benchmark_ce benchmark_ego density density_ego planners definition speed sweep
                                 adapt refinement scaling mpi)
 for step in "${steps[@]}"; do
   echo "== $step"

@@ -901,15 +901,25 @@ class Trial {
     if (summary_.flights + (e_.race.reserve ? 2 * WholeRaceFlights() : stage) > FlightBudget()) {
       return true;
     }
-    if (summary_.race_flights + stage > e_.race.share * (summary_.flights + stage)) return true;
+    // A pending race.backoff point races at once: the race before it showed the gain is there.
+    if (!backoff_next_ &&
+        summary_.race_flights + stage > e_.race.share * (summary_.flights + stage)) {
+      return true;
+    }
     std::vector<ParamValues> points = Challengers();
     if (points.empty()) return true;
     return RaceAgainst(std::move(points.front()));
   }
 
-  /// The points not raced yet, the next challenger first (race.challenger).
+  /// The points not raced yet, the next challenger first (race.challenger); a pending
+  /// race.backoff point alone.
   std::vector<ParamValues> Challengers() {
     std::vector<ParamValues> points;
+    if (backoff_next_ && !NearAny(raced_, Unit(*backoff_next_))) {
+      challenger_estimate_.reset();
+      return {*backoff_next_};
+    }
+    backoff_next_.reset();
     for (auto& p : RankedPoints()) {
       if (!NearAny(raced_, Unit(p))) points.push_back(std::move(p));
     }
@@ -1104,6 +1114,8 @@ class Trial {
   /// incumbent. The race's outcome is stored as kind "incumbent". Returns false when cancelled.
   bool RaceAgainst(ParamValues challenger) {
     const int race = summary_.races++;
+    backoff_depth_ = backoff_next_ && *backoff_next_ == challenger ? backoff_depth_ : 0;
+    backoff_next_.reset();
     raced_.push_back(Unit(challenger));
     std::vector<optimizers::RaceSample> samples;
     int flown = 0;
@@ -1130,17 +1142,48 @@ class Trial {
         d.reason = "fails more often than the incumbent by the model";
       }
     }
+    const int depth = backoff_depth_;
+    if (d.verdict == optimizers::RaceVerdict::kReject && !d.stopped &&
+        depth < e_.race.backoff && FailedWhileFaster(samples)) {
+      backoff_next_ = Halfway(challenger);
+      backoff_depth_ = depth + 1;
+    }
     if (d.verdict == optimizers::RaceVerdict::kAccept) {
       incumbent_ = std::move(challenger);
       incumbent_samples_ = std::move(samples);
       ++summary_.incumbent_changes;
     }
-    StoreRaceOutcome(race, d);
+    StoreRaceOutcome(race, d, depth);
     return true;
   }
 
+  /// race.backoff: the challenger failed a race map and was faster than the incumbent on the
+  /// maps neither side failed.
+  [[nodiscard]] bool FailedWhileFaster(const std::vector<optimizers::RaceSample>& challenger) const {
+    const std::size_t n = std::min(challenger.size(), incumbent_samples_.size());
+    int failures = 0;
+    int clean = 0;
+    double difference = 0.0;
+    for (std::size_t j = 0; j < n; ++j) {
+      const auto& c = challenger[j];
+      const auto& i = incumbent_samples_[j];
+      failures += c.failed ? 1 : 0;
+      if (c.failed || i.failed) continue;
+      ++clean;
+      difference += c.value - i.value;
+    }
+    return failures > 0 && clean > 0 && difference < 0.0;
+  }
+
+  /// The point halfway between the incumbent and `challenger` in the unit cube of the tuned
+  /// space (integers rounded), over the challenger's other parameters.
+  [[nodiscard]] ParamValues Halfway(const ParamValues& challenger) const {
+    const Eigen::VectorXd u = 0.5 * (Unit(incumbent_) + Unit(challenger));
+    return Merge(challenger, e_.space.ToNamed(e_.space.FromUnit(e_.space.SnapUnit(u))));
+  }
+
   /// Kind "incumbent", iteration = race: the incumbent after the race and its mean f_l.
-  void StoreRaceOutcome(int race, const optimizers::RaceDecision& d) {
+  void StoreRaceOutcome(int race, const optimizers::RaceDecision& d, int backoff) {
     if (log_.Replayed(EvalKind::kIncumbent, race, 0, incumbent_)) return;
     Outcome o;
     o.params = incumbent_;
@@ -1153,6 +1196,7 @@ class Trial {
                          {"incumbent_maps", static_cast<double>(incumbent_samples_.size())},
                          {"flight_no", summary_.flights}};
     if (d.stopped) o.objective.terms["stopped"] = 1.0;  // cut by the budget before its verdict
+    if (backoff > 0) o.objective.terms["backoff"] = backoff;  // halvings towards the incumbent
     if (gate_) {
       o.objective.terms["gate_p_fail"] = gate_->first;
       o.objective.terms["gate_p_fail_incumbent"] = gate_->second;
@@ -1287,6 +1331,8 @@ class Trial {
   std::vector<Flown> every_flight_;     // tuning and race flights, failed as a race counts it
   std::optional<optimizers::ChallengerEstimate> challenger_estimate_;  // two_part: the last one
   std::optional<std::pair<double, double>> gate_;  // failure_margin: p of challenger, incumbent
+  std::optional<ParamValues> backoff_next_;  // race.backoff: the next challenger
+  int backoff_depth_ = 0;                    // its halvings (then the running race's)
 };
 
 }  // namespace

@@ -338,6 +338,88 @@ TEST(Racing, FailureMarginChecksEveryWinnerAgainstTheModel) {
   EXPECT_GT(checked("race_margin_on", race + ", failure_margin: 0.01}"), 0);
 }
 
+// race.backoff: a challenger turned away after failing a race map while faster than the
+// incumbent on the maps neither failed is followed by the halfway point between it and the
+// incumbent, at most `backoff` times in a row; without it no race is a back-off; a run cut inside
+// such a race resumes to the same store.
+TEST(Racing, BackoffRacesTheHalfwayPointAfterAFasterChallengerFailed) {
+  const std::string race = "{enabled: true, first_maps: 2, max_maps: 8, share: 0.9";
+  const Experiment e = RacingToy("[bo, random]", race + ", backoff: 2}");
+  const auto halfway = [&](const nlohmann::json& a, const nlohmann::json& b) {
+    const auto unit = [&](const nlohmann::json& p) {
+      Eigen::VectorXd x(static_cast<Eigen::Index>(e.space.Dim()));
+      const auto names = e.space.Names();
+      for (std::size_t i = 0; i < names.size(); ++i) x[static_cast<Eigen::Index>(i)] = p[names[i]].get<double>();
+      return e.space.ToUnit(x);
+    };
+    const Eigen::VectorXd u = e.space.FromUnit(e.space.SnapUnit(0.5 * (unit(a) + unit(b))));
+    nlohmann::json out = b;
+    const auto names = e.space.Names();
+    for (std::size_t i = 0; i < names.size(); ++i) out[names[i]] = u[static_cast<Eigen::Index>(i)];
+    return out;
+  };
+  const auto backoffs = [&](const std::string& name, const std::string& options) {
+    int n = 0;
+    for (const auto& [id, r] : RacedRows(name, "[bo, random]", options)) {
+      // Each parameter set's first flight of each race map: failed, f_l.
+      std::map<std::pair<std::string, int>, std::pair<bool, double>> flown;
+      for (const auto& row : r.race) {
+        const bool failed = TermOf(row, "completed") != 1.0 || TermOf(row, "n_c") != 0.0;
+        flown.emplace(std::pair{nlohmann::json::parse(row.params).dump(),
+                                static_cast<int>(TermOf(row, "race_map"))},
+                      std::pair{failed, row.value});
+      }
+      nlohmann::json incumbent = nlohmann::json::parse(r.race.front().params);  // the defaults
+      nlohmann::json last_challenger;
+      bool last_failed_faster = false;
+      int last_depth = 0;
+      for (const auto& outcome : r.incumbent) {
+        nlohmann::json challenger;
+        std::set<int> maps;
+        for (const auto& row : r.race) {
+          if (row.iteration != outcome.iteration || TermOf(row, "challenger") != 1.0) continue;
+          challenger = nlohmann::json::parse(row.params);
+          maps.insert(static_cast<int>(TermOf(row, "race_map")));
+        }
+        const auto terms = nlohmann::json::parse(outcome.terms);
+        const int depth = terms.contains("backoff") ? static_cast<int>(terms["backoff"].get<double>()) : 0;
+        if (depth > 0) {
+          ++n;
+          EXPECT_TRUE(last_failed_faster) << "race " << outcome.iteration;
+          EXPECT_EQ(depth, last_depth + 1);
+          EXPECT_LE(depth, 2);
+          const nlohmann::json expected = halfway(incumbent, last_challenger);
+          for (const auto& name : e.space.Names()) {
+            EXPECT_NEAR(challenger[name].get<double>(), expected[name].get<double>(), 1e-9) << name;
+          }
+        }
+        // Did this challenger fail a map and lead on the maps neither side failed?
+        int failures = 0, clean = 0;
+        double difference = 0.0;
+        for (int map : maps) {
+          const auto c = flown.at({challenger.dump(), map});
+          const auto i = flown.at({incumbent.dump(), map});
+          failures += c.first ? 1 : 0;
+          if (c.first || i.first) continue;
+          ++clean;
+          difference += c.second - i.second;
+        }
+        const bool accepted = TermOf(outcome, "accepted") == 1.0;
+        last_failed_faster = !accepted && failures > 0 && clean > 0 && difference < 0.0;
+        last_depth = depth;
+        last_challenger = challenger;
+        if (accepted) incumbent = challenger;
+      }
+    }
+    return n;
+  };
+  EXPECT_EQ(backoffs("race_backoff_off", race + "}"), 0);
+  EXPECT_GT(backoffs("race_backoff_on", race + ", backoff: 2}"), 0);
+  const auto r = test::CutThenResume(e, test::TempDir("race_backoff_resume"), 6);
+  ASSERT_EQ(r.resumed.status, RunStatus::kCompleted);
+  EXPECT_EQ(test::Deterministic(r.part), test::Deterministic(r.full));
+}
+
 TEST(Racing, ExperimentFileRulesAreChecked) {
   EXPECT_TRUE(quadtune::test::ThrowsConfigError(
       [] { (void)RacingToy("[bo]", "{enabled: true, first_maps: 8, max_maps: 4}"); },

@@ -78,6 +78,10 @@ struct RaceOptions {
   /// With `propose`: the proposal lies within this distance of the incumbent in every
   /// coordinate of the unit cube (a trust region; 1: anywhere).
   double propose_radius = 1.0;
+  /// A challenger turned away after failing a race map, while faster than the incumbent on the
+  /// maps neither failed, is followed by the point halfway between it and the incumbent (in the
+  /// unit cube), then halfway again, up to this many halvings (0: none).
+  int backoff = 0;
   /// Race flights are told to the method's surrogate (bo, bo_pso: observations of the points
   /// flown, so repeats show the GP what one lucky flight hides).
   bool tell = true;
