@@ -902,7 +902,7 @@ class Trial {
       return true;
     }
     // A pending race.backoff point races at once: the race before it showed the gain is there.
-    if (!backoff_next_ &&
+    if (!backoff_ &&
         summary_.race_flights + stage > e_.race.share * (summary_.flights + stage)) {
       return true;
     }
@@ -915,11 +915,11 @@ class Trial {
   /// race.backoff point alone.
   std::vector<ParamValues> Challengers() {
     std::vector<ParamValues> points;
-    if (backoff_next_ && !NearAny(raced_, Unit(*backoff_next_))) {
+    if (backoff_ && !NearAny(raced_, Unit(backoff_->point))) {
       challenger_estimate_.reset();
-      return {*backoff_next_};
+      return {backoff_->point};
     }
-    backoff_next_.reset();
+    backoff_.reset();
     for (auto& p : RankedPoints()) {
       if (!NearAny(raced_, Unit(p))) points.push_back(std::move(p));
     }
@@ -1114,8 +1114,8 @@ class Trial {
   /// incumbent. The race's outcome is stored as kind "incumbent". Returns false when cancelled.
   bool RaceAgainst(ParamValues challenger) {
     const int race = summary_.races++;
-    backoff_depth_ = backoff_next_ && *backoff_next_ == challenger ? backoff_depth_ : 0;
-    backoff_next_.reset();
+    const int depth = backoff_ && backoff_->point == challenger ? backoff_->depth : 0;
+    backoff_.reset();
     raced_.push_back(Unit(challenger));
     std::vector<optimizers::RaceSample> samples;
     int flown = 0;
@@ -1142,11 +1142,9 @@ class Trial {
         d.reason = "fails more often than the incumbent by the model";
       }
     }
-    const int depth = backoff_depth_;
     if (d.verdict == optimizers::RaceVerdict::kReject && !d.stopped &&
         depth < e_.race.backoff && FailedWhileFaster(samples)) {
-      backoff_next_ = Halfway(challenger);
-      backoff_depth_ = depth + 1;
+      backoff_ = Backoff{Halfway(challenger), depth + 1};
     }
     if (d.verdict == optimizers::RaceVerdict::kAccept) {
       incumbent_ = std::move(challenger);
@@ -1331,8 +1329,12 @@ class Trial {
   std::vector<Flown> every_flight_;     // tuning and race flights, failed as a race counts it
   std::optional<optimizers::ChallengerEstimate> challenger_estimate_;  // two_part: the last one
   std::optional<std::pair<double, double>> gate_;  // failure_margin: p of challenger, incumbent
-  std::optional<ParamValues> backoff_next_;  // race.backoff: the next challenger
-  int backoff_depth_ = 0;                    // its halvings (then the running race's)
+  /// race.backoff: the next challenger and its halvings towards the incumbent.
+  struct Backoff {
+    ParamValues point;
+    int depth = 0;
+  };
+  std::optional<Backoff> backoff_;
 };
 
 }  // namespace
