@@ -6,6 +6,7 @@
 // Thread safety: runs on the main thread only.
 #include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
+#include <yaml-cpp/yaml.h>
 
 #include <atomic>
 #include <chrono>
@@ -48,6 +49,7 @@ struct AdaptArgs {
   std::vector<std::string> set;  ///< --set KEY=VALUE edits of the experiment file
   int threads = 1;               ///< flights flown at once
   int corridors = 0;             ///< > 0: the corridor study over this many corridors
+  std::string policy;            ///< a policy file replacing adaptation.policy (may be empty)
 };
 
 /// Per-zone statistics of one flight.
@@ -141,20 +143,19 @@ double Ratio(double num, double den) { return den > 0.0 ? num / den : 0.0; }
 std::atomic<bool> g_adapt_interrupted{false};
 void OnAdaptSignal(int) { g_adapt_interrupted.store(true); }
 
-engine::AdaptExperiment LoadAdaptExperiment(const AdaptArgs& a) {
+engine::AdaptExperiment LoadAdaptRun(const AdaptArgs& a) {
   engine::CheckSingleProcessLaunch(engine::MpiLaunchSize(), "adapt");
   CheckFileKind(a.experiment, FileKind::kAdaptation);
-  const std::string dir_of_file = fs::path(a.experiment).parent_path().string();
-  engine::AdaptExperiment e = [&] {
-    try {
-      return engine::AdaptExperiment::FromString(
-          ApplyAssignments(ReadFileText(a.experiment), a.set, a.experiment), a.experiment,
-          dir_of_file.empty() ? "." : dir_of_file);
-    } catch (const ConfigError& error) {
-      BlameSet(error, a.set);  // a typo in a --set key is the option's fault
-      throw;
-    }
-  }();
+  // --policy replaces adaptation.policy before the file is read (checked on its own first, so
+  // that its errors name it), as if given by --set.
+  std::vector<std::string> set = a.set;
+  if (!a.policy.empty()) {
+    (void)engine::ContextPolicy::FromYaml(YamlMap::LoadFile(a.policy));
+    YAML::Emitter flow;
+    flow << YAML::Flow << YAML::LoadFile(a.policy);
+    set.push_back(std::string("adaptation.policy=") + flow.c_str());
+  }
+  engine::AdaptExperiment e = LoadAdaptExperiment(a.experiment, set);
   if (a.seed) e.SetSeed(*a.seed);
   CheckThreadsFitAddressSpace(a.threads, "", "--threads");
   return e;
@@ -470,7 +471,7 @@ int RunCorridorCommand(const AdaptArgs& a, const engine::AdaptExperiment& e) {
 }
 
 int RunAdapt(const AdaptArgs& a) {
-  const engine::AdaptExperiment e = LoadAdaptExperiment(a);
+  const engine::AdaptExperiment e = LoadAdaptRun(a);
   const ResultDir out_dir(a.out, ResultDirPolicy{false, a.overwrite, false});
   // SIGINT/SIGTERM end every flight at its next tick: nothing is written, exit 130.
   std::signal(SIGINT, OnAdaptSignal);
@@ -480,6 +481,18 @@ int RunAdapt(const AdaptArgs& a) {
 }
 
 }  // namespace
+
+engine::AdaptExperiment LoadAdaptExperiment(const std::string& path,
+                                            const std::vector<std::string>& sets) {
+  const std::string dir_of_file = fs::path(path).parent_path().string();
+  try {
+    return engine::AdaptExperiment::FromString(ApplyAssignments(ReadFileText(path), sets, path),
+                                               path, dir_of_file.empty() ? "." : dir_of_file);
+  } catch (const ConfigError& error) {
+    BlameSet(error, sets);  // a typo in a --set key is the option's fault
+    throw;
+  }
+}
 
 void RegisterAdapt(CLI::App& app, int& exit_code) {
   static AdaptArgs args;
@@ -499,6 +512,9 @@ void RegisterAdapt(CLI::App& app, int& exit_code) {
                   "KEY=VALUE: change the experiment file's dotted KEY, e.g. --set "
                   "adaptation.trials_per_segment=4 --set 'baselines=[2.0]' (repeatable)");
   AddNoPlotFlag(*cmd, args.plot, "skip the figure");
+  cmd->add_option("--policy", args.policy,
+                  "context policy file (as `quadtune policy` writes it) replacing the experiment "
+                  "file's adaptation.policy");
   cmd->add_flag("--overwrite", args.overwrite, "replace the results already in OUT");
   cmd->add_option("--corridors", args.corridors,
                   "fly N corridors (seeds SEED … SEED + N − 1) with every policy and write "

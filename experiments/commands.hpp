@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "quadtune/common/error.hpp"
+#include "quadtune/engine/adaptation/online_adaptation.hpp"
 #include "quadtune/engine/experiment/experiment.hpp"
 #include "quadtune/layout/options.hpp"
 
@@ -27,7 +28,7 @@ void RegisterExport(CLI::App& app, int& exit_code);
 void RegisterBench(CLI::App& app, int& exit_code);
 /// `quadtune study`: sweeps and stages of an experiment, then validation flights.
 void RegisterStudy(CLI::App& app, int& exit_code);
-void RegisterAdapt(CLI::App& app, int& exit_code);  ///< `quadtune adapt`: Sec. IV-B experiment
+void RegisterAdapt(CLI::App& app, int& exit_code);   ///< `quadtune adapt`: Sec. IV-B experiment
 void RegisterPolicy(CLI::App& app, int& exit_code);  ///< `quadtune policy`: learn a context policy
 /// `quadtune report`: a self-contained HTML page of a run, study or flight directory.
 void RegisterReport(CLI::App& app, int& exit_code);
@@ -39,7 +40,8 @@ void RegisterEvaluate(CLI::App& app, int& exit_code);
 /// Adds `--no-plot` to `cmd`: given, it sets `plot` to false (a plain flag, so that help shows no
 /// default value beside it).
 inline void AddNoPlotFlag(CLI::App& cmd, bool& plot, const std::string& help) {
-  cmd.add_flag_callback("--no-plot", [&plot] { plot = false; }, help);
+  cmd.add_flag_callback(
+      "--no-plot", [&plot] { plot = false; }, help);
 }
 
 /// The exit codes every command uses (shown by `quadtune --help`, listed in docs/config.md).
@@ -71,6 +73,10 @@ inline CLI::Validator SeedValidator() {
 void BlameSet(const ConfigError& e, const std::vector<std::string>& sets);
 /// engine::Experiment::LoadFile(path, sets), errors about a --set key blamed on --set (BlameSet).
 engine::Experiment LoadExperiment(const std::string& path, const std::vector<std::string>& sets);
+/// The changing-environment experiment `path` with the --set assignments `sets` applied, errors
+/// about a --set key blamed on --set (BlameSet).
+engine::AdaptExperiment LoadAdaptExperiment(const std::string& path,
+                                            const std::vector<std::string>& sets);
 
 /// Runs `script_in_source` (relative to the source tree, or to an installed program's
 /// share/quadtune: ScriptPath in program_paths.hpp; $`override_env` names another file) with
@@ -96,9 +102,9 @@ std::vector<std::string> ProgramAssetDirs();
 std::string AssetPath(const std::string& relative);
 /// The forest the experiments fly at `spacing` (m): assets/layouts/forest_<S>.yaml when one is
 /// shipped for that spacing (e.g. forest_1p3.yaml for 1.3), else forest_1p3.yaml with its
-/// spacing replaced and its min_gap scaled by the same factor. The layout files are the one source of truth for `fly --spacing` and
-/// `layout --spacing`. Throws ConfigError("--spacing", ...) for a spacing its obstacles cannot
-/// reach.
+/// spacing replaced and its min_gap scaled by the same factor. The layout files are the one source
+/// of truth for `fly --spacing` and `layout --spacing`. Throws ConfigError("--spacing", ...) for a
+/// spacing its obstacles cannot reach.
 layout::LayoutOptions ForestOptions(double spacing);
 
 }  // namespace quadtune::cli

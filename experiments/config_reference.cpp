@@ -5,6 +5,7 @@
 
 #include "quadtune/common/error.hpp"
 #include "quadtune/common/fields.hpp"
+#include "quadtune/engine/adaptation/context_policy.hpp"
 #include "quadtune/engine/adaptation/online_adaptation.hpp"
 #include "quadtune/engine/experiment/experiment.hpp"
 #include "quadtune/engine/experiment/objectives.hpp"
@@ -157,6 +158,12 @@ std::string StudyPart() {
                  "of changing density).",
                  AdaptExperimentFields().Docs());
   out += Section("### `adaptation`", "", AdaptationFields().Docs());
+  out += Section("### Context policy",
+                 "`adaptation.policy`, or a file that `quadtune policy` writes and `quadtune "
+                 "adapt --policy` reads: v_des at measured free ranges, interpolated between "
+                 "them (docs/design.md, \"Adaptation that sees risk\").",
+                 ContextPolicyFields().Docs());
+  out += Section("#### `free_range`", "", FreeRangeFields().Docs());
   return out;
 }
 

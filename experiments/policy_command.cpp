@@ -32,6 +32,8 @@ struct PolicyArgs {
   std::string out = "policy.yaml";
   int maps = 4;
   int threads = 1;
+  std::vector<double> grid;      // empty: the study's tuned v_des
+  std::vector<std::string> set;  // --set KEY=VALUE edits of the experiment file
 };
 
 // Validation rows of a study (validation.csv): per label, per tuned repeat, the handed-back
@@ -114,17 +116,55 @@ std::vector<engine::DensityPoint> StudyDensities(const PolicyArgs& a) {
   return densities;
 }
 
+// The grid's table beside the policy file: policy.yaml -> policy_grid.csv.
+std::string GridPath(const std::string& out) {
+  fs::path p(out);
+  return (p.parent_path() / (p.stem().string() + "_grid.csv")).string();
+}
+
+std::string GridFlag(const std::vector<double>& grid) {
+  if (grid.empty()) return "";
+  std::string flag = " --grid ";
+  for (std::size_t i = 0; i < grid.size(); ++i) {
+    flag += (i > 0 ? "," : "") + FormatNumber(grid[i]);
+  }
+  return flag;
+}
+
 int RunPolicy(const PolicyArgs& a) {
   CheckFileKind(a.experiment, FileKind::kAdaptation);
-  const engine::AdaptExperiment e = engine::AdaptExperiment::LoadFile(a.experiment);
-  const std::vector<engine::DensityPoint> densities = StudyDensities(a);
+  const engine::AdaptExperiment e = LoadAdaptExperiment(a.experiment, a.set);
+  std::vector<engine::DensityPoint> densities = StudyDensities(a);
+  std::string source = "the tuned v_des of each density";
+  if (!a.grid.empty()) {
+    spdlog::info("flying {} v_des on {} maps of each of {} densities ({} threads)", a.grid.size(),
+                 a.maps, densities.size(), a.threads);
+    const std::vector<engine::GridCell> cells =
+        engine::ChooseVDesByGrid(e, densities, a.grid, a.maps, a.threads);
+    std::ostringstream csv;
+    csv << "label,v_des,flights,mean_f_l,collisions,unfinished,chosen\n";
+    for (const engine::GridCell& c : cells) {
+      csv << c.label << ',' << c.v_des << ',' << c.flights << ',' << c.mean_f_l << ','
+          << c.collisions << ',' << c.unfinished << ',' << (c.chosen ? 1 : 0) << '\n';
+      spdlog::info("  density {}: v_des {:.2f} -> mean f_l {:.2f}, {} collisions{}", c.label,
+                   c.v_des, c.mean_f_l, c.collisions, c.chosen ? " (chosen)" : "");
+    }
+    const std::string grid_path = GridPath(a.out);
+    WriteFileAtomically(grid_path, csv.str());
+    spdlog::info("wrote {}", grid_path);
+    source =
+        "each density's v_des chosen by the grid in " + fs::path(grid_path).filename().string();
+  }
   spdlog::info("measuring the free range of {} densities on {} maps each ({} threads)",
                densities.size(), a.maps, a.threads);
   const engine::ContextPolicy policy = engine::LearnContextPolicy(e, densities, a.maps, a.threads);
   std::ostringstream text;
-  text << "# Context policy learned by `quadtune policy " << a.experiment << " --study " << a.study
-       << " --maps " << a.maps << "`: the tuned v_des of each density at the mean free range\n"
-       << "# measured in its forest. Fly it with adaptation.mode context (or context_prior).\n"
+  std::string sets;
+  for (const std::string& kv : a.set) sets += " --set " + kv;
+  text << "# Context policy learned by `quadtune policy " << a.experiment << sets << " --study "
+       << a.study << " --maps " << a.maps << GridFlag(a.grid) << "`:\n# " << source
+       << ", at the mean free range measured in its forest.\n"
+       << "# Fly it with adaptation.mode context (or context_prior).\n"
        << policy.ToYamlString();
   WriteFileAtomically(a.out, text.str());
   for (const auto& p : policy.points) {
@@ -153,6 +193,15 @@ void RegisterPolicy(CLI::App& app, int& exit_code) {
   cmd->add_option("--maps", args.maps, "maps per density on which the free range is measured")
       ->capture_default_str()
       ->check(CountIn(1, 1000, "maps"));
+  cmd->add_option("--grid", args.grid,
+                  "choose each density's v_des by flying these fixed v_des (m/s, comma-separated) "
+                  "on --maps maps of its forest: the lowest mean f_l among those that always "
+                  "finished without a collision (writes <out stem>_grid.csv); without it, the "
+                  "study's tuned v_des")
+      ->delimiter(',');
+  cmd->add_option("--set", args.set,
+                  "KEY=VALUE: change the experiment file's dotted KEY, e.g. --set "
+                  "planner.type=ego (repeatable)");
   cmd->add_option("--threads", args.threads, "flights flown at once")
       ->capture_default_str()
       ->check(CountIn(1, engine::kMaxThreads, kThreadsWhy));

@@ -146,4 +146,17 @@ double Trajectory::Length(double dt) const {
   return length;
 }
 
+std::string BrakingEnvelopeViolation(const Trajectory& trajectory, double v_start, double v_des,
+                                     double a_max, double braking_fraction, double tolerance,
+                                     double check_dt) {
+  if (trajectory.Empty()) return "no_trajectory";
+  const double brake_time = (v_start - v_des) / (braking_fraction * a_max);
+  for (const TrajectorySample& s : trajectory.Sample(check_dt)) {
+    const double limit = s.t <= brake_time ? v_start : v_des;
+    if (s.v_W.norm() > (1.0 + tolerance) * limit) return "braking_too_slow";
+    if (s.a_W.norm() > (1.0 + tolerance) * a_max) return "over_a_max";
+  }
+  return "";
+}
+
 }  // namespace quadtune::planning

@@ -101,21 +101,29 @@ run_speed() {  # collisions and clearance against v_des at the defaults (why re-
 }
 
 run_adapt() {
-  rm -rf "$raw/adapt" "$raw/corridors"
-  timed adapt "$q" adapt experiments/changing_environment.yaml --threads 2 --out "$raw/adapt"
+  rm -rf "$raw/adapt" "$raw/corridors" "$raw/corridors_ego"
   mkdir -p "$docs/adapt"
+  # The context policies, one per planner: each density's v_des chosen by flying a grid on 16
+  # maps of the density study's forests (the experiment file holds the Ipopt one, and
+  # changing_environment_ego_policy.yaml the EGO one).
+  local grid=2,2.5,3,3.5,4,4.5,5
+  "$q" policy experiments/changing_environment.yaml --study "$raw/density" --grid "$grid" \
+    --maps 16 --threads 2 --out "$raw/policy.yaml"
+  "$q" policy experiments/changing_environment.yaml --set planner.type=ego --study "$raw/density" \
+    --grid "$grid" --maps 16 --threads 2 --out "$raw/policy_ego.yaml"
+  cp "$raw/policy_grid.csv" "$docs/adapt/policy_grid.csv"
+  cp "$raw/policy_ego_grid.csv" "$docs/adapt/policy_ego_grid.csv"
+  timed adapt "$q" adapt experiments/changing_environment.yaml --policy "$raw/policy.yaml" \
+    --threads 2 --out "$raw/adapt"
   cp "$raw/adapt/"{adapt.png,summary.md,summary.json} "$docs/adapt/"
   # Every policy (adapted, context, fixed v_des) on ten held-out corridors, seeds 101-110.
-  timed corridors "$q" adapt experiments/changing_environment.yaml --corridors 10 --threads 2 \
-    --out "$raw/corridors"
+  timed corridors "$q" adapt experiments/changing_environment.yaml --policy "$raw/policy.yaml" \
+    --corridors 10 --threads 2 --out "$raw/corridors"
   cp "$raw/corridors/"{corridors.csv,corridors.md} "$docs/adapt/"
-  "$q" adapt experiments/changing_environment.yaml --corridors 10 --threads 2 \
-    --set planner.type=ego --out "$raw/corridors_ego"
+  "$q" adapt experiments/changing_environment.yaml --set planner.type=ego \
+    --policy "$raw/policy_ego.yaml" --corridors 10 --threads 2 --out "$raw/corridors_ego"
   cp "$raw/corridors_ego/corridors.csv" "$docs/adapt/corridors_ego.csv"
   cp "$raw/corridors_ego/corridors.md" "$docs/adapt/corridors_ego.md"
-  # The context policy the experiment file holds, learned again from this run's density study.
-  "$q" policy experiments/changing_environment.yaml --study "$raw/density" --maps 4 --threads 2 \
-    --out "$raw/policy.yaml"
 }
 
 run_refinement() {

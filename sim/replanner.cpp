@@ -33,6 +33,9 @@ void ReplannerOptions::Validate(const std::string& origin) const {
   CheckInRange(brake_factor, {0.0, 1.0, true, false}, origin, "brake_factor");
   CheckInRange(fallback_speed, Range::NonNegative(), origin, "fallback_speed");
   CheckInRange(fallback_start_speed, Range::NonNegative(), origin, "fallback_start_speed");
+  CheckInRange(slow_down_fraction, Range::Closed(0.0, 1.0), origin, "slow_down_fraction");
+  CheckInRange(slow_down_tolerance, Range::NonNegative(), origin, "slow_down_tolerance");
+  CheckInRange(slow_down_check_dt, Range::Positive(), origin, "slow_down_check_dt");
 }
 
 namespace {
@@ -169,7 +172,21 @@ bool Replanner::PlanFrom(double t, const Eigen::Vector3d& p0, const Eigen::Vecto
   }
   query->sequence = sequence_++;
   query->time = t;
+  const double v_start = v0.norm();
+  const bool slowing = options_.slow_down_fraction > 0.0 && v_start > params_.v_des;
+  if (slowing) query->braking_deceleration = options_.slow_down_fraction * params_.a_max;
   PlanOutcome outcome = backend_.Solve(*query, params_, planner_.options());
+  if (slowing && outcome.result.status == planning::PlanStatus::kDynamicsViolated) {
+    const std::string why = planning::BrakingEnvelopeViolation(
+        outcome.result.trajectory, v_start, params_.v_des, params_.a_max,
+        options_.slow_down_fraction, options_.slow_down_tolerance, options_.slow_down_check_dt);
+    if (why.empty()) {
+      outcome.result.status = planning::PlanStatus::kSuccess;
+      outcome.result.message = "slowing down from " + FormatNumber(v_start) + " m/s";
+    } else {
+      outcome.result.message += "; slowing down from " + FormatNumber(v_start) + " m/s: " + why;
+    }
+  }
   if (observer_) observer_(*query, outcome);
 
   rec.ok = outcome.Ok();

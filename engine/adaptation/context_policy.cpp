@@ -25,21 +25,48 @@ double FreeLength(const planning::LocalMap& map, const Eigen::Vector3d& p_W,
 
 std::string Num(double v) { return FormatNumber(v); }
 
+// The `disc` free range of MeasureFreeRange.
+double DiscFreePath(const planning::LocalMap& map, const Eigen::Vector3d& p_W, double radius) {
+  const double res = map.resolution();
+  const int reach = static_cast<int>(std::ceil(radius / res));
+  const planning::CellIndex centre = map.CellOf(p_W);
+  const double r2 = (radius / res) * (radius / res);
+  long cells = 0;
+  long occupied = 0;
+  for (int i = -reach; i <= reach; ++i) {
+    for (int j = -reach; j <= reach; ++j) {
+      if (static_cast<double>(i * i + j * j) > r2) continue;
+      ++cells;
+      if (map.IsOccupiedRawCell(centre + planning::CellIndex(i, j, 0))) ++occupied;
+    }
+  }
+  const double cap = 10.0 * radius;
+  if (occupied == 0) return cap;
+  const double free_area = static_cast<double>(cells - occupied) * res * res;
+  return std::min(cap, std::numbers::pi * free_area / (2.0 * static_cast<double>(occupied) * res));
+}
+
+
+}  // namespace
+
 const Fields<FreeRangeOptions>& FreeRangeFields() {
   using F = FreeRangeOptions;
   static const Fields<F> fields =
       Fields<F>()
+          .Choice("kind", &F::kind,
+                  "`rays`: mean free-ray length over the sensor's cone; `disc`: mean free path "
+                  "of the mapped disc of radius `range` (docs/design.md, \"Adaptation that sees "
+                  "risk\")")
           .Number("half_angle_deg", &F::half_angle_deg, {0.0, 180.0, true, true},
                   "half-width of the ray fan about the heading (deg)")
-          .Number("range", &F::range, Range::Positive(), "longest ray (m)")
+          .Number("range", &F::range, Range::Positive(), "longest ray, or the disc's radius (m)")
           .Integer("rays", &F::rays, Range::Closed(1, 1000), "rays in the fan");
   return fields;
 }
 
-}  // namespace
-
 double MeasureFreeRange(const planning::LocalMap& map, const Eigen::Vector3d& p_W,
                         const Eigen::Vector3d& heading_W, const FreeRangeOptions& options) {
+  if (options.kind == FreeRangeKind::kDisc) return DiscFreePath(map, p_W, options.range);
   Eigen::Vector2d h = heading_W.head<2>();
   h = h.norm() > 1e-9 ? h.normalized() : Eigen::Vector2d::UnitX();
   const double yaw0 = std::atan2(h.y(), h.x());

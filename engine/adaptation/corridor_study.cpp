@@ -9,6 +9,8 @@
 #include <mutex>
 
 #include "quadtune/common/cancel.hpp"
+#include "quadtune/common/error.hpp"
+#include "quadtune/common/fields.hpp"
 #include "quadtune/common/parallel_for.hpp"
 
 namespace quadtune::engine {
@@ -148,6 +150,77 @@ CorridorComparison CompareCorridors(const std::vector<CorridorFlight>& rows) {
     out.corridors.push_back(v);
   }
   return out;
+}
+
+std::vector<GridCell> ChooseVDesByGrid(const AdaptExperiment& e,
+                                       std::vector<DensityPoint>& densities,
+                                       const std::vector<double>& grid, int maps, int threads) {
+  if (grid.empty()) throw ConfigError("policy", "grid", "needs at least one v_des");
+  for (const double v : grid) {
+    if (!(v >= e.adaptation.v_min && v <= e.adaptation.v_max)) {
+      throw ConfigError("policy", "grid",
+                        "v_des " + FormatNumber(v) + " lies outside adaptation.v_des_bounds [" +
+                            FormatNumber(e.adaptation.v_min) + ", " +
+                            FormatNumber(e.adaptation.v_max) + "] m/s of " + e.file);
+    }
+  }
+  const std::size_t per_density = grid.size() * static_cast<std::size_t>(maps);
+  std::vector<sim::FlightMetrics> metrics(densities.size() * per_density);
+  std::vector<AdaptExperiment> experiments;
+  std::vector<layout::Layout> layouts;
+  for (const DensityPoint& d : densities) {
+    for (int m = 0; m < maps; ++m) {
+      AdaptExperiment ex = e;
+      ex.layout = d.layout;
+      ex.layout.zones.clear();
+      ex.SetSeed(e.seed + static_cast<std::uint64_t>(m));
+      layouts.push_back(layout::GenerateLayout(ex.layout, ex.seed));
+      experiments.push_back(std::move(ex));
+    }
+  }
+  ParallelFor(std::max(1, threads), std::size_t{0}, metrics.size(), [&](std::size_t index) {
+    const std::size_t d = index / per_density;
+    const std::size_t g = (index % per_density) / static_cast<std::size_t>(maps);
+    const std::size_t map =
+        d * static_cast<std::size_t>(maps) + index % static_cast<std::size_t>(maps);
+    metrics[index] = RunAdaptFlight(experiments[map], layouts[map],
+                                    FlightPolicy{grid[g], std::nullopt}, {}, nullptr)
+                         .result.metrics;
+  });
+  std::vector<GridCell> cells;
+  for (std::size_t d = 0; d < densities.size(); ++d) {
+    const std::size_t first = cells.size();
+    for (std::size_t g = 0; g < grid.size(); ++g) {
+      GridCell c;
+      c.label = densities[d].label;
+      c.v_des = grid[g];
+      for (int m = 0; m < maps; ++m) {
+        const sim::FlightMetrics& fm =
+            metrics[d * per_density + g * static_cast<std::size_t>(maps) +
+                    static_cast<std::size_t>(m)];
+        c.mean_f_l += CorridorFl(fm, experiments[d * static_cast<std::size_t>(maps)]) / maps;
+        c.collisions += fm.collisions;
+        c.unfinished += fm.status == sim::FlightStatus::kCompleted ? 0 : 1;
+        ++c.flights;
+      }
+      cells.push_back(c);
+    }
+    // The lowest mean f_l among the v_des whose flights all finished without a collision,
+    // else among all.
+    std::size_t best = first;
+    bool best_clean = false;
+    for (std::size_t i = first; i < cells.size(); ++i) {
+      const bool clean = cells[i].collisions == 0 && cells[i].unfinished == 0;
+      if ((clean && !best_clean) ||
+          (clean == best_clean && cells[i].mean_f_l < cells[best].mean_f_l)) {
+        best = i;
+        best_clean = clean;
+      }
+    }
+    cells[best].chosen = true;
+    densities[d].v_des = cells[best].v_des;
+  }
+  return cells;
 }
 
 ContextPolicy LearnContextPolicy(const AdaptExperiment& e,

@@ -51,24 +51,6 @@ std::optional<double> TimeAtArcLength(const planning::Trajectory& trajectory, do
   return found;
 }
 
-// The braking envelope of the file comment: a plan that starts at speed v_s > v_des may exceed
-// v_des (never v_s) only for the time a braking at braking_fraction · a_max would take.
-// Returns "" when the plan stays inside, else why not ("braking_too_slow", "over_a_max").
-std::string CheckBrakingEnvelope(const planning::Trajectory& trajectory, double v_start,
-                                 double v_des, double a_max, double braking_fraction,
-                                 double tolerance, double check_dt) {
-  if (trajectory.Empty()) return "no_trajectory";
-  // Never faster than at the start; down to v_des within the time a braking at
-  // braking_fraction · a_max would take.
-  const double brake_time = (v_start - v_des) / (braking_fraction * a_max);
-  for (const auto& s : trajectory.Sample(check_dt)) {
-    const double limit = s.t <= brake_time ? v_start : v_des;
-    if (s.v_W.norm() > (1.0 + tolerance) * limit) return "braking_too_slow";
-    if (s.a_W.norm() > (1.0 + tolerance) * a_max) return "over_a_max";
-  }
-  return "";
-}
-
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -154,8 +136,9 @@ const Fields<AdaptationOptions>& AdaptationFields() {
               },
               [](YAML::Emitter&, const A&) {})
           .Choice("mode", &A::mode,
-                  "`online`: BO over v_des (the paper's search); `context`: one trial at the "
-                  "context policy's v_des; `context_prior`: the policy's v_des first, then BO")
+                  "`online`: BO over v_des (the paper's search); `context`: the context "
+                  "policy's v_des, measured at every P_s, governs the planner's own plans; "
+                  "`context_prior`: the policy's v_des first, then BO")
           .Number("risk_weight", &A::risk_weight, Range::NonNegative(),
                   "w_r: weight of the stopping risk J_r = max over the plan of "
                   "max(0, |v|²/(2 a_max) − free distance ahead)² (m²) added to f_s; 0: the "
@@ -327,9 +310,9 @@ void OnlineAdapter::RunTrial(double t, const planning::LocalMap& map,
     if (!accepted && r.status == planning::PlanStatus::kDynamicsViolated &&
         trial.v_des < p.segment.speed_s) {
       const planning::TrajectoryOptimizerOptions& limits = limits_;
-      const std::string why =
-          CheckBrakingEnvelope(r.trajectory, p.segment.speed_s, trial.v_des, params.a_max,
-                               options_.braking_fraction, limits.limit_tolerance, limits.check_dt);
+      const std::string why = planning::BrakingEnvelopeViolation(
+          r.trajectory, p.segment.speed_s, trial.v_des, params.a_max, options_.braking_fraction,
+          limits.limit_tolerance, limits.check_dt);
       accepted = why.empty();
       trial.status = accepted ? "braking" : why;
     }
@@ -384,13 +367,22 @@ std::optional<double> OnlineAdapter::PolicyChoice(const planning::LocalMap& map)
   const ContextPolicy& policy = *options_.policy;
   p.segment.policy_v_des =
       std::clamp(policy.VDes(policy.Clamp(p.segment.free_range)), options_.v_min, options_.v_max);
+  if (options_.mode == AdaptationMode::kContext) context_v_des_ = p.segment.policy_v_des;
   return p.segment.policy_v_des;
 }
 
 std::optional<sim::AdaptedPlan> OnlineAdapter::OnTick(double t, const planning::LocalMap& map,
                                                       const Eigen::Vector3d& waypoint_W) {
   if (!pending_) return std::nullopt;
-  const int n = options_.mode == AdaptationMode::kContext ? 1 : options_.trials_per_segment;
+  if (options_.mode == AdaptationMode::kContext) {
+    // The measured choice governs the FSM's own plans from now on (context_v_des); nothing is
+    // planned from P_s.
+    PolicyChoice(map);
+    pending_->segment.v_des = *context_v_des_;
+    Close(AdaptationSegment::Outcome::kAdopted);
+    return std::nullopt;
+  }
+  const int n = options_.trials_per_segment;
   const double t0 = pending_->segment.t0;
   const double ts = pending_->segment.split_time;
   // Trial k is due at t0 + k (t_s − t0) / N; every trial still due runs at t_s.
@@ -632,6 +624,10 @@ AdaptFlight RunAdaptFlight(const AdaptExperiment& e, const layout::Layout& layou
   options.max_time = e.max_time;
   options.sensor = e.sensor;
   options.planner.goal_braking = e.goal_braking;
+  // A lowered v_des (the adapter's or the context policy's) is flown down to, not failed.
+  options.replanner.slow_down_fraction = adaptation.braking_fraction;
+  options.replanner.slow_down_tolerance = options.planner.optimizer.limit_tolerance;
+  options.replanner.slow_down_check_dt = options.planner.optimizer.check_dt;
   const std::shared_ptr<const planning::TrajectoryBackend> backend =
       BuildClosedLoopBackend(e.planner_type, e.file, "planner.type");
   sim::FlightHooks hooks;
@@ -641,6 +637,11 @@ AdaptFlight RunAdaptFlight(const AdaptExperiment& e, const layout::Layout& layou
     adapter = std::make_unique<OnlineAdapter>(*backend, options.planner, adaptation);
     if (on_segment) adapter->SetSegmentObserver(on_segment);
     hooks.adapter = adapter.get();
+    if (adaptation.mode == AdaptationMode::kContext) {
+      hooks.params_provider = [a = adapter.get()](double /*t*/, planning::PlannerParams& p) {
+        if (const std::optional<double> v = a->context_v_des()) p.v_des = *v;
+      };
+    }
   }
   out.result = sim::Fly(*world, scenario.mission, params, options, *backend, hooks);
   if (adapter) {

@@ -353,5 +353,142 @@ TEST(LearnContextPolicy, MeasuresEachDensitysFreeRange) {
   EXPECT_EQ(LearnContextPolicy(e, densities, 2, 1), policy);  // threads do not change it
 }
 
+// In context mode the policy's choice governs the planner's own plans: nothing is planned from
+// P_s, and once measured the v_des in force is the policy's (here 2 m/s at a disc free range
+// of 10 m, 3.5 m/s at 40 m), so over the shipped corridor the drone flies slower over the
+// dense zones.
+TEST(AdaptFlight, ContextModeSetsTheVdesOfEveryPlan) {
+  AdaptExperiment e = AdaptExperiment::LoadFile(std::string(QUADTUNE_SOURCE_DIR) +
+                                                "/experiments/changing_environment.yaml");
+  ContextPolicy policy;
+  policy.measure.kind = FreeRangeKind::kDisc;
+  policy.points = {{10.0, 2.0, "dense"}, {40.0, 3.5, "sparse"}};
+  e.adaptation.policy = policy;
+  e.adaptation.mode = AdaptationMode::kContext;
+  e.adaptation.braking_fraction = 0.25;
+  const layout::Layout layout = layout::GenerateLayout(e.layout, e.seed);
+  const AdaptFlight a = RunAdaptFlight(e, layout, FlightPolicy{});
+  EXPECT_EQ(a.label, "context");
+  EXPECT_TRUE(a.trials.empty());
+  ASSERT_GE(a.segments.size(), 3U);
+  for (const AdaptationSegment& s : a.segments) {
+    EXPECT_EQ(s.outcome, AdaptationSegment::Outcome::kAdopted);
+    EXPECT_GE(s.v_des, 2.0);
+    EXPECT_LE(s.v_des, 3.5);
+    EXPECT_DOUBLE_EQ(s.v_des, s.policy_v_des);
+  }
+  // The v_des in force is always the start value or one the policy chose, and no plan failed
+  // for keeping a speed above a lowered v_des.
+  std::vector<double> chosen = {e.params.v_des};
+  for (const AdaptationSegment& s : a.segments) chosen.push_back(s.v_des);
+  for (const sim::FlightLogRow& row : a.result.log) {
+    ASSERT_NE(std::find(chosen.begin(), chosen.end(), row.v_des), chosen.end()) << row.t;
+  }
+  for (const sim::PlanRecord& rec : a.result.plans) {
+    EXPECT_NE(rec.status, planning::PlanStatus::kDynamicsViolated) << rec.time;
+  }
+  const auto [dense, sparse] = DenseSparseVDes(a.result, layout.options, e.dense_below);
+  EXPECT_LT(dense, sparse);
+  EXPECT_EQ(a.result.metrics.status, sim::FlightStatus::kCompleted);
+}
+
+// `quadtune policy --grid` chooses each density's v_des by flying the grid (its table beside the
+// policy file), and `adapt --policy` flies the file it wrote; a broken policy file is refused
+// naming the file.
+TEST(PolicyCli, GridPolicyIsWrittenAndFlown) {
+  const fs::path dir = test::FreshTempDir("quadtune_policy_grid");
+  const fs::path study = dir / "study";
+  fs::create_directories(study);
+  std::ofstream(study / "study.json")
+      << R"({"file": ")" << QUADTUNE_SOURCE_DIR << R"(/experiments/density_study.yaml",)"
+      << R"( "points": [{"label": "3.0", "value": "layouts/forest_3p0.yaml"},)"
+      << R"( {"label": "0.9", "value": "layouts/forest_0p9.yaml"}]})";
+  std::ofstream(study / "validation.csv")
+      << "point,label,source_stage,method,repeat,flight,map_seed,status,completed,flight_time,"
+         "collisions,emergency_stops,plans,failed_plans,f_l,params\n"
+      << "0,3.0,,bo_pso,0,0,1,ok,1,20,0,0,10,0,20,\"{\"\"v_des\"\":4.0}\"\n"
+      << "1,0.9,,bo_pso,0,0,1,ok,1,30,0,0,10,0,30,\"{\"\"v_des\"\":3.0}\"\n";
+  const fs::path out = dir / "policy.yaml";
+  ASSERT_EQ(test::RunQuadtune("--log-level warn policy '" + kSmall + "' --study '" +
+                                  study.string() + "' --grid 2,3 --maps 1 --threads 2 --out '" +
+                                  out.string() + "'",
+                              dir / "policy.log"),
+            0)
+      << test::ReadText(dir / "policy.log");
+  const std::string grid = test::ReadText(dir / "policy_grid.csv");
+  EXPECT_EQ(grid.substr(0, grid.find('\n')),
+            "label,v_des,flights,mean_f_l,collisions,unfinished,chosen");
+  EXPECT_EQ(std::count(grid.begin(), grid.end(), '\n'), 1 + 2 * 2) << grid;
+  const std::string yaml = test::ReadText(out);
+  EXPECT_NE(yaml.find("--grid 2,3"), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("label: \"0.9\""), std::string::npos) << yaml;
+  ASSERT_EQ(test::RunQuadtune("--log-level warn adapt '" + kSmall + "' --policy '" + out.string() +
+                                  "' --set adaptation.mode=context --set 'baselines=[]' --out '" +
+                                  (dir / "run").string() + "'",
+                              dir / "adapt.log"),
+            0)
+      << test::ReadText(dir / "adapt.log");
+  EXPECT_TRUE(fs::exists(dir / "run" / "context" / "segments.csv"));
+  std::ofstream(dir / "bad.yaml") << "points: [{free_range: 2, v_des: 3}]\n";
+  EXPECT_NE(test::RunQuadtune("adapt '" + kSmall + "' --policy '" + (dir / "bad.yaml").string() +
+                                  "' --out '" + (dir / "bad").string() + "'",
+                              dir / "bad.log"),
+            0);
+  const std::string log = test::ReadText(dir / "bad.log");
+  EXPECT_NE(log.find("bad.yaml"), std::string::npos) << log;
+  EXPECT_NE(log.find("policy.points"), std::string::npos) << log;
+}
+
+// The disc's free range falls with density and stays below its cap.
+TEST(LearnContextPolicy, DiscSeparatesDensities) {
+  AdaptExperiment e = AdaptExperiment::LoadFile(kSmall);
+  ContextPolicy measure;
+  measure.measure.kind = FreeRangeKind::kDisc;
+  measure.points = {{1.0, 2.0, ""}, {2.0, 2.0, ""}};
+  e.adaptation.policy = measure;
+  const std::string layouts = std::string(QUADTUNE_SOURCE_DIR) + "/assets/layouts/";
+  const std::vector<DensityPoint> densities = {
+      {"3.0", layout::LayoutOptions::LoadFile(layouts + "forest_3p0.yaml"), 3.0},
+      {"1.3", layout::LayoutOptions::LoadFile(layouts + "forest_1p3.yaml"), 3.0},
+      {"0.9", layout::LayoutOptions::LoadFile(layouts + "forest_0p9.yaml"), 2.0}};
+  const ContextPolicy policy = LearnContextPolicy(e, densities, 2, 2);
+  ASSERT_EQ(policy.points.size(), 3U);
+  EXPECT_EQ(policy.points[0].label, "0.9");
+  EXPECT_EQ(policy.points[1].label, "1.3");
+  EXPECT_EQ(policy.points[2].label, "3.0");
+  EXPECT_GT(policy.points[1].free_range, 1.2 * policy.points[0].free_range);
+  EXPECT_GT(policy.points[2].free_range, 1.2 * policy.points[1].free_range);
+  EXPECT_LE(policy.points[2].free_range, 10.0 * policy.measure.range);
+}
+
+// The grid flies every v_des on every map and picks the lowest mean f_l among the clean ones.
+TEST(ChooseVDesByGrid, PicksTheBestCleanVdesPerDensity) {
+  const AdaptExperiment e = AdaptExperiment::LoadFile(kSmall);
+  const std::string layouts = std::string(QUADTUNE_SOURCE_DIR) + "/assets/layouts/";
+  std::vector<DensityPoint> densities = {
+      {"3.0", layout::LayoutOptions::LoadFile(layouts + "forest_3p0.yaml"), 0.0}};
+  const std::vector<double> grid = {1.0, 2.0, 3.0};
+  const std::vector<GridCell> cells = ChooseVDesByGrid(e, densities, grid, 2, 2);
+  ASSERT_EQ(cells.size(), 3U);
+  int chosen = 0;
+  for (const GridCell& c : cells) {
+    EXPECT_EQ(c.flights, 2);
+    EXPECT_GT(c.mean_f_l, 0.0);
+    chosen += c.chosen ? 1 : 0;
+    if (c.chosen) {
+      EXPECT_DOUBLE_EQ(densities[0].v_des, c.v_des);
+    }
+  }
+  EXPECT_EQ(chosen, 1);
+  // 1 m/s over 24 m is far slower than 3 m/s through the sparse forest.
+  EXPECT_GT(cells[0].mean_f_l, cells[2].mean_f_l);
+  EXPECT_NE(densities[0].v_des, 1.0);
+  std::vector<DensityPoint> again = {densities[0]};
+  EXPECT_EQ(ChooseVDesByGrid(e, again, grid, 2, 1).size(), cells.size());
+  EXPECT_DOUBLE_EQ(again[0].v_des, densities[0].v_des);  // threads do not change it
+  EXPECT_THROW((void)ChooseVDesByGrid(e, again, {}, 2, 1), ConfigError);
+  EXPECT_THROW((void)ChooseVDesByGrid(e, again, {9.0}, 2, 1), ConfigError);
+}
+
 }  // namespace
 }  // namespace quadtune::engine

@@ -159,6 +159,52 @@ TEST(Flight, ParamsProviderAndQueryObserverSeeEveryPlan) {
   EXPECT_EQ(observed, r.metrics.plans);  // no front-end failures in a sparse forest
 }
 
+// v_des lowered from 3 to 1.5 m/s mid-flight by a parameter provider: without slowing down
+// every plan from the cruise speed breaks the new speed limit and fails; with it the plans
+// brake inside the envelope and the drone flies on at the new speed.
+TEST(Flight, LoweredVDesIsFlownDownToWithSlowDown) {
+  ForestFlight f(3.0, 2);
+  const physics::DroneDescription drone = ResearchDrone();
+  PlannerParams start;
+  start.v_des = 3.0;
+  struct Outcome {
+    FlightResult result;
+    int failed_after_drop = 0;
+  };
+  const auto fly = [&](double fraction) {
+    physics::World world(f.forest.obstacles, drone, f.world_options);
+    FlightOptions options;
+    options.replanner.slow_down_fraction = fraction;
+    FlightHooks hooks;
+    hooks.params_provider = [](double t, PlannerParams& p) { p.v_des = t < 4.0 ? 3.0 : 1.5; };
+    Outcome out;
+    out.result = Fly(world, f.mission, start, options, f.optimizer, hooks);
+    for (const PlanRecord& rec : out.result.plans) {
+      if (rec.time >= 4.0 && rec.time < 6.0 && !rec.ok) ++out.failed_after_drop;
+    }
+    return out;
+  };
+  const Outcome off = fly(0.0);
+  const Outcome on = fly(0.25);
+  EXPECT_GT(off.failed_after_drop, 0);
+  EXPECT_EQ(on.failed_after_drop, 0);
+  EXPECT_EQ(on.result.metrics.status, FlightStatus::kCompleted);
+  EXPECT_EQ(on.result.metrics.collisions, 0);
+  // Past the braking (4 s + a few re-plans), the drone holds the new limit.
+  for (const FlightLogRow& row : on.result.log) {
+    if (row.t > 7.0) {
+      ASSERT_LE(row.v_W.norm(), 1.5 * 1.1) << "t " << row.t;
+    }
+  }
+  EXPECT_THROW(
+      {
+        ReplannerOptions bad;
+        bad.slow_down_fraction = 1.5;
+        bad.Validate("flight.yaml");
+      },
+      ConfigError);
+}
+
 TEST(Flight, TimeoutIsReportedNotThrown) {
   ForestFlight f(3.0, 1);
   const physics::DroneDescription drone = ResearchDrone();

@@ -7,6 +7,7 @@
 /// Thread safety: an immutable value type once constructed; concurrent const calls are safe.
 
 #include <Eigen/Core>
+#include <string>
 #include <vector>
 
 namespace quadtune::planning {
@@ -87,5 +88,15 @@ class Trajectory {
   std::vector<double> start_times_;  // start time of each piece (s)
   double total_duration_ = 0.0;
 };
+
+/// The braking envelope of a plan that starts at speed v_start above its v_des: it may exceed
+/// v_des (never v_start) only for the time a braking at braking_fraction · a_max takes,
+/// (v_start − v_des) / (braking_fraction · a_max), and never a_max; each limit with a relative
+/// `tolerance`, on samples spaced check_dt (s). Returns "" when `trajectory` stays inside, else
+/// why not: "no_trajectory", "braking_too_slow" or "over_a_max".
+[[nodiscard]] std::string BrakingEnvelopeViolation(const Trajectory& trajectory, double v_start,
+                                                   double v_des, double a_max,
+                                                   double braking_fraction, double tolerance,
+                                                   double check_dt);
 
 }  // namespace quadtune::planning

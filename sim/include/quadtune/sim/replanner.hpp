@@ -105,6 +105,17 @@ struct ReplannerOptions {
   /// fallback_speed = 0 turns it off.
   double fallback_speed = 0.5;
   double fallback_start_speed = 0.3;
+  /// Slowing down when v_des drops below the drone's speed (a parameter provider or an adapter
+  /// lowered it): a plan that starts faster than v_des asks the back end to brake at
+  /// slow_down_fraction · a_max (PlanningQuery::braking_deceleration), and one that then
+  /// exceeds v_des is accepted when it stays inside that braking envelope
+  /// (planning::BrakingEnvelopeViolation with slow_down_tolerance, sampled every
+  /// slow_down_check_dt s). 0 (the default): off, such a plan fails the speed limit and the
+  /// drone cannot slow down by re-planning. slow_down_fraction in [0, 1], the tolerance >= 0,
+  /// the check step > 0.
+  double slow_down_fraction = 0.0;
+  double slow_down_tolerance = 0.05;
+  double slow_down_check_dt = 0.01;
 
   /// Throws ConfigError(origin, key, ...) for the first bad field.
   void Validate(const std::string& origin = "") const;

@@ -3,45 +3,70 @@
 /// What the online adaptation measures about its surroundings and risks with a plan, and the
 /// context policy: v_des as a function of a measured context, learned from the density study.
 ///
-/// - **Free range** (the context): from a point at flight height, horizontal rays fanned over
-///   ±half_angle about a heading (the sensor's cone) run through the local map's raw occupancy
-///   until the first occupied cell or `range`; the free range is their mean length (m). Dense
-///   forests give short free ranges, sparse ones long.
+/// - **Free range** (the context), of one of two kinds (MeasureFreeRange): `rays`, the mean
+///   length of horizontal rays fanned over ±half_angle about a heading (the sensor's cone) up to
+///   the first raw-occupied cell or `range`; `disc`, the mean free path of the mapped disc of
+///   radius `range`. Dense forests give short free ranges, sparse ones long.
 /// - **Stopping risk** J_r of a plan: at every check_dt of the plan, the distance the drone
 ///   needs to stop from its planned speed |v| at a_max, |v|² / (2 a_max), against the free
 ///   distance along its planned direction of motion in the inflated map (up to `range`); J_r is
 ///   the largest squared shortfall, max_t max(0, |v|² / (2 a_max) − d_free)² (m²), plus the
 ///   clearance-at-speed shortfall of StoppingRisk. A plan that could stop before any obstacle
 ///   it heads for, with the margin its speed asks for, scores 0.
-/// - **ContextPolicy**: points (free range, v_des), the tuned v_des of each density of the
-///   density study at the mean free range measured in that density's forests; v_des between
-///   two points is interpolated linearly. A context outside [first, last] is refused
+/// - **ContextPolicy**: points (free range, v_des), one per density of the density study: the
+///   density's v_des (by a grid of fixed v_des or the study's tuned point, engine/adaptation/
+///   corridor_study.hpp) at the mean free range measured in its forests; v_des between two
+///   points is interpolated linearly. A context outside [first, last] is refused
 ///   (ContextPolicy::VDes throws); the adaptation clamps the measured context to the range and
 ///   records that it did.
 ///
 /// Thread safety: pure functions and values.
 
 #include <Eigen/Core>
+#include <array>
 #include <string>
 #include <vector>
 
+#include "quadtune/common/enum_names.hpp"
 #include "quadtune/common/fields_fwd.hpp"
 #include "quadtune/planning/local_map.hpp"
 #include "quadtune/planning/trajectory.hpp"
 
 namespace quadtune::engine {
 
+/// Which free range is measured (see MeasureFreeRange).
+enum class FreeRangeKind {
+  kRays,  ///< mean length of the rays of a fan over the sensor's cone
+  kDisc,  ///< mean free path of the disc of radius `range` about the point
+};
+constexpr auto EnumNames(FreeRangeKind) {
+  return std::array{EnumName{FreeRangeKind::kRays, "rays"},
+                    EnumName{FreeRangeKind::kDisc, "disc"}};
+}
+
 /// How the free range is measured.
 struct FreeRangeOptions {
+  FreeRangeKind kind = FreeRangeKind::kRays;  ///< `rays` or `disc`
   double half_angle_deg = 60.0;  ///< half-width of the fan about the heading (deg), (0, 180]
-  double range = 5.0;            ///< longest ray (m), > 0: the sensor's range
+  double range = 5.0;            ///< longest ray, or the disc's radius (m), > 0
   int rays = 25;                 ///< rays in the fan, [1, 1000]
 
   friend bool operator==(const FreeRangeOptions&, const FreeRangeOptions&) = default;
 };
 
-/// Mean free-ray length (m) from p_W over the horizontal fan about `heading_W` (its horizontal
-/// part; +x when it has none), in `map`'s raw occupancy.
+/// The free range (m) at p_W in `map`'s raw occupancy.
+/// - `rays`: the mean free-ray length from p_W over the horizontal fan of `rays` rays spanning
+///   ±half_angle about `heading_W` (its horizontal part; +x when it has none), each at most
+///   `range` long.
+/// - `disc`: the mean free path of the horizontal disc of radius `range` centred at p_W, in the
+///   map layer that holds p_W: π A_free / (2 n res), A_free the disc's free area and n its
+///   raw-occupied cells of side res (the obstacle outline the sensor has seen, about n res of
+///   perimeter; for a field of convex obstacles the mean chord of the free space is
+///   π A_free / perimeter, and the sensor sees about half of each outline), at most 10 range
+///   (no obstacle seen). It counts everything mapped around p_W, behind the drone as well, so
+///   it separates densities more than the rays do (which mostly run to the sensor's range
+///   between obstacles) and lags behind a change of density by up to `range`. `heading_W`,
+///   half_angle_deg and rays are unused.
 [[nodiscard]] double MeasureFreeRange(const planning::LocalMap& map, const Eigen::Vector3d& p_W,
                                       const Eigen::Vector3d& heading_W,
                                       const FreeRangeOptions& options);
@@ -93,6 +118,9 @@ struct ContextPolicy {
 
   friend bool operator==(const ContextPolicy&, const ContextPolicy&) = default;
 };
+
+/// `free_range:` of a policy: kind, half_angle_deg, range, rays.
+const Fields<FreeRangeOptions>& FreeRangeFields();
 
 /// `policy:`: free_range (FreeRangeOptions) and points.
 const Fields<ContextPolicy>& ContextPolicyFields();

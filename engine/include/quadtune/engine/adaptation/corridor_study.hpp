@@ -108,6 +108,28 @@ struct DensityPoint {
   double v_des = 0.0;            ///< the tuned v_des there (m/s)
 };
 
+/// One v_des of the grid flown on one density's forest (ChooseVDesByGrid).
+struct GridCell {
+  std::string label;      ///< the density's label
+  double v_des = 0.0;     ///< the fixed v_des flown (m/s)
+  int flights = 0;        ///< maps flown
+  double mean_f_l = 0.0;  ///< mean corridor f_l over them
+  int collisions = 0;     ///< n_c summed over them
+  int unfinished = 0;     ///< flights that did not finish
+  bool chosen = false;    ///< the density's v_des
+};
+
+/// The library of parameter sets, by a grid: every v_des of `grid` flies each density's forest
+/// as fixed v_des (go-to over the forest, seeds e.seed … e.seed + maps − 1, the experiment's
+/// planner and drone). A density's v_des becomes the one with the lowest mean f_l among those
+/// whose flights all finished without a collision, or the lowest mean f_l when none did. Sets
+/// densities[i].v_des and returns every cell, by density then grid order. Throws ConfigError
+/// (origin "policy", key "grid") for an empty grid or a v_des outside the adaptation's bounds.
+[[nodiscard]] std::vector<GridCell> ChooseVDesByGrid(const AdaptExperiment& e,
+                                                     std::vector<DensityPoint>& densities,
+                                                     const std::vector<double>& grid, int maps,
+                                                     int threads);
+
 /// Learns a ContextPolicy: each density's forest is flown on `maps` maps (seeds
 /// e.seed … e.seed + maps − 1, go-to over the forest) with the adaptation in mode `context` at
 /// the density's own v_des (a one-point policy), and the mean free range measured at the

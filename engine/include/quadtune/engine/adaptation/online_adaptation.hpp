@@ -37,6 +37,13 @@
 /// down on entering a dense zone. The Ipopt back end plans the braking; the EGO back end ignores
 /// braking_deceleration, and its plans are judged by the same envelope.
 ///
+/// In mode `context` nothing is planned from P_s: on the first tick after a trajectory starts,
+/// the context policy's v_des for the free range measured at P_s becomes the v_des of every
+/// following plan, the FSM's own re-plans included (RunAdaptFlight installs context_v_des() as
+/// the flight's parameter provider). Every adaptation flight lets the FSM's re-plans slow down
+/// to a lowered v_des inside the same braking envelope (sim::ReplannerOptions::
+/// slow_down_fraction = braking_fraction).
+///
 /// The experiment flies the planner type named by its `planner.type` (default `ipopt`): any
 /// registered type with a BackendFactory (planner_registry.hpp), through sim::Scenario,
 /// sim::MakeWorld and sim::Fly with that back end; the adapter plans its trials with it too.
@@ -74,7 +81,7 @@ namespace quadtune::engine {
 /// How a segment chooses its v_des.
 enum class AdaptationMode {
   kOnline,        ///< BO over v_des, trials_per_segment trials (the paper's search)
-  kContext,       ///< one trial at the context policy's v_des for the free range at P_s
+  kContext,       ///< no trial: the policy's v_des for the free range at P_s sets every plan's
   kContextPrior,  ///< the policy's v_des as the first trial, then BO (trials_per_segment in all)
 };
 constexpr auto EnumNames(AdaptationMode) {
@@ -189,7 +196,9 @@ class OnlineAdapter final : public sim::PlanAdapter {
                     const planning::PlannerParams& params) override;
   std::optional<sim::AdaptedPlan> OnTick(double t, const planning::LocalMap& map,
                                               const Eigen::Vector3d& waypoint_W) override;
-  [[nodiscard]] bool HoldsPeriodicReplan() const override { return pending_ != nullptr; }
+  [[nodiscard]] bool HoldsPeriodicReplan() const override {
+    return pending_ != nullptr && options_.mode != AdaptationMode::kContext;
+  }
 
   /// Called with every segment once it is closed (for progress output). May be empty.
   void SetSegmentObserver(std::function<void(const AdaptationSegment&)> observer) {
@@ -199,11 +208,16 @@ class OnlineAdapter final : public sim::PlanAdapter {
   [[nodiscard]] const std::vector<AdaptationTrial>& trials() const { return trials_; }
   [[nodiscard]] const std::vector<AdaptationSegment>& segments() const { return segments_; }
   [[nodiscard]] const AdaptationOptions& options() const { return options_; }
+  /// In `context` mode, the policy's latest v_des (m/s): it stays in force for every plan,
+  /// the FSM's re-plans included, until the next measurement (RunAdaptFlight installs it as
+  /// the flight's parameter provider). nullopt before the first measurement and in the other
+  /// modes.
+  [[nodiscard]] std::optional<double> context_v_des() const { return context_v_des_; }
 
  private:
   struct Pending;
   void RunTrial(double t, const planning::LocalMap& map, const Eigen::Vector3d& waypoint_W);
-  // The first trial's v_des in the context modes (measuring the context), else nullopt.
+  // Measures the context at P_s; in the context modes the policy's v_des there, else nullopt.
   std::optional<double> PolicyChoice(const planning::LocalMap& map);
   void Close(AdaptationSegment::Outcome outcome);
 
@@ -215,6 +229,7 @@ class OnlineAdapter final : public sim::PlanAdapter {
   std::vector<AdaptationTrial> trials_;
   std::vector<AdaptationSegment> segments_;
   std::function<void(const AdaptationSegment&)> observer_;
+  std::optional<double> context_v_des_;
 };
 
 /// The changing-environment experiment file (`quadtune adapt`).
