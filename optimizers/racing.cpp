@@ -112,6 +112,10 @@ const Fields<RaceOptions>& RaceFields() {
                    "incumbent on the maps neither side failed, is followed by the point halfway "
                    "between it and the incumbent in the unit cube, then halfway again, up to this "
                    "many halvings (0: none)")
+          .Flag("bisect", &R::bisect,
+                "with `backoff`: a halfway point that wins is followed by the point halfway "
+                "between it and the challenger that failed, bisecting towards the edge where the "
+                "failures begin (within the same count of halvings)")
           .Flag("tell", &R::tell,
                 "race flights are told to the method's surrogate (`bo`, `bo_pso`: observations "
                 "of the points flown), so repeats correct what one lucky flight suggested")

@@ -1114,7 +1114,9 @@ class Trial {
   /// incumbent. The race's outcome is stored as kind "incumbent". Returns false when cancelled.
   bool RaceAgainst(ParamValues challenger) {
     const int race = summary_.races++;
-    const int depth = backoff_ && backoff_->point == challenger ? backoff_->depth : 0;
+    const bool halving = backoff_ && backoff_->point == challenger;
+    const int depth = halving ? backoff_->depth : 0;
+    const ParamValues failed = halving ? backoff_->failed : ParamValues{};
     backoff_.reset();
     raced_.push_back(Unit(challenger));
     std::vector<optimizers::RaceSample> samples;
@@ -1144,12 +1146,15 @@ class Trial {
     }
     if (d.verdict == optimizers::RaceVerdict::kReject && !d.stopped &&
         depth < e_.race.backoff && FailedWhileFaster(samples)) {
-      backoff_ = Backoff{Halfway(challenger), depth + 1};
+      backoff_ = Backoff{Halfway(challenger), depth + 1, challenger};
     }
     if (d.verdict == optimizers::RaceVerdict::kAccept) {
       incumbent_ = std::move(challenger);
       incumbent_samples_ = std::move(samples);
       ++summary_.incumbent_changes;
+      if (halving && e_.race.bisect && depth < e_.race.backoff) {
+        backoff_ = Backoff{Halfway(failed), depth + 1, failed};  // halfway to the failed point
+      }
     }
     StoreRaceOutcome(race, d, depth);
     return true;
@@ -1329,10 +1334,12 @@ class Trial {
   std::vector<Flown> every_flight_;     // tuning and race flights, failed as a race counts it
   std::optional<optimizers::ChallengerEstimate> challenger_estimate_;  // two_part: the last one
   std::optional<std::pair<double, double>> gate_;  // failure_margin: p of challenger, incumbent
-  /// race.backoff: the next challenger and its halvings towards the incumbent.
+  /// race.backoff: the next challenger, its halvings so far, and the challenger whose failure
+  /// began them (race.bisect halves towards it after a win).
   struct Backoff {
     ParamValues point;
     int depth = 0;
+    ParamValues failed;
   };
   std::optional<Backoff> backoff_;
 };

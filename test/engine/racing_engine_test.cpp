@@ -18,9 +18,10 @@ namespace {
 constexpr int kFlights = 30;
 
 Experiment RacingToy(const std::string& methods = "[default, random, pso, bo, bo_pso]",
-                     const std::string& race = "{enabled: true, first_maps: 2, max_maps: 8}") {
+                     const std::string& race = "{enabled: true, first_maps: 2, max_maps: 8}",
+                     int flights = kFlights) {
   return Experiment::FromString(
-      test::ToyYaml(methods, "", kFlights, 0) + "race: " + race + "\n", "toy.yaml");
+      test::ToyYaml(methods, "", flights, 0) + "race: " + race + "\n", "toy.yaml");
 }
 
 struct Rows {
@@ -50,9 +51,9 @@ RunSummary RunRacing(const std::string& name, const Experiment& e, RunOptions* o
 
 /// Runs RacingToy(methods, race) to completion into a fresh store; its rows by trial.
 std::map<std::int64_t, Rows> RacedRows(const std::string& name, const std::string& methods,
-                                       const std::string& race) {
+                                       const std::string& race, int flights = kFlights) {
   RunOptions o;
-  const RunSummary s = RunRacing(name, RacingToy(methods, race), &o);
+  const RunSummary s = RunRacing(name, RacingToy(methods, race, flights), &o);
   EXPECT_EQ(s.status, RunStatus::kCompleted);
   return RowsByTrial(o.store_path);
 }
@@ -338,6 +339,21 @@ TEST(Racing, FailureMarginChecksEveryWinnerAgainstTheModel) {
   EXPECT_GT(checked("race_margin_on", race + ", failure_margin: 0.01}"), 0);
 }
 
+/// The point halfway between a and b in e's unit cube (snapped), over b's other parameters: the
+/// tuner's race.backoff point.
+nlohmann::json Halfway(const Experiment& e, const nlohmann::json& a, const nlohmann::json& b) {
+  const auto names = e.space.Names();
+  const auto unit = [&](const nlohmann::json& p) {
+    Eigen::VectorXd x(static_cast<Eigen::Index>(e.space.Dim()));
+    for (std::size_t i = 0; i < names.size(); ++i) x[static_cast<Eigen::Index>(i)] = p[names[i]].get<double>();
+    return e.space.ToUnit(x);
+  };
+  const Eigen::VectorXd u = e.space.FromUnit(e.space.SnapUnit(0.5 * (unit(a) + unit(b))));
+  nlohmann::json out = b;
+  for (std::size_t i = 0; i < names.size(); ++i) out[names[i]] = u[static_cast<Eigen::Index>(i)];
+  return out;
+}
+
 // race.backoff: a challenger turned away after failing a race map while faster than the
 // incumbent on the maps neither failed is followed by the halfway point between it and the
 // incumbent, at most `backoff` times in a row; without it no race is a back-off; a run cut inside
@@ -345,19 +361,6 @@ TEST(Racing, FailureMarginChecksEveryWinnerAgainstTheModel) {
 TEST(Racing, BackoffRacesTheHalfwayPointAfterAFasterChallengerFailed) {
   const std::string race = "{enabled: true, first_maps: 2, max_maps: 8, share: 0.9";
   const Experiment e = RacingToy("[bo, random]", race + ", backoff: 2}");
-  const auto halfway = [&](const nlohmann::json& a, const nlohmann::json& b) {
-    const auto unit = [&](const nlohmann::json& p) {
-      Eigen::VectorXd x(static_cast<Eigen::Index>(e.space.Dim()));
-      const auto names = e.space.Names();
-      for (std::size_t i = 0; i < names.size(); ++i) x[static_cast<Eigen::Index>(i)] = p[names[i]].get<double>();
-      return e.space.ToUnit(x);
-    };
-    const Eigen::VectorXd u = e.space.FromUnit(e.space.SnapUnit(0.5 * (unit(a) + unit(b))));
-    nlohmann::json out = b;
-    const auto names = e.space.Names();
-    for (std::size_t i = 0; i < names.size(); ++i) out[names[i]] = u[static_cast<Eigen::Index>(i)];
-    return out;
-  };
   const auto backoffs = [&](const std::string& name, const std::string& options) {
     int n = 0;
     for (const auto& [id, r] : RacedRows(name, "[bo, random]", options)) {
@@ -388,7 +391,7 @@ TEST(Racing, BackoffRacesTheHalfwayPointAfterAFasterChallengerFailed) {
           EXPECT_TRUE(last_failed_faster) << "race " << outcome.iteration;
           EXPECT_EQ(depth, last_depth + 1);
           EXPECT_LE(depth, 2);
-          const nlohmann::json expected = halfway(incumbent, last_challenger);
+          const nlohmann::json expected = Halfway(e, incumbent, last_challenger);
           for (const auto& name : e.space.Names()) {
             EXPECT_NEAR(challenger[name].get<double>(), expected[name].get<double>(), 1e-9) << name;
           }
@@ -418,6 +421,46 @@ TEST(Racing, BackoffRacesTheHalfwayPointAfterAFasterChallengerFailed) {
   const auto r = test::CutThenResume(e, test::TempDir("race_backoff_resume"), 6);
   ASSERT_EQ(r.resumed.status, RunStatus::kCompleted);
   EXPECT_EQ(test::Deterministic(r.part), test::Deterministic(r.full));
+}
+
+// race.bisect: a back-off point that wins is followed at once by the point halfway between it
+// and the challenger whose failure began the back-off, one halving deeper.
+TEST(Racing, BisectRacesTowardsTheFailedChallengerAfterAHalfwayWin) {
+  const std::string race =
+      "{enabled: true, first_maps: 2, max_maps: 8, share: 0.9, backoff: 3, bisect: true}";
+  const std::string methods = "[random, pso, bo, bo_pso]";
+  const Experiment e = RacingToy(methods, race, 80);
+  int bisected = 0;
+  for (const auto& [id, r] : RacedRows("race_bisect", methods, race, 80)) {
+    std::vector<nlohmann::json> challengers;
+    std::vector<int> depths;
+    std::vector<bool> accepted;
+    for (const auto& outcome : r.incumbent) {
+      for (const auto& row : r.race) {
+        if (row.iteration == outcome.iteration && TermOf(row, "challenger") == 1.0) {
+          challengers.push_back(nlohmann::json::parse(row.params));
+          break;
+        }
+      }
+      const auto terms = nlohmann::json::parse(outcome.terms);
+      depths.push_back(terms.contains("backoff") ? static_cast<int>(terms["backoff"].get<double>()) : 0);
+      accepted.push_back(TermOf(outcome, "accepted") == 1.0);
+    }
+    ASSERT_EQ(challengers.size(), depths.size());
+    nlohmann::json failed;
+    for (std::size_t k = 1; k < depths.size(); ++k) {
+      if (depths[k] > 0 && !accepted[k - 1]) failed = challengers[k - 1];
+      if (accepted[k - 1] && depths[k - 1] >= 1 && depths[k - 1] < 3) {
+        EXPECT_EQ(depths[k], depths[k - 1] + 1) << "race " << k;
+        const nlohmann::json expected = Halfway(e, challengers[k - 1], failed);
+        for (const auto& name : e.space.Names()) {
+          EXPECT_NEAR(challengers[k][name].get<double>(), expected[name].get<double>(), 1e-9) << name;
+        }
+        ++bisected;
+      }
+    }
+  }
+  EXPECT_GT(bisected, 0);
 }
 
 TEST(Racing, ExperimentFileRulesAreChecked) {

@@ -82,6 +82,10 @@ struct RaceOptions {
   /// maps neither failed, is followed by the point halfway between it and the incumbent (in the
   /// unit cube), then halfway again, up to this many halvings (0: none).
   int backoff = 0;
+  /// With `backoff`: a halfway point that wins is followed by the point halfway between it and
+  /// the challenger that failed, so the halvings bisect towards the edge where the challenger's
+  /// failures begin (within the same count of halvings).
+  bool bisect = false;
   /// Race flights are told to the method's surrogate (bo, bo_pso: observations of the points
   /// flown, so repeats show the GP what one lucky flight hides).
   bool tell = true;
