@@ -103,14 +103,14 @@ run_speed() {  # collisions and clearance against v_des at the defaults (why re-
 run_adapt() {
   rm -rf "$raw/adapt" "$raw/corridors" "$raw/corridors_ego"
   mkdir -p "$docs/adapt"
-  # The context policies, one per planner: each density's v_des chosen by flying a grid on 16
+  # The context policies, one per planner: each density's v_des chosen by flying a grid on 32
   # maps of the density study's forests (the experiment file holds the Ipopt one, and
   # changing_environment_ego_policy.yaml the EGO one).
   local grid=2,2.5,3,3.5,4,4.5,5
   "$q" policy experiments/changing_environment.yaml --study "$raw/density" --grid "$grid" \
-    --maps 16 --threads 2 --out "$raw/policy.yaml"
+    --maps 32 --threads 2 --out "$raw/policy.yaml"
   "$q" policy experiments/changing_environment.yaml --set planner.type=ego --study "$raw/density" \
-    --grid "$grid" --maps 16 --threads 2 --out "$raw/policy_ego.yaml"
+    --grid "$grid" --maps 32 --threads 2 --out "$raw/policy_ego.yaml"
   cp "$raw/policy_grid.csv" "$docs/adapt/policy_grid.csv"
   cp "$raw/policy_ego_grid.csv" "$docs/adapt/policy_ego_grid.csv"
   timed adapt "$q" adapt experiments/changing_environment.yaml --policy "$raw/policy.yaml" \
