@@ -150,9 +150,10 @@ engine::AdaptExperiment LoadAdaptRun(const AdaptArgs& a) {
   // that its errors name it), as if given by --set.
   std::vector<std::string> set = a.set;
   if (!a.policy.empty()) {
-    (void)engine::ContextPolicy::FromYaml(YamlMap::LoadFile(a.policy));
+    const YamlMap policy = YamlMap::LoadFile(a.policy);
+    (void)engine::ContextPolicy::FromYaml(policy);
     YAML::Emitter flow;
-    flow << YAML::Flow << YAML::LoadFile(a.policy);
+    flow << YAML::Flow << policy.node();
     set.push_back(std::string("adaptation.policy=") + flow.c_str());
   }
   engine::AdaptExperiment e = LoadAdaptExperiment(a.experiment, set);

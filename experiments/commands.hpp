@@ -28,7 +28,7 @@ void RegisterExport(CLI::App& app, int& exit_code);
 void RegisterBench(CLI::App& app, int& exit_code);
 /// `quadtune study`: sweeps and stages of an experiment, then validation flights.
 void RegisterStudy(CLI::App& app, int& exit_code);
-void RegisterAdapt(CLI::App& app, int& exit_code);   ///< `quadtune adapt`: Sec. IV-B experiment
+void RegisterAdapt(CLI::App& app, int& exit_code);  ///< `quadtune adapt`: Sec. IV-B experiment
 void RegisterPolicy(CLI::App& app, int& exit_code);  ///< `quadtune policy`: learn a context policy
 /// `quadtune report`: a self-contained HTML page of a run, study or flight directory.
 void RegisterReport(CLI::App& app, int& exit_code);
@@ -40,8 +40,7 @@ void RegisterEvaluate(CLI::App& app, int& exit_code);
 /// Adds `--no-plot` to `cmd`: given, it sets `plot` to false (a plain flag, so that help shows no
 /// default value beside it).
 inline void AddNoPlotFlag(CLI::App& cmd, bool& plot, const std::string& help) {
-  cmd.add_flag_callback(
-      "--no-plot", [&plot] { plot = false; }, help);
+  cmd.add_flag_callback("--no-plot", [&plot] { plot = false; }, help);
 }
 
 /// The exit codes every command uses (shown by `quadtune --help`, listed in docs/config.md).

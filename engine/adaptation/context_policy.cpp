@@ -46,7 +46,6 @@ double DiscFreePath(const planning::LocalMap& map, const Eigen::Vector3d& p_W, d
   return std::min(cap, std::numbers::pi * free_area / (2.0 * static_cast<double>(occupied) * res));
 }
 
-
 }  // namespace
 
 const Fields<FreeRangeOptions>& FreeRangeFields() {

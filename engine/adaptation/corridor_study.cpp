@@ -152,6 +152,19 @@ CorridorComparison CompareCorridors(const std::vector<CorridorFlight>& rows) {
   return out;
 }
 
+namespace {
+
+// The experiment flying map `map` (seed e.seed + map) of density d's forest, one zone, go-to.
+AdaptExperiment OnDensityMap(const AdaptExperiment& e, const DensityPoint& d, int map) {
+  AdaptExperiment ex = e;
+  ex.layout = d.layout;
+  ex.layout.zones.clear();
+  ex.SetSeed(e.seed + static_cast<std::uint64_t>(map));
+  return ex;
+}
+
+}  // namespace
+
 std::vector<GridCell> ChooseVDesByGrid(const AdaptExperiment& e,
                                        std::vector<DensityPoint>& densities,
                                        const std::vector<double>& grid, int maps, int threads) {
@@ -170,12 +183,8 @@ std::vector<GridCell> ChooseVDesByGrid(const AdaptExperiment& e,
   std::vector<layout::Layout> layouts;
   for (const DensityPoint& d : densities) {
     for (int m = 0; m < maps; ++m) {
-      AdaptExperiment ex = e;
-      ex.layout = d.layout;
-      ex.layout.zones.clear();
-      ex.SetSeed(e.seed + static_cast<std::uint64_t>(m));
-      layouts.push_back(layout::GenerateLayout(ex.layout, ex.seed));
-      experiments.push_back(std::move(ex));
+      experiments.push_back(OnDensityMap(e, d, m));
+      layouts.push_back(layout::GenerateLayout(experiments.back().layout, experiments.back().seed));
     }
   }
   ParallelFor(std::max(1, threads), std::size_t{0}, metrics.size(), [&](std::size_t index) {
@@ -227,15 +236,12 @@ ContextPolicy LearnContextPolicy(const AdaptExperiment& e,
                                  const std::vector<DensityPoint>& densities, int maps,
                                  int threads) {
   const int total = static_cast<int>(densities.size()) * maps;
-  std::vector<double> sums(densities.size(), 0.0);
-  std::vector<int> counts(densities.size(), 0);
-  std::mutex mutex;
+  // Per flight, summed in map order below, so that the threads never change a policy's digits.
+  std::vector<double> flight_sums(static_cast<std::size_t>(total), 0.0);
+  std::vector<int> flight_counts(static_cast<std::size_t>(total), 0);
   ParallelFor(std::max(1, threads), 0, total, [&](int index) {
     const std::size_t d = static_cast<std::size_t>(index / maps);
-    AdaptExperiment ex = e;
-    ex.layout = densities[d].layout;
-    ex.layout.zones.clear();
-    ex.SetSeed(e.seed + static_cast<std::uint64_t>(index % maps));
+    AdaptExperiment ex = OnDensityMap(e, densities[d], index % maps);
     ex.params.v_des = std::clamp(densities[d].v_des, ex.adaptation.v_min, ex.adaptation.v_max);
     ContextPolicy constant;
     constant.points = {{0.01, ex.params.v_des, ""}, {1e6, ex.params.v_des, ""}};
@@ -251,10 +257,16 @@ ContextPolicy LearnContextPolicy(const AdaptExperiment& e,
       sum += s.free_range;
       ++n;
     }
-    const std::lock_guard<std::mutex> lock(mutex);
-    sums[d] += sum;
-    counts[d] += n;
+    flight_sums[static_cast<std::size_t>(index)] = sum;
+    flight_counts[static_cast<std::size_t>(index)] = n;
   });
+  std::vector<double> sums(densities.size(), 0.0);
+  std::vector<int> counts(densities.size(), 0);
+  for (int index = 0; index < total; ++index) {
+    const std::size_t d = static_cast<std::size_t>(index / maps);
+    sums[d] += flight_sums[static_cast<std::size_t>(index)];
+    counts[d] += flight_counts[static_cast<std::size_t>(index)];
+  }
   ContextPolicy policy;
   if (e.adaptation.policy) policy.measure = e.adaptation.policy->measure;
   for (std::size_t d = 0; d < densities.size(); ++d) {
