@@ -164,12 +164,15 @@ engine::AdaptExperiment LoadAdaptRun(const AdaptArgs& a) {
 
 void LogSegment(const layout::Layout& layout, const engine::AdaptationSegment& s) {
   const int z = engine::ZoneIndex(layout.options, s.p_s_W.x());
+  // A context-mode segment plans no trials: its line ends with the outcome.
+  const std::string trials = s.trials > 0 ? fmt::format(" ({}/{} trials ok, best f_s {:.2f})",
+                                                        s.successes, s.trials, s.best_f_s)
+                                          : std::string();
   spdlog::info(
       "segment {:3d} P_s x {:5.1f} m (zone {}): free range {:.2f} m, v_des {:.2f} -> {:.2f} m/s, "
-      "{} ({}/{} trials ok, best f_s {:.2f})",
+      "{}{}",
       s.index, s.p_s_W.x(), z >= 0 ? fmt::format("{:.1f} m", layout.options.zones[z].spacing) : "-",
-      s.free_range, s.v_des_before, s.v_des, quadtune::ToString(s.outcome), s.successes, s.trials,
-      s.best_f_s);
+      s.free_range, s.v_des_before, s.v_des, quadtune::ToString(s.outcome), trials);
 }
 
 // Flies every policy on the one layout, up to `threads` at once; walls[i] gets each wall time.
