@@ -116,6 +116,10 @@ const Fields<RaceOptions>& RaceFields() {
                 "with `backoff`: a halfway point that wins is followed by the point halfway "
                 "between it and the challenger that failed, bisecting towards the edge where the "
                 "failures begin (within the same count of halvings)")
+          .Integer("extrapolate", &R::extrapolate, Range::Closed(0, 10),
+                   "a challenger that wins (not a back-off point) is followed by the point one "
+                   "more such step on, 2·u_winner − u_previous in the unit cube (clamped to it), "
+                   "raced at once; up to this many steps in a row while each wins (0: none)")
           .Flag("tell", &R::tell,
                 "race flights are told to the method's surrogate (`bo`, `bo_pso`: observations "
                 "of the points flown), so repeats correct what one lucky flight suggested")

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <tuple>
+#include <utility>
 
 #include "quadtune/common/random.hpp"
 #include "quadtune/engine/store/result_store.hpp"
@@ -1114,8 +1115,10 @@ class Trial {
   /// incumbent. The race's outcome is stored as kind "incumbent". Returns false when cancelled.
   bool RaceAgainst(ParamValues challenger) {
     const int race = summary_.races++;
-    const bool halving = backoff_ && backoff_->point == challenger;
-    const int depth = halving ? backoff_->depth : 0;
+    const bool pending = backoff_ && backoff_->point == challenger;
+    const int depth = pending ? backoff_->depth : 0;
+    const bool halving = depth > 0;
+    const int extrapolation = pending ? backoff_->extrapolation : 0;
     const ParamValues failed = halving ? backoff_->failed : ParamValues{};
     backoff_.reset();
     raced_.push_back(Unit(challenger));
@@ -1149,14 +1152,16 @@ class Trial {
       backoff_ = Backoff{Halfway(challenger), depth + 1, challenger};
     }
     if (d.verdict == optimizers::RaceVerdict::kAccept) {
-      incumbent_ = std::move(challenger);
+      const ParamValues previous = std::exchange(incumbent_, std::move(challenger));
       incumbent_samples_ = std::move(samples);
       ++summary_.incumbent_changes;
       if (halving && e_.race.bisect && depth < e_.race.backoff) {
         backoff_ = Backoff{Halfway(failed), depth + 1, failed};  // halfway to the failed point
+      } else if (!halving && extrapolation < e_.race.extrapolate) {
+        backoff_ = Backoff{Beyond(previous), 0, {}, extrapolation + 1};  // one more such step
       }
     }
-    StoreRaceOutcome(race, d, depth);
+    StoreRaceOutcome(race, d, depth, extrapolation);
     return true;
   }
 
@@ -1185,8 +1190,17 @@ class Trial {
     return Merge(challenger, e_.space.ToNamed(e_.space.FromUnit(e_.space.SnapUnit(u))));
   }
 
+  /// race.extrapolate: the incumbent moved on by its last step from `previous` (the unit cube of
+  /// the tuned space, clamped to it; integers rounded), over the incumbent's other parameters.
+  [[nodiscard]] ParamValues Beyond(const ParamValues& previous) const {
+    const Eigen::VectorXd u =
+        (2.0 * Unit(incumbent_) - Unit(previous)).cwiseMax(0.0).cwiseMin(1.0);
+    return Merge(incumbent_, e_.space.ToNamed(e_.space.FromUnit(e_.space.SnapUnit(u))));
+  }
+
   /// Kind "incumbent", iteration = race: the incumbent after the race and its mean f_l.
-  void StoreRaceOutcome(int race, const optimizers::RaceDecision& d, int backoff) {
+  void StoreRaceOutcome(int race, const optimizers::RaceDecision& d, int backoff,
+                        int extrapolation) {
     if (log_.Replayed(EvalKind::kIncumbent, race, 0, incumbent_)) return;
     Outcome o;
     o.params = incumbent_;
@@ -1200,6 +1214,7 @@ class Trial {
                          {"flight_no", summary_.flights}};
     if (d.stopped) o.objective.terms["stopped"] = 1.0;  // cut by the budget before its verdict
     if (backoff > 0) o.objective.terms["backoff"] = backoff;  // halvings towards the incumbent
+    if (extrapolation > 0) o.objective.terms["extrapolation"] = extrapolation;  // steps beyond
     if (gate_) {
       o.objective.terms["gate_p_fail"] = gate_->first;
       o.objective.terms["gate_p_fail_incumbent"] = gate_->second;
@@ -1334,12 +1349,14 @@ class Trial {
   std::vector<Flown> every_flight_;     // tuning and race flights, failed as a race counts it
   std::optional<optimizers::ChallengerEstimate> challenger_estimate_;  // two_part: the last one
   std::optional<std::pair<double, double>> gate_;  // failure_margin: p of challenger, incumbent
-  /// race.backoff: the next challenger, its halvings so far, and the challenger whose failure
-  /// began them (race.bisect halves towards it after a win).
+  /// The next challenger, raced at once: a race.backoff point (its halvings so far, and the
+  /// challenger whose failure began them; race.bisect halves towards it after a win) or a
+  /// race.extrapolate step (how many in a row).
   struct Backoff {
     ParamValues point;
     int depth = 0;
     ParamValues failed;
+    int extrapolation = 0;
   };
   std::optional<Backoff> backoff_;
 };

@@ -3,6 +3,7 @@
 // run cut inside a race resumes to the same store.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -339,19 +340,27 @@ TEST(Racing, FailureMarginChecksEveryWinnerAgainstTheModel) {
   EXPECT_GT(checked("race_margin_on", race + ", failure_margin: 0.01}"), 0);
 }
 
+/// A point's place in e's unit cube.
+Eigen::VectorXd UnitOf(const Experiment& e, const nlohmann::json& p) {
+  const auto names = e.space.Names();
+  Eigen::VectorXd x(static_cast<Eigen::Index>(e.space.Dim()));
+  for (std::size_t i = 0; i < names.size(); ++i) x[static_cast<Eigen::Index>(i)] = p[names[i]].get<double>();
+  return e.space.ToUnit(x);
+}
+
+/// The point at unit-cube place u (snapped) over b's other parameters.
+nlohmann::json AtUnit(const Experiment& e, const Eigen::VectorXd& u, const nlohmann::json& b) {
+  const auto names = e.space.Names();
+  const Eigen::VectorXd x = e.space.FromUnit(e.space.SnapUnit(u));
+  nlohmann::json out = b;
+  for (std::size_t i = 0; i < names.size(); ++i) out[names[i]] = x[static_cast<Eigen::Index>(i)];
+  return out;
+}
+
 /// The point halfway between a and b in e's unit cube (snapped), over b's other parameters: the
 /// tuner's race.backoff point.
 nlohmann::json Halfway(const Experiment& e, const nlohmann::json& a, const nlohmann::json& b) {
-  const auto names = e.space.Names();
-  const auto unit = [&](const nlohmann::json& p) {
-    Eigen::VectorXd x(static_cast<Eigen::Index>(e.space.Dim()));
-    for (std::size_t i = 0; i < names.size(); ++i) x[static_cast<Eigen::Index>(i)] = p[names[i]].get<double>();
-    return e.space.ToUnit(x);
-  };
-  const Eigen::VectorXd u = e.space.FromUnit(e.space.SnapUnit(0.5 * (unit(a) + unit(b))));
-  nlohmann::json out = b;
-  for (std::size_t i = 0; i < names.size(); ++i) out[names[i]] = u[static_cast<Eigen::Index>(i)];
-  return out;
+  return AtUnit(e, 0.5 * (UnitOf(e, a) + UnitOf(e, b)), b);
 }
 
 // race.backoff: a challenger turned away after failing a race map while faster than the
@@ -461,6 +470,78 @@ TEST(Racing, BisectRacesTowardsTheFailedChallengerAfterAHalfwayWin) {
     }
   }
   EXPECT_GT(bisected, 0);
+}
+
+/// The point one more step on from a to b in e's unit cube (2·u_b − u_a, clamped, snapped), over
+/// b's other parameters: the tuner's race.extrapolate point.
+nlohmann::json Beyond(const Experiment& e, const nlohmann::json& a, const nlohmann::json& b) {
+  return AtUnit(e, (2.0 * UnitOf(e, b) - UnitOf(e, a)).cwiseMax(0.0).cwiseMin(1.0), b);
+}
+
+// race.extrapolate: a challenger that wins (not a back-off point) is followed at once by the
+// point one more such step on, counted in a row up to the limit; without it no race is one; a
+// run cut inside such a race resumes to the same store.
+TEST(Racing, ExtrapolateRacesOneMoreStepAfterAWin) {
+  const std::string race = "{enabled: true, first_maps: 2, max_maps: 8, share: 0.9, backoff: 1";
+  const std::string methods = "[random, pso, bo, bo_pso]";
+  const Experiment e = RacingToy(methods, race + ", extrapolate: 2}", 80);
+  const auto unit = [&](const nlohmann::json& p) { return UnitOf(e, p); };
+  const auto steps = [&](const std::string& name, const std::string& options, int limit) {
+    int n = 0;
+    for (const auto& [id, r] : RacedRows(name, methods, options, 80)) {
+      nlohmann::json incumbent = nlohmann::json::parse(r.race.front().params);  // the defaults
+      std::vector<Eigen::VectorXd> raced{unit(incumbent)};
+      nlohmann::json before;  // the incumbent before the last race, when that race was won
+      int last_step = 0, last_depth = 0;
+      bool last_accepted = false;
+      for (const auto& outcome : r.incumbent) {
+        nlohmann::json challenger;
+        for (const auto& row : r.race) {
+          if (row.iteration == outcome.iteration && TermOf(row, "challenger") == 1.0) {
+            challenger = nlohmann::json::parse(row.params);
+            break;
+          }
+        }
+        const auto terms = nlohmann::json::parse(outcome.terms);
+        const auto term = [&](const char* key) {
+          return terms.contains(key) ? static_cast<int>(terms[key].get<double>()) : 0;
+        };
+        const int step = term("extrapolation");
+        // A won race that was no back-off is followed by a step while fewer than `limit` in a
+        // row, unless that point (nearly) raced already.
+        const bool due = last_accepted && last_depth == 0 && last_step < limit;
+        if (due) {
+          const nlohmann::json expected = Beyond(e, before, incumbent);
+          const bool skipped = std::any_of(raced.begin(), raced.end(), [&](const Eigen::VectorXd& v) {
+            return (v - unit(expected)).cwiseAbs().maxCoeff() < 0.02;
+          });
+          if (!skipped) {
+            ++n;
+            EXPECT_EQ(step, last_step + 1) << "race " << outcome.iteration;
+            for (const auto& key : e.space.Names()) {
+              EXPECT_NEAR(challenger[key].get<double>(), expected[key].get<double>(), 1e-9) << key;
+            }
+          }
+        } else {
+          EXPECT_EQ(step, 0) << "race " << outcome.iteration;
+        }
+        raced.push_back(unit(challenger));
+        last_accepted = TermOf(outcome, "accepted") == 1.0;
+        last_depth = term("backoff");
+        last_step = step;
+        if (last_accepted) {
+          before = incumbent;
+          incumbent = challenger;
+        }
+      }
+    }
+    return n;
+  };
+  EXPECT_EQ(steps("race_extrapolate_off", race + "}", 0), 0);
+  EXPECT_GT(steps("race_extrapolate_on", race + ", extrapolate: 2}", 2), 0);
+  const auto r = test::CutThenResume(e, test::TempDir("race_extrapolate_resume"), 6);
+  ASSERT_EQ(r.resumed.status, RunStatus::kCompleted);
+  EXPECT_EQ(test::Deterministic(r.part), test::Deterministic(r.full));
 }
 
 TEST(Racing, ExperimentFileRulesAreChecked) {

@@ -86,6 +86,11 @@ struct RaceOptions {
   /// the challenger that failed, so the halvings bisect towards the edge where the challenger's
   /// failures begin (within the same count of halvings).
   bool bisect = false;
+  /// A challenger that wins (not a back-off point) is followed by the point one more such step
+  /// on, 2·u_winner − u_previous incumbent in the unit cube (clamped to it), raced at once, and
+  /// so on while each wins, up to this many steps in a row (0: none); a step that fails while
+  /// faster is backed off as any challenger.
+  int extrapolate = 0;
   /// Race flights are told to the method's surrogate (bo, bo_pso: observations of the points
   /// flown, so repeats show the GP what one lucky flight hides).
   bool tell = true;
