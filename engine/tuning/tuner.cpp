@@ -902,8 +902,8 @@ class Trial {
     if (summary_.flights + (e_.race.reserve ? 2 * WholeRaceFlights() : stage) > FlightBudget()) {
       return true;
     }
-    // A pending race.backoff point races at once: the race before it showed the gain is there.
-    if (!backoff_ &&
+    // A pending back-off point or step races at once: the race before it showed the gain is there.
+    if (!pending_ &&
         summary_.race_flights + stage > e_.race.share * (summary_.flights + stage)) {
       return true;
     }
@@ -913,14 +913,14 @@ class Trial {
   }
 
   /// The points not raced yet, the next challenger first (race.challenger); a pending
-  /// race.backoff point alone.
+  /// race.backoff point or race.extrapolate step alone.
   std::vector<ParamValues> Challengers() {
     std::vector<ParamValues> points;
-    if (backoff_ && !NearAny(raced_, Unit(backoff_->point))) {
+    if (pending_ && !NearAny(raced_, Unit(pending_->point))) {
       challenger_estimate_.reset();
-      return {backoff_->point};
+      return {pending_->point};
     }
-    backoff_.reset();
+    pending_.reset();
     for (auto& p : RankedPoints()) {
       if (!NearAny(raced_, Unit(p))) points.push_back(std::move(p));
     }
@@ -1115,12 +1115,12 @@ class Trial {
   /// incumbent. The race's outcome is stored as kind "incumbent". Returns false when cancelled.
   bool RaceAgainst(ParamValues challenger) {
     const int race = summary_.races++;
-    const bool pending = backoff_ && backoff_->point == challenger;
-    const int depth = pending ? backoff_->depth : 0;
+    const bool queued = pending_ && pending_->point == challenger;
+    const int depth = queued ? pending_->depth : 0;
     const bool halving = depth > 0;
-    const int extrapolation = pending ? backoff_->extrapolation : 0;
-    const ParamValues failed = halving ? backoff_->failed : ParamValues{};
-    backoff_.reset();
+    const int extrapolation = queued ? pending_->extrapolation : 0;
+    const ParamValues failed = halving ? pending_->failed : ParamValues{};
+    pending_.reset();
     raced_.push_back(Unit(challenger));
     std::vector<optimizers::RaceSample> samples;
     int flown = 0;
@@ -1149,16 +1149,16 @@ class Trial {
     }
     if (d.verdict == optimizers::RaceVerdict::kReject && !d.stopped &&
         depth < e_.race.backoff && FailedWhileFaster(samples)) {
-      backoff_ = Backoff{Halfway(challenger), depth + 1, challenger};
+      pending_ = Pending{Halfway(challenger), depth + 1, challenger};
     }
     if (d.verdict == optimizers::RaceVerdict::kAccept) {
       const ParamValues previous = std::exchange(incumbent_, std::move(challenger));
       incumbent_samples_ = std::move(samples);
       ++summary_.incumbent_changes;
       if (halving && e_.race.bisect && depth < e_.race.backoff) {
-        backoff_ = Backoff{Halfway(failed), depth + 1, failed};  // halfway to the failed point
+        pending_ = Pending{Halfway(failed), depth + 1, failed};  // halfway to the failed point
       } else if (!halving && extrapolation < e_.race.extrapolate) {
-        backoff_ = Backoff{Beyond(previous), 0, {}, extrapolation + 1};  // one more such step
+        pending_ = Pending{Beyond(previous), 0, {}, extrapolation + 1};  // one more such step
       }
     }
     StoreRaceOutcome(race, d, depth, extrapolation);
@@ -1186,16 +1186,20 @@ class Trial {
   /// The point halfway between the incumbent and `challenger` in the unit cube of the tuned
   /// space (integers rounded), over the challenger's other parameters.
   [[nodiscard]] ParamValues Halfway(const ParamValues& challenger) const {
-    const Eigen::VectorXd u = 0.5 * (Unit(incumbent_) + Unit(challenger));
-    return Merge(challenger, e_.space.ToNamed(e_.space.FromUnit(e_.space.SnapUnit(u))));
+    return AtUnit(0.5 * (Unit(incumbent_) + Unit(challenger)), challenger);
   }
 
   /// race.extrapolate: the incumbent moved on by its last step from `previous` (the unit cube of
   /// the tuned space, clamped to it; integers rounded), over the incumbent's other parameters.
   [[nodiscard]] ParamValues Beyond(const ParamValues& previous) const {
-    const Eigen::VectorXd u =
-        (2.0 * Unit(incumbent_) - Unit(previous)).cwiseMax(0.0).cwiseMin(1.0);
-    return Merge(incumbent_, e_.space.ToNamed(e_.space.FromUnit(e_.space.SnapUnit(u))));
+    return AtUnit((2.0 * Unit(incumbent_) - Unit(previous)).cwiseMax(0.0).cwiseMin(1.0),
+                  incumbent_);
+  }
+
+  /// The point at unit-cube place `u` of the tuned space (integers rounded), over `over`'s other
+  /// parameters.
+  [[nodiscard]] ParamValues AtUnit(const Eigen::VectorXd& u, const ParamValues& over) const {
+    return Merge(over, e_.space.ToNamed(e_.space.FromUnit(e_.space.SnapUnit(u))));
   }
 
   /// Kind "incumbent", iteration = race: the incumbent after the race and its mean f_l.
@@ -1352,13 +1356,13 @@ class Trial {
   /// The next challenger, raced at once: a race.backoff point (its halvings so far, and the
   /// challenger whose failure began them; race.bisect halves towards it after a win) or a
   /// race.extrapolate step (how many in a row).
-  struct Backoff {
+  struct Pending {
     ParamValues point;
     int depth = 0;
     ParamValues failed;
     int extrapolation = 0;
   };
-  std::optional<Backoff> backoff_;
+  std::optional<Pending> pending_;
 };
 
 }  // namespace

@@ -485,12 +485,11 @@ TEST(Racing, ExtrapolateRacesOneMoreStepAfterAWin) {
   const std::string race = "{enabled: true, first_maps: 2, max_maps: 8, share: 0.9, backoff: 1";
   const std::string methods = "[random, pso, bo, bo_pso]";
   const Experiment e = RacingToy(methods, race + ", extrapolate: 2}", 80);
-  const auto unit = [&](const nlohmann::json& p) { return UnitOf(e, p); };
   const auto steps = [&](const std::string& name, const std::string& options, int limit) {
     int n = 0;
     for (const auto& [id, r] : RacedRows(name, methods, options, 80)) {
       nlohmann::json incumbent = nlohmann::json::parse(r.race.front().params);  // the defaults
-      std::vector<Eigen::VectorXd> raced{unit(incumbent)};
+      std::vector<Eigen::VectorXd> raced{UnitOf(e, incumbent)};
       nlohmann::json before;  // the incumbent before the last race, when that race was won
       int last_step = 0, last_depth = 0;
       bool last_accepted = false;
@@ -513,7 +512,7 @@ TEST(Racing, ExtrapolateRacesOneMoreStepAfterAWin) {
         if (due) {
           const nlohmann::json expected = Beyond(e, before, incumbent);
           const bool skipped = std::any_of(raced.begin(), raced.end(), [&](const Eigen::VectorXd& v) {
-            return (v - unit(expected)).cwiseAbs().maxCoeff() < 0.02;
+            return (v - UnitOf(e, expected)).cwiseAbs().maxCoeff() < 0.02;
           });
           if (!skipped) {
             ++n;
@@ -525,7 +524,7 @@ TEST(Racing, ExtrapolateRacesOneMoreStepAfterAWin) {
         } else {
           EXPECT_EQ(step, 0) << "race " << outcome.iteration;
         }
-        raced.push_back(unit(challenger));
+        raced.push_back(UnitOf(e, challenger));
         last_accepted = TermOf(outcome, "accepted") == 1.0;
         last_depth = term("backoff");
         last_step = step;
